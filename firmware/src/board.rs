@@ -1,0 +1,150 @@
+//! Board facts for the NUCLEO-F446RE sensor hub: clocks, pinout, bus speeds
+//! and task periods.
+//!
+//! Plain constants with no HAL types, so the host build can print them and the
+//! board build can use them; each one says where its value comes from.
+//! References: UM1724 (STM32 Nucleo-64 user manual), DS10693 (STM32F446xC/E
+//! datasheet), RM0390 (STM32F446 reference manual), MAX31865 datasheet.
+
+/// HSE input: the ST-LINK's MCO output, 8 MHz, wired to PH0/OSC_IN, so the
+/// oscillator runs in bypass mode (UM1724, "OSC clock supply": MCO from ST-LINK).
+pub const HSE_HZ: u32 = 8_000_000;
+
+/// Core clock: the F446's maximum, which needs the regulator over-drive
+/// (DS10693, "Regulator over-drive"); stm32f4xx-hal 0.23 enables over-drive itself above
+/// 168 MHz. PLL: 8 MHz / M=4 * N=180 / P=2, exact.
+pub const SYSCLK_HZ: u32 = 180_000_000;
+
+/// APB1 clock (USART2, CAN1, IWDG bus): its 45 MHz maximum (DS10693, general operating conditions).
+pub const PCLK1_HZ: u32 = 45_000_000;
+
+/// APB2 clock (SPI1): its 90 MHz maximum (DS10693, general operating conditions).
+pub const PCLK2_HZ: u32 = 90_000_000;
+
+/// USART2 baud rate: 115200 8N1, what terminal programs expect on the
+/// ST-LINK virtual COM port (USART2 is wired to the ST-LINK, UM1724 "USART communication").
+pub const UART_BAUD: u32 = 115_200;
+
+/// Requested SPI1 clock for the MAX31865 RTD converters (chip maximum 5 MHz,
+/// MAX31865 datasheet "SCLK frequency"). 1 MHz leaves margin for wiring to
+/// converters off the board; the HAL rounds down to a prescaler of PCLK2.
+pub const RTD_SPI_HZ: u32 = 1_000_000;
+
+/// SPI mode for the MAX31865: it accepts CPHA = 1 with either clock polarity
+/// (modes 1 and 3, MAX31865 datasheet "Serial interface"); we use mode 1.
+pub const RTD_SPI_MODE: u8 = 1;
+
+/// CAN1 bit rate: 500 kbit/s, a common machine-tool/CANopen rate that allows
+/// ~100 m of bus (CiA 301 bit-timing table).
+pub const CAN_BITRATE: u32 = 500_000;
+
+/// Bit timing for a bxCAN on APB1 (RM0390, bxCAN "Bit timing" and `CAN_BTR`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CanBitTiming {
+    /// Baud-rate prescaler (1..=1024): one time quantum is `prescaler / PCLK1`.
+    pub prescaler: u32,
+    /// Time segment 1 in quanta (1..=16), propagation + phase 1.
+    pub ts1: u32,
+    /// Time segment 2 in quanta (1..=8), phase 2.
+    pub ts2: u32,
+    /// Resynchronisation jump width in quanta (1..=4).
+    pub sjw: u32,
+}
+
+impl CanBitTiming {
+    /// Quanta per bit: sync segment + TS1 + TS2.
+    pub const fn quanta(&self) -> u32 {
+        1 + self.ts1 + self.ts2
+    }
+
+    /// Resulting bit rate for a given APB1 clock.
+    pub const fn bitrate(&self, pclk1_hz: u32) -> u32 {
+        pclk1_hz / (self.prescaler * self.quanta())
+    }
+
+    /// Sample point in per mille of the bit.
+    pub const fn sample_point_permille(&self) -> u32 {
+        (1 + self.ts1) * 1000 / self.quanta()
+    }
+
+    /// The `CAN_BTR` register value (fields are stored minus one).
+    pub const fn btr(&self) -> u32 {
+        ((self.sjw - 1) << 24) | ((self.ts2 - 1) << 20) | ((self.ts1 - 1) << 16) | (self.prescaler - 1)
+    }
+}
+
+/// 45 MHz / 6 = 7.5 MHz quanta, 15 quanta per bit = 500 kbit/s, sample point
+/// 13/15 = 86.7 % (CiA 301 recommends 87.5 %; 45 MHz allows 86.7 or 88.9).
+pub const CAN_TIMING: CanBitTiming = CanBitTiming {
+    prescaler: 6,
+    ts1: 12,
+    ts2: 2,
+    sjw: 1,
+};
+
+/// CAN node id of the hub (placeholder until the CAN protocol is frozen).
+pub const CAN_NODE_ID: u16 = 0x01;
+
+/// Heartbeat frame id: CANopen convention 0x700 + node id (CiA 301 NMT
+/// error control), so bus tools recognise it.
+pub const CAN_HEARTBEAT_ID: u16 = 0x700 + CAN_NODE_ID;
+
+/// Sampling period. Machine-tool thermal time constants are minutes to hours,
+/// so 1 Hz oversamples them many times; a MAX31865 conversion takes ~55 ms
+/// (datasheet, 60 Hz filter), far inside the period.
+pub const SAMPLE_PERIOD_MS: u32 = 1_000;
+
+/// RTIC monotonic (SysTick) tick rate: 1 kHz, so a tick is a millisecond.
+pub const MONO_HZ: u32 = 1_000;
+
+/// Independent-watchdog timeout, fed once per sample period. The IWDG runs
+/// from the LSI, which is 17..47 kHz (32 kHz typical, DS10693 "LSI oscillator characteristics"); the
+/// HAL assumes 32 kHz, so the real timeout can be as short as 32/47 of this.
+/// 2 s keeps that worst case (1.36 s) above the 1 s feed period with margin.
+pub const IWDG_TIMEOUT_MS: u32 = 2_000;
+
+/// Worst-case (fastest LSI) watchdog timeout in ms.
+pub const IWDG_TIMEOUT_MIN_MS: u32 = IWDG_TIMEOUT_MS * 32 / 47;
+
+/// One MCU pin and what it is wired to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PinAssignment {
+    /// Peripheral signal.
+    pub signal: &'static str,
+    /// MCU pin.
+    pub pin: &'static str,
+    /// Alternate function number, `None` for plain GPIO/analog.
+    pub af: Option<u8>,
+    /// Where the pin goes on the NUCLEO-F446RE.
+    pub note: &'static str,
+}
+
+/// Pinout (alternate functions: DS10693 "Alternate function mapping"; NUCLEO wiring: UM1724).
+pub const PINOUT: [PinAssignment; 9] = [
+    PinAssignment { signal: "HSE_IN", pin: "PH0", af: None, note: "8 MHz MCO from ST-LINK (bypass)" },
+    PinAssignment { signal: "USART2_TX", pin: "PA2", af: Some(7), note: "ST-LINK virtual COM port" },
+    PinAssignment { signal: "USART2_RX", pin: "PA3", af: Some(7), note: "ST-LINK virtual COM port" },
+    PinAssignment { signal: "SPI1_SCK", pin: "PA5", af: Some(5), note: "MAX31865 SCLK; also LED LD2 (D13)" },
+    PinAssignment { signal: "SPI1_MISO", pin: "PA6", af: Some(5), note: "MAX31865 SDO (D12)" },
+    PinAssignment { signal: "SPI1_MOSI", pin: "PA7", af: Some(5), note: "MAX31865 SDI (D11)" },
+    PinAssignment { signal: "RTD_CS", pin: "PB6", af: None, note: "MAX31865 /CS, active low (D10)" },
+    PinAssignment { signal: "CAN1_RX", pin: "PA11", af: Some(9), note: "to transceiver RXD (CN10-14)" },
+    PinAssignment { signal: "CAN1_TX", pin: "PA12", af: Some(9), note: "to transceiver TXD (CN10-12)" },
+];
+
+// Compile-time checks on the design constants.
+const _: () = {
+    assert!(CAN_TIMING.bitrate(PCLK1_HZ) == CAN_BITRATE);
+    assert!(PCLK1_HZ % (CAN_TIMING.prescaler * CAN_TIMING.quanta()) == 0);
+    assert!(CAN_TIMING.ts1 >= 1 && CAN_TIMING.ts1 <= 16);
+    assert!(CAN_TIMING.ts2 >= 1 && CAN_TIMING.ts2 <= 8);
+    assert!(CAN_TIMING.sjw >= 1 && CAN_TIMING.sjw <= 4 && CAN_TIMING.sjw <= CAN_TIMING.ts2);
+    assert!(CAN_TIMING.prescaler >= 1 && CAN_TIMING.prescaler <= 1024);
+    assert!(SYSCLK_HZ == HSE_HZ / 4 * 180 / 2);
+    assert!(SYSCLK_HZ % MONO_HZ == 0 && MONO_HZ == 1_000);
+    // The watchdog must survive one feed period plus 25 % jitter even with the fastest LSI.
+    assert!(IWDG_TIMEOUT_MIN_MS > SAMPLE_PERIOD_MS + SAMPLE_PERIOD_MS / 4);
+    assert!(IWDG_TIMEOUT_MS < 32_768); // HAL limit
+    assert!(CAN_HEARTBEAT_ID <= 0x7FF); // 11-bit standard id
+    assert!(RTD_SPI_HZ <= 5_000_000);
+};

@@ -1,0 +1,2 @@
+//! thermcomp
+fn main() {}

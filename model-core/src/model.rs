@@ -1,0 +1,585 @@
+//! A compensation model: named inputs, named outputs, and one of the model
+//! kinds, validated once and then run sample by sample.
+//!
+//! [`Model`] is the plain data a blob carries. [`Model::validate`] checks it
+//! completely (indices, sizes, finiteness, TF stability) and returns a
+//! [`ValidModel`], whose [`ValidModel::step`] cannot fail on the model's
+//! account: it only refuses inputs that are not finite, and it never lets a
+//! non-finite value into its state or out to the CNC. State lives apart from
+//! the coefficients in a [`ModelState`], so the firmware can swap a new model
+//! in without touching the running one.
+
+use crate::arma::{Arma, ArmaState};
+use crate::bp::BpNet;
+use crate::linear::Linear;
+use crate::pcr::Pcr;
+use crate::tf::{RealisedTf, TfEntry, TfError, TfHistory, MAX_TF_ENTRIES};
+use serde::{Deserialize, Serialize};
+
+/// Input channels a model may read (temperatures, speed, power, position...).
+pub const MAX_CHANNELS: usize = 24;
+/// Outputs a model may produce (dx, dy, dz and one spare).
+pub const MAX_OUTPUTS: usize = 4;
+/// Bytes in a column name (`ambient_c`, `T16`, `dz_um` fit easily).
+pub const NAME_LEN: usize = 24;
+
+/// A run-file column name.
+pub type Name = heapless::String<NAME_LEN>;
+
+/// What an input is measured against before it enters the model.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Reference {
+    /// The raw value (absolute temperature, speed, position).
+    Absolute,
+    /// The channel's first sample of the run (seed 004's `dT`).
+    First,
+    /// A fixed value in the channel's unit (e.g. 20 C, ISO 1).
+    Value(f64),
+}
+
+/// One model input: a column and its reference.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Channel {
+    /// Run-file column read.
+    pub name: Name,
+    /// Reference subtracted before the model sees it.
+    pub reference: Reference,
+}
+
+/// Model kind, as the blob header and `model show` name it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum ModelKind {
+    /// Transfer-function bank (seed 004).
+    Tf = 1,
+    /// Linear regression (seed 002).
+    Linear = 2,
+    /// Principal component regression (seed 003).
+    Pcr = 3,
+    /// BP network (seeds 000, 003).
+    Bp = 4,
+    /// ARMA forecaster (seed 001).
+    Arma = 5,
+}
+
+impl ModelKind {
+    /// The kind's code in the blob header.
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The kind for a header code.
+    pub fn from_code(code: u8) -> Option<Self> {
+        Some(match code {
+            1 => Self::Tf,
+            2 => Self::Linear,
+            3 => Self::Pcr,
+            4 => Self::Bp,
+            5 => Self::Arma,
+            _ => return None,
+        })
+    }
+
+    /// The name used in specs, the CLI and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Tf => "tf",
+            Self::Linear => "linear",
+            Self::Pcr => "pcr",
+            Self::Bp => "bp",
+            Self::Arma => "arma",
+        }
+    }
+
+    /// Whether the model has memory (and so a fixed sample time).
+    pub fn is_dynamic(self) -> bool {
+        matches!(self, Self::Tf | Self::Arma)
+    }
+}
+
+/// The coefficients of one model kind.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Params {
+    /// Transfer-function bank.
+    Tf(heapless::Vec<TfEntry, MAX_TF_ENTRIES>),
+    /// Linear regressions.
+    Linear(Linear),
+    /// Principal component regressions.
+    Pcr(Pcr),
+    /// BP network.
+    Bp(BpNet),
+    /// ARMA forecaster.
+    Arma(Arma),
+}
+
+impl Params {
+    /// The kind of these coefficients.
+    pub fn kind(&self) -> ModelKind {
+        match self {
+            Self::Tf(_) => ModelKind::Tf,
+            Self::Linear(_) => ModelKind::Linear,
+            Self::Pcr(_) => ModelKind::Pcr,
+            Self::Bp(_) => ModelKind::Bp,
+            Self::Arma(_) => ModelKind::Arma,
+        }
+    }
+}
+
+/// Everything a blob carries about a model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Model {
+    /// Input channels, indexed by the coefficients.
+    pub inputs: heapless::Vec<Channel, MAX_CHANNELS>,
+    /// Output names (run-file columns the model predicts).
+    pub outputs: heapless::Vec<Name, MAX_OUTPUTS>,
+    /// Sample time of a dynamic model, s (0 for static models).
+    pub dt_s: f64,
+    /// The coefficients.
+    pub params: Params,
+}
+
+/// Why a model is refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ModelError {
+    /// A model needs at least one input and one output.
+    NoInputsOrOutputs,
+    /// An input or output name is empty.
+    EmptyName,
+    /// Two outputs share a name, or two inputs share name and reference.
+    DuplicateName,
+    /// A coefficient refers to an input or output that does not exist.
+    IndexOutOfRange,
+    /// A coefficient, reference or scale is NaN or infinite.
+    NonFinite,
+    /// Sizes do not agree (weights vs inputs, betas vs components, ...).
+    ShapeMismatch,
+    /// An output is computed by nothing.
+    OutputUnused {
+        /// Index of the output.
+        output: u8,
+    },
+    /// The sample time is negative or not finite, or a dynamic model has none.
+    BadSampleTime,
+    /// A transfer function cannot be run.
+    Tf {
+        /// Index of the entry in the bank.
+        entry: u8,
+        /// What is wrong with it.
+        error: TfError,
+    },
+    /// The ARMA forecaster's channel must be absolute (it forecasts the
+    /// channel itself) and its standard deviation positive.
+    BadArma,
+}
+
+impl core::fmt::Display for ModelError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NoInputsOrOutputs => write!(f, "the model has no inputs or no outputs"),
+            Self::EmptyName => write!(f, "an input or output name is empty"),
+            Self::DuplicateName => write!(f, "an input or output name is repeated"),
+            Self::IndexOutOfRange => write!(f, "a coefficient refers to a missing input/output"),
+            Self::NonFinite => write!(f, "a coefficient is NaN or infinite"),
+            Self::ShapeMismatch => write!(f, "coefficient counts do not agree"),
+            Self::OutputUnused { output } => write!(f, "output #{output} is computed by nothing"),
+            Self::BadSampleTime => write!(f, "bad sample time (dynamic models need dt_s > 0)"),
+            Self::Tf { entry, error } => write!(f, "tf entry #{entry}: {error}"),
+            Self::BadArma => write!(f, "ARMA needs an absolute channel and std > 0"),
+        }
+    }
+}
+
+impl core::error::Error for ModelError {}
+
+fn finite(values: &[f64]) -> Result<(), ModelError> {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(ModelError::NonFinite)
+    }
+}
+
+fn index(i: u8, len: usize) -> Result<usize, ModelError> {
+    let i = usize::from(i);
+    if i < len {
+        Ok(i)
+    } else {
+        Err(ModelError::IndexOutOfRange)
+    }
+}
+
+impl Model {
+    /// The model's kind.
+    pub fn kind(&self) -> ModelKind {
+        self.params.kind()
+    }
+
+    /// Checks everything once; the result runs without further checks.
+    pub fn validate(self) -> Result<ValidModel, ModelError> {
+        let (n_in, n_out) = (self.inputs.len(), self.outputs.len());
+        if n_in == 0 || n_out == 0 {
+            return Err(ModelError::NoInputsOrOutputs);
+        }
+        for (i, ch) in self.inputs.iter().enumerate() {
+            if ch.name.is_empty() {
+                return Err(ModelError::EmptyName);
+            }
+            if let Reference::Value(v) = ch.reference {
+                finite(&[v])?;
+            }
+            if self.inputs.iter().skip(i + 1).any(|o| o == ch) {
+                return Err(ModelError::DuplicateName);
+            }
+        }
+        for (i, name) in self.outputs.iter().enumerate() {
+            if name.is_empty() {
+                return Err(ModelError::EmptyName);
+            }
+            if self.outputs.iter().skip(i + 1).any(|o| o == name) {
+                return Err(ModelError::DuplicateName);
+            }
+        }
+        if !self.dt_s.is_finite() || self.dt_s < 0.0 || (self.kind().is_dynamic() && self.dt_s <= 0.0)
+        {
+            return Err(ModelError::BadSampleTime);
+        }
+        let mut used = [false; MAX_OUTPUTS];
+        let mut mark = |o: u8| -> Result<(), ModelError> {
+            let o = index(o, n_out)?;
+            if let Some(u) = used.get_mut(o) {
+                *u = true;
+            }
+            Ok(())
+        };
+        let mut realised: heapless::Vec<RealisedTf, MAX_TF_ENTRIES> = heapless::Vec::new();
+        match &self.params {
+            Params::Tf(entries) => {
+                for (e, entry) in entries.iter().enumerate() {
+                    index(entry.input, n_in)?;
+                    mark(entry.output)?;
+                    let entry_no = u8::try_from(e).unwrap_or(u8::MAX);
+                    let tf = RealisedTf::new(&entry.a, &entry.b).map_err(|error| {
+                        if error == TfError::NonFinite {
+                            ModelError::NonFinite
+                        } else {
+                            ModelError::Tf {
+                                entry: entry_no,
+                                error,
+                            }
+                        }
+                    })?;
+                    realised.push(tf).map_err(|_| ModelError::ShapeMismatch)?;
+                }
+            }
+            Params::Linear(lin) => {
+                for eq in &lin.outputs {
+                    mark(eq.output)?;
+                    finite(&[eq.intercept])?;
+                    for c in &eq.coef {
+                        index(c.channel, n_in)?;
+                        finite(&[c.value])?;
+                    }
+                    if let Some(pos) = &eq.position {
+                        index(pos.channel, n_in)?;
+                        if !pos.is_finite() {
+                            return Err(ModelError::NonFinite);
+                        }
+                    }
+                }
+            }
+            Params::Pcr(pcr) => {
+                for eq in &pcr.outputs {
+                    mark(eq.output)?;
+                    finite(&[eq.intercept])?;
+                    finite(&eq.beta)?;
+                    for ch in &eq.inputs {
+                        index(*ch, n_in)?;
+                    }
+                    if eq.components.is_empty() || eq.components.len() != eq.beta.len() {
+                        return Err(ModelError::ShapeMismatch);
+                    }
+                    for comp in &eq.components {
+                        if comp.weights.len() != eq.inputs.len() {
+                            return Err(ModelError::ShapeMismatch);
+                        }
+                        finite(&comp.weights)?;
+                        finite(&[comp.intercept])?;
+                    }
+                    if let Some(pos) = &eq.position {
+                        index(pos.channel, n_in)?;
+                        if !pos.is_finite() {
+                            return Err(ModelError::NonFinite);
+                        }
+                    }
+                }
+            }
+            Params::Bp(net) => {
+                if !net.shapes_agree() {
+                    return Err(ModelError::ShapeMismatch);
+                }
+                if !net.is_finite() {
+                    return Err(ModelError::NonFinite);
+                }
+                for ch in &net.inputs {
+                    index(*ch, n_in)?;
+                }
+                for o in &net.outputs {
+                    mark(*o)?;
+                }
+            }
+            Params::Arma(arma) => {
+                let ch = index(arma.channel, n_in)?;
+                mark(arma.output)?;
+                let absolute = self
+                    .inputs
+                    .get(ch)
+                    .is_some_and(|c| c.reference == Reference::Absolute);
+                if !arma.is_valid() || !absolute {
+                    return Err(ModelError::BadArma);
+                }
+            }
+        }
+        if let Some(o) = used.iter().take(n_out).position(|u| !u) {
+            return Err(ModelError::OutputUnused {
+                output: u8::try_from(o).unwrap_or(u8::MAX),
+            });
+        }
+        Ok(ValidModel {
+            model: self,
+            realised,
+        })
+    }
+}
+
+/// A model that passed [`Model::validate`]; running it cannot fail.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ValidModel {
+    model: Model,
+    realised: heapless::Vec<RealisedTf, MAX_TF_ENTRIES>,
+}
+
+/// Why one step produced no outputs (the state is left as it was).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum StepError {
+    /// `inputs` does not have one value per model input.
+    InputCount {
+        /// Values the model needs.
+        expected: u8,
+        /// Values given.
+        got: u8,
+    },
+    /// `outputs` has room for fewer values than the model produces.
+    OutputSpace,
+    /// An input is NaN or infinite.
+    NonFiniteInput {
+        /// Index of the input channel.
+        channel: u8,
+    },
+    /// The inputs are finite but so extreme that an output overflowed.
+    NonFiniteOutput,
+}
+
+impl core::fmt::Display for StepError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::InputCount { expected, got } => {
+                write!(f, "expected {expected} inputs, got {got}")
+            }
+            Self::OutputSpace => write!(f, "output buffer too small"),
+            Self::NonFiniteInput { channel } => write!(f, "input #{channel} is not finite"),
+            Self::NonFiniteOutput => write!(f, "an output overflowed"),
+        }
+    }
+}
+
+impl core::error::Error for StepError {}
+
+/// The run-time memory of a model: references, TF histories, ARMA history.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelState {
+    references: [f64; MAX_CHANNELS],
+    tf: [TfHistory; MAX_TF_ENTRIES],
+    arma: ArmaState,
+    started: bool,
+}
+
+impl Default for ModelState {
+    fn default() -> Self {
+        Self {
+            references: [0.0; MAX_CHANNELS],
+            tf: [TfHistory::default(); MAX_TF_ENTRIES],
+            arma: ArmaState::default(),
+            started: false,
+        }
+    }
+}
+
+impl ModelState {
+    /// A state for the start of a run.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Forgets everything: the next sample starts a new run.
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+
+    /// Whether a first sample has been taken.
+    pub fn started(&self) -> bool {
+        self.started
+    }
+}
+
+fn to_u8(n: usize) -> u8 {
+    u8::try_from(n).unwrap_or(u8::MAX)
+}
+
+impl ValidModel {
+    /// The validated model data.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The model's kind.
+    pub fn kind(&self) -> ModelKind {
+        self.model.kind()
+    }
+
+    /// Input channels.
+    pub fn inputs(&self) -> &[Channel] {
+        &self.model.inputs
+    }
+
+    /// Output names.
+    pub fn outputs(&self) -> &[Name] {
+        &self.model.outputs
+    }
+
+    /// The realised form of each TF entry (empty for other kinds).
+    pub fn realised_tfs(&self) -> &[RealisedTf] {
+        &self.realised
+    }
+
+    /// Takes the model data back.
+    pub fn into_model(self) -> Model {
+        self.model
+    }
+
+    /// One sample: raw input values (one per channel, in channel order) in,
+    /// one value per output written to `outputs`. On error nothing is
+    /// written and the state is unchanged, so a bad sample can simply be
+    /// skipped and the hub holds its last good offsets.
+    pub fn step(
+        &self,
+        state: &mut ModelState,
+        inputs: &[f64],
+        outputs: &mut [f64],
+    ) -> Result<(), StepError> {
+        let n_in = self.model.inputs.len();
+        let n_out = self.model.outputs.len();
+        if inputs.len() != n_in {
+            return Err(StepError::InputCount {
+                expected: to_u8(n_in),
+                got: to_u8(inputs.len()),
+            });
+        }
+        if outputs.len() < n_out {
+            return Err(StepError::OutputSpace);
+        }
+        if let Some(ch) = inputs.iter().position(|v| !v.is_finite()) {
+            return Err(StepError::NonFiniteInput { channel: to_u8(ch) });
+        }
+        let first = !state.started;
+        let mut refs = state.references;
+        let mut x = [0.0; MAX_CHANNELS];
+        for (((xi, raw), ch), r) in x
+            .iter_mut()
+            .zip(inputs)
+            .zip(&self.model.inputs)
+            .zip(refs.iter_mut())
+        {
+            *xi = match ch.reference {
+                Reference::Absolute => *raw,
+                Reference::Value(v) => raw - v,
+                Reference::First => {
+                    if first {
+                        *r = *raw;
+                    }
+                    raw - *r
+                }
+            };
+        }
+        let mut out = [0.0; MAX_OUTPUTS];
+        let mut tf_out = [0.0; MAX_TF_ENTRIES];
+        let mut tf_hist = state.tf;
+        let mut arma_state = state.arma;
+        match &self.model.params {
+            Params::Tf(entries) => {
+                for ((((entry, tf), hist), y), _) in entries
+                    .iter()
+                    .zip(&self.realised)
+                    .zip(tf_hist.iter_mut())
+                    .zip(tf_out.iter_mut())
+                    .zip(0..)
+                {
+                    let u = x.get(usize::from(entry.input)).copied().unwrap_or(0.0);
+                    if first {
+                        *hist = tf.steady_state(u);
+                    }
+                    *y = tf.output(hist, u);
+                    hist.push(u, *y);
+                    if let Some(o) = out.get_mut(usize::from(entry.output)) {
+                        *o += *y;
+                    }
+                }
+            }
+            Params::Linear(lin) => {
+                for eq in &lin.outputs {
+                    if let Some(o) = out.get_mut(usize::from(eq.output)) {
+                        *o = eq.evaluate(&x);
+                    }
+                }
+            }
+            Params::Pcr(pcr) => {
+                for eq in &pcr.outputs {
+                    if let Some(o) = out.get_mut(usize::from(eq.output)) {
+                        *o = eq.evaluate(&x);
+                    }
+                }
+            }
+            Params::Bp(net) => net.evaluate(&x, |k, v| {
+                if let Some(o) = out.get_mut(usize::from(k)) {
+                    *o = v;
+                }
+            }),
+            Params::Arma(arma) => {
+                let y = x.get(usize::from(arma.channel)).copied().unwrap_or(0.0);
+                let forecast = arma.forecast(&arma_state);
+                arma.observe(&mut arma_state, y, forecast);
+                if let Some(o) = out.get_mut(usize::from(arma.output)) {
+                    *o = forecast;
+                }
+            }
+        }
+        let produced = out.get(..n_out).unwrap_or(&[]);
+        let tf_ok = tf_out.iter().all(|v| v.is_finite());
+        if !tf_ok || produced.iter().any(|v| !v.is_finite()) {
+            return Err(StepError::NonFiniteOutput);
+        }
+        // Commit only now: a failed step leaves the state untouched.
+        for (dst, src) in outputs.iter_mut().zip(produced) {
+            *dst = *src;
+        }
+        state.references = refs;
+        state.tf = tf_hist;
+        state.arma = arma_state;
+        state.started = true;
+        Ok(())
+    }
+}
