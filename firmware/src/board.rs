@@ -62,14 +62,17 @@ impl CanBitTiming {
         pclk1_hz / (self.prescaler * self.quanta())
     }
 
-    /// Sample point in per mille of the bit.
+    /// Sample point in per mille of the bit, rounded.
     pub const fn sample_point_permille(&self) -> u32 {
-        (1 + self.ts1) * 1000 / self.quanta()
+        ((1 + self.ts1) * 1000 + self.quanta() / 2) / self.quanta()
     }
 
     /// The `CAN_BTR` register value (fields are stored minus one).
     pub const fn btr(&self) -> u32 {
-        ((self.sjw - 1) << 24) | ((self.ts2 - 1) << 20) | ((self.ts1 - 1) << 16) | (self.prescaler - 1)
+        ((self.sjw - 1) << 24)
+            | ((self.ts2 - 1) << 20)
+            | ((self.ts1 - 1) << 16)
+            | (self.prescaler - 1)
     }
 }
 
@@ -121,15 +124,60 @@ pub struct PinAssignment {
 
 /// Pinout (alternate functions: DS10693 "Alternate function mapping"; NUCLEO wiring: UM1724).
 pub const PINOUT: [PinAssignment; 9] = [
-    PinAssignment { signal: "HSE_IN", pin: "PH0", af: None, note: "8 MHz MCO from ST-LINK (bypass)" },
-    PinAssignment { signal: "USART2_TX", pin: "PA2", af: Some(7), note: "ST-LINK virtual COM port" },
-    PinAssignment { signal: "USART2_RX", pin: "PA3", af: Some(7), note: "ST-LINK virtual COM port" },
-    PinAssignment { signal: "SPI1_SCK", pin: "PA5", af: Some(5), note: "MAX31865 SCLK; also LED LD2 (D13)" },
-    PinAssignment { signal: "SPI1_MISO", pin: "PA6", af: Some(5), note: "MAX31865 SDO (D12)" },
-    PinAssignment { signal: "SPI1_MOSI", pin: "PA7", af: Some(5), note: "MAX31865 SDI (D11)" },
-    PinAssignment { signal: "RTD_CS", pin: "PB6", af: None, note: "MAX31865 /CS, active low (D10)" },
-    PinAssignment { signal: "CAN1_RX", pin: "PA11", af: Some(9), note: "to transceiver RXD (CN10-14)" },
-    PinAssignment { signal: "CAN1_TX", pin: "PA12", af: Some(9), note: "to transceiver TXD (CN10-12)" },
+    PinAssignment {
+        signal: "HSE_IN",
+        pin: "PH0",
+        af: None,
+        note: "8 MHz MCO from ST-LINK (bypass)",
+    },
+    PinAssignment {
+        signal: "USART2_TX",
+        pin: "PA2",
+        af: Some(7),
+        note: "ST-LINK virtual COM port",
+    },
+    PinAssignment {
+        signal: "USART2_RX",
+        pin: "PA3",
+        af: Some(7),
+        note: "ST-LINK virtual COM port",
+    },
+    PinAssignment {
+        signal: "SPI1_SCK",
+        pin: "PA5",
+        af: Some(5),
+        note: "MAX31865 SCLK; also LED LD2 (D13)",
+    },
+    PinAssignment {
+        signal: "SPI1_MISO",
+        pin: "PA6",
+        af: Some(5),
+        note: "MAX31865 SDO (D12)",
+    },
+    PinAssignment {
+        signal: "SPI1_MOSI",
+        pin: "PA7",
+        af: Some(5),
+        note: "MAX31865 SDI (D11)",
+    },
+    PinAssignment {
+        signal: "RTD_CS",
+        pin: "PB6",
+        af: None,
+        note: "MAX31865 /CS, active low (D10)",
+    },
+    PinAssignment {
+        signal: "CAN1_RX",
+        pin: "PA11",
+        af: Some(9),
+        note: "to transceiver RXD (CN10-14)",
+    },
+    PinAssignment {
+        signal: "CAN1_TX",
+        pin: "PA12",
+        af: Some(9),
+        note: "to transceiver TXD (CN10-12)",
+    },
 ];
 
 // Compile-time checks on the design constants.

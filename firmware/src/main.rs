@@ -60,7 +60,10 @@ mod host {
         println!("(host build; board build: --target thumbv7em-none-eabihf)\n");
 
         println!("Memory layout (memory.x)");
-        println!("  {:<8} {:<11} {:<11} {:>8}  purpose", "region", "origin", "end", "size");
+        println!(
+            "  {:<8} {:<11} {:<11} {:>8}  purpose",
+            "region", "origin", "end", "size"
+        );
         for r in layout::REGIONS {
             println!(
                 "  {:<8} 0x{:08X}  0x{:08X}  {:>8}  {}",
@@ -126,19 +129,18 @@ mod host {
 }
 
 /// Target-only runtime glue: logging transport, panic handler, monotonic
-/// timer and the defmt timestamp. The macros expand to `#[no_mangle]`
-/// functions, which the `unsafe_code` lint counts as unsafe.
+/// timer, the defmt timestamp and the model-slot linker symbols.
 #[cfg(target_os = "none")]
-#[allow(unsafe_code)]
 mod rt {
     use defmt_rtt as _;
     use panic_probe as _;
 
-    rtic_monotonics::systick_monotonic!(Mono, crate::board::MONO_HZ);
+    // The macro needs an untyped literal; `board` asserts MONO_HZ == 1_000.
+    rtic_monotonics::systick_monotonic!(Mono, 1_000);
 
     // A tick is a millisecond (checked in `board`).
     defmt::timestamp!("{=u32:ms}", {
-        use rtic_monotonics::Monotonic;
+        use rtic_monotonics::Timebase;
         Mono::now().as_ticks()
     });
 
@@ -163,16 +165,15 @@ mod rt {
 
 /// The RTIC v2 application (board only).
 #[cfg(target_os = "none")]
-#[allow(unsafe_code)] // the `#[app]` expansion uses `unsafe`; the task bodies do not.
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true, dispatchers = [UART4, UART5])]
 mod app {
     use crate::{board, layout, rt::Mono};
     use bxcan::{Frame, StandardId};
-    use rtic_monotonics::Monotonic;
+    use rtic_monotonics::Timebase;
     use stm32f4xx_hal::{
         can::{Can, CanExt},
         gpio::{GpioExt, Output, PB6},
-        hal::spi::{SpiBus, MODE_1},
+        hal::spi::MODE_1,
         hal_02::blocking::serial::Write as _,
         pac,
         prelude::_fugit_ExtU32,
@@ -225,7 +226,12 @@ mod app {
         // memory.x and `layout` must agree on where the model slots are.
         defmt::assert_eq!(
             crate::rt::model_slots(),
-            [layout::MODEL_A.origin, layout::MODEL_A.end(), layout::MODEL_B.origin, layout::MODEL_B.end()]
+            [
+                layout::MODEL_A.origin,
+                layout::MODEL_A.end(),
+                layout::MODEL_B.origin,
+                layout::MODEL_B.end()
+            ]
         );
 
         let gpioa = dp.GPIOA.split(&mut rcc);
@@ -282,7 +288,7 @@ mod app {
     /// configuration register, feed the watchdog, pass the result to `emit`.
     #[task(priority = 2, local = [watchdog, rtd_spi, rtd_cs, seq: u32 = 0])]
     async fn sample(cx: sample::Context) {
-        let period = <Mono as Monotonic>::Duration::from_ticks(board::SAMPLE_PERIOD_MS);
+        let period = <Mono as Timebase>::Duration::from_ticks(board::SAMPLE_PERIOD_MS);
         let mut next = Mono::now();
         loop {
             // MAX31865: read register 0x00 (configuration): address byte, then one dummy byte.

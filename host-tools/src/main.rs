@@ -1,2 +1,112 @@
-//! thermcomp
-fn main() {}
+//! `thermcomp`: build, inspect, run and evaluate thermal-error compensation
+//! models for CNC machine tools (CONTRACT.md section 1).
+//!
+//! Every subcommand prints its results on stdout (one JSON object with
+//! `--json`), progress and notes on stderr, and fails with a one-line error
+//! and a non-zero exit status.
+
+use host_tools::{blobfile, eval, predict, show, spec};
+
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Thermal-error compensation for CNC machine tools.
+#[derive(Parser)]
+#[command(name = "thermcomp", version, about, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build or inspect model blobs.
+    #[command(subcommand)]
+    Model(ModelCommand),
+    /// Write a model's predictions for run files, row for row.
+    Predict(predict::PredictArgs),
+    /// Score a model against the measured columns of run files.
+    ///
+    /// Metrics per target (residual r = y - yhat): rmse_um; fit_pct =
+    /// (1 - ||r|| / ||y - mean(y)||) * 100; r2 = 1 - SSE/SST; eta_pct (the
+    /// seeds' "predictive ability") = (1 - ||r|| / ||y||) * 100; max_abs_um,
+    /// mean_abs_um of |r|; dpk_um = |max r| + |min r|; reduction_pct =
+    /// (1 - mean|r| / mean|y|) * 100.
+    Eval(eval::EvalArgs),
+}
+
+#[derive(Subcommand)]
+enum ModelCommand {
+    /// Build a blob from a TOML spec of hand-written coefficients (README: "Model specs").
+    Build(BuildArgs),
+    /// Print what a blob holds: kind, inputs, outputs, coefficients, version, CRC.
+    Show(ShowArgs),
+}
+
+#[derive(Args)]
+struct BuildArgs {
+    /// The spec (TOML).
+    #[arg(long)]
+    spec: PathBuf,
+    /// Where to write the blob.
+    #[arg(long)]
+    out: PathBuf,
+    /// Print a JSON summary of the blob written.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct ShowArgs {
+    /// The model blob.
+    #[arg(long)]
+    model: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Model(ModelCommand::Build(a)) => {
+            let model = spec::load(&a.spec)?;
+            let bytes = blobfile::write(&model, &a.out)?;
+            if a.json {
+                println!("{}", show::describe_json(&model, &bytes));
+            } else {
+                eprintln!(
+                    "wrote {} ({} bytes, {} model, {} inputs, {} outputs)",
+                    a.out.display(),
+                    bytes.len(),
+                    model.kind().name(),
+                    model.inputs().len(),
+                    model.outputs().len()
+                );
+            }
+            Ok(())
+        }
+        Command::Model(ModelCommand::Show(a)) => {
+            let (model, bytes) = blobfile::read(&a.model)?;
+            if a.json {
+                println!("{}", show::describe_json(&model, &bytes));
+            } else {
+                print!("{}", show::describe_text(&a.model, &model, &bytes));
+            }
+            Ok(())
+        }
+        Command::Predict(a) => predict::run(&a),
+        Command::Eval(a) => eval::run(&a),
+    }
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // `{:#}` joins the context chain on one line.
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -19,11 +19,14 @@ extern crate alloc;
 pub mod arma;
 pub mod blob;
 pub mod bp;
+pub mod geometry;
 pub mod linear;
+pub mod metrics;
 pub mod model;
 pub mod pcr;
 pub mod poly;
 pub mod position;
+pub mod rtd;
 pub mod tf;
 
 pub use blob::{decode, encode, BlobError};

@@ -1,0 +1,20 @@
+//! Reading and writing blob files, with the file named in every error.
+
+use anyhow::{anyhow, Context, Result};
+use model_core::ValidModel;
+use std::path::Path;
+
+/// Reads and validates a blob; returns the model and the raw bytes.
+pub fn read(path: &Path) -> Result<(ValidModel, Vec<u8>)> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let model = model_core::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    Ok((model, bytes))
+}
+
+/// Encodes a validated model and writes it; returns the bytes written.
+pub fn write(model: &ValidModel, path: &Path) -> Result<Vec<u8>> {
+    let bytes = model_core::blob::encode_to_vec(model)
+        .map_err(|e| anyhow!("cannot encode the model: {e}"))?;
+    std::fs::write(path, &bytes).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(bytes)
+}

@@ -1,0 +1,10 @@
+//! `thermcomp`'s library: the spec reader, run-file reader, runner and
+//! subcommands, kept apart from `main` so tests can call them directly.
+
+pub mod blobfile;
+pub mod eval;
+pub mod predict;
+pub mod runfile;
+pub mod runner;
+pub mod show;
+pub mod spec;

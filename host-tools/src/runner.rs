@@ -1,0 +1,239 @@
+//! Runs a model over run files the way the hub would: channel by channel,
+//! sample by sample, with each run restarting the model's state.
+//!
+//! Static models (regressions, BP) are evaluated row by row. Dynamic models
+//! (TF banks, ARMA) have a fixed sample time: when a run's sampling is
+//! irregular or differs from it, the inputs are resampled to the model's
+//! grid by linear interpolation, the model runs on the grid, and its outputs
+//! are interpolated back to the run's rows. Whatever was done is reported as
+//! a note, never silently.
+
+use crate::runfile::{resample_linear, uniform_grid, RunFile};
+use anyhow::{bail, Result};
+use model_core::model::{ModelState, StepError, MAX_OUTPUTS};
+use model_core::ValidModel;
+use std::collections::HashMap;
+
+/// `--map NAME=COLUMN`: read a model name from a differently named column.
+#[derive(Clone, Debug, Default)]
+pub struct ColumnMap(HashMap<String, String>);
+
+impl ColumnMap {
+    /// Parses `NAME=COLUMN` pairs.
+    pub fn parse(pairs: &[String]) -> Result<Self> {
+        let mut map = HashMap::new();
+        for p in pairs {
+            let Some((name, col)) = p.split_once('=') else {
+                bail!("--map {p}: expected NAME=COLUMN");
+            };
+            let (name, col) = (name.trim(), col.trim());
+            if name.is_empty() || col.is_empty() {
+                bail!("--map {p}: expected NAME=COLUMN");
+            }
+            map.insert(name.to_string(), col.to_string());
+        }
+        Ok(Self(map))
+    }
+
+    /// The column that carries model name `name`.
+    pub fn column<'a>(&'a self, name: &'a str) -> &'a str {
+        self.0.get(name).map_or(name, String::as_str)
+    }
+}
+
+/// A model's predictions for one run, row for row.
+#[derive(Clone, Debug)]
+pub struct Prediction {
+    /// `values[k][row]`: output `k` at each row (None where it cannot be had).
+    pub values: Vec<Vec<Option<f64>>>,
+    /// What the runner did that the user should know.
+    pub notes: Vec<String>,
+}
+
+/// The input columns of `model` in `run`, in channel order.
+fn input_columns<'r>(
+    model: &ValidModel,
+    run: &'r RunFile,
+    map: &ColumnMap,
+) -> Result<Vec<&'r [Option<f64>]>> {
+    model
+        .inputs()
+        .iter()
+        .map(|ch| {
+            let col = map.column(&ch.name);
+            run.column(col).ok_or_else(|| {
+                let via = if col == ch.name.as_str() {
+                    String::new()
+                } else {
+                    format!(" (mapped to \"{col}\")")
+                };
+                anyhow::anyhow!(
+                    "{}: the model needs input \"{}\"{via} but the run has no such column (columns: {})",
+                    run.path.display(),
+                    ch.name,
+                    run.columns.join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
+/// Steps the model over aligned input samples; `None` where an input is
+/// missing or the step was refused.
+fn step_all(
+    model: &ValidModel,
+    inputs: &[Vec<Option<f64>>],
+    len: usize,
+    notes: &mut Vec<String>,
+) -> Vec<Vec<Option<f64>>> {
+    let n_out = model.outputs().len();
+    let mut values = vec![vec![None; len]; n_out];
+    let mut state = ModelState::new();
+    let mut x = vec![0.0; inputs.len()];
+    let mut out = [0.0; MAX_OUTPUTS];
+    let (mut missing, mut overflow) = (0usize, 0usize);
+    for i in 0..len {
+        let mut complete = true;
+        for (xi, col) in x.iter_mut().zip(inputs) {
+            match col.get(i).copied().flatten() {
+                Some(v) => *xi = v,
+                None => complete = false,
+            }
+        }
+        if !complete {
+            missing += 1;
+            continue;
+        }
+        match model.step(&mut state, &x, &mut out) {
+            Ok(()) => {
+                for (k, v) in values.iter_mut().enumerate() {
+                    if let Some(slot) = v.get_mut(i) {
+                        *slot = out.get(k).copied();
+                    }
+                }
+            }
+            Err(StepError::NonFiniteOutput) => overflow += 1,
+            // Inputs are finite (the reader rejects the rest) and sized by
+            // construction; count anything else with the overflows.
+            Err(_) => overflow += 1,
+        }
+    }
+    if missing > 0 {
+        notes.push(format!(
+            "{missing} of {len} samples lack an input value: no prediction there"
+        ));
+    }
+    if overflow > 0 {
+        notes.push(format!(
+            "{overflow} samples gave a non-finite output and were held out"
+        ));
+    }
+    values
+}
+
+/// Runs `model` over one run file.
+pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Prediction> {
+    let columns = input_columns(model, run, map)?;
+    let mut notes = Vec::new();
+    let n = run.len();
+    let dt = model.model().dt_s;
+    if !model.kind().is_dynamic() {
+        let inputs: Vec<Vec<Option<f64>>> = columns.iter().map(|c| c.to_vec()).collect();
+        let values = step_all(model, &inputs, n, &mut notes);
+        return Ok(Prediction { values, notes });
+    }
+    let sampling = run.sampling();
+    let median = sampling.dt_median_s.unwrap_or(dt);
+    let on_grid = run.len() < 2
+        || (sampling.is_uniform && (median - dt).abs() <= 1e-6 * dt.max(1e-9));
+    let grid: Vec<f64> = if on_grid {
+        run.t_s.clone()
+    } else {
+        let (t0, t1) = match (run.t_s.first(), run.t_s.last()) {
+            (Some(a), Some(b)) => (*a, *b),
+            _ => bail!("{}: no rows", run.path.display()),
+        };
+        let why = if sampling.is_uniform {
+            format!("sampled every {median} s")
+        } else {
+            format!(
+                "sampling irregular (steps {}..{} s)",
+                sampling.dt_min_s.unwrap_or(median),
+                sampling.dt_max_s.unwrap_or(median)
+            )
+        };
+        notes.push(format!(
+            "{why}: inputs resampled to the model's dt {dt} s by linear interpolation, outputs interpolated back to the {n} rows"
+        ));
+        uniform_grid(t0, t1, dt).map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?
+    };
+    let mut bridged = 0usize;
+    let inputs: Vec<Vec<Option<f64>>> = columns
+        .iter()
+        .map(|c| {
+            bridged += c.iter().filter(|v| v.is_none()).count();
+            resample_linear(&run.t_s, c, &grid)
+        })
+        .collect();
+    if bridged > 0 {
+        notes.push(format!(
+            "{bridged} missing input cells bridged by linear interpolation (the model's state needs every sample)"
+        ));
+    }
+    let on_grid_values = step_all(model, &inputs, grid.len(), &mut notes);
+    let values = if on_grid {
+        on_grid_values
+    } else {
+        on_grid_values
+            .iter()
+            .map(|v| resample_linear(&grid, v, &run.t_s))
+            .collect()
+    };
+    Ok(Prediction { values, notes })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::runfile::ReadOptions;
+
+    fn run(csv: &str) -> RunFile {
+        RunFile::from_reader("t.csv", csv.as_bytes(), &ReadOptions::default()).unwrap()
+    }
+
+    fn first_order() -> ValidModel {
+        crate::spec::parse(
+            "m.toml",
+            "kind = \"tf\"\ndt_s = 1.0\n[[tf]]\noutput = \"dz_um\"\ninput = \"T1\"\na = [0.5]\nb = [1.0, -0.5]\n",
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn uniform_run_steps_row_by_row() {
+        let p = predict(&first_order(), &run("t_s,T1\n0,20\n1,21\n2,21\n3,21\n"), &ColumnMap::default())
+            .unwrap();
+        // Step of +1 K from the first sample: 0, 0.5, 0.75, 0.875 exactly.
+        assert_eq!(p.values[0], [Some(0.0), Some(0.5), Some(0.75), Some(0.875)]);
+        assert!(p.notes.is_empty());
+    }
+
+    #[test]
+    fn coarser_run_is_resampled_and_says_so() {
+        // Rows every 2 s, model dt 1 s: the grid adds t = 1, 3 with T1 = 20.5, 21.
+        let p = predict(&first_order(), &run("t_s,T1\n0,20\n2,21\n4,21\n"), &ColumnMap::default())
+            .unwrap();
+        // Grid outputs: k0 0; k1 0.25; k2 0.625; k3 0.8125; k4 0.90625.
+        assert_eq!(p.values[0], [Some(0.0), Some(0.625), Some(0.90625)]);
+        assert!(p.notes[0].contains("resampled"), "{:?}", p.notes);
+    }
+
+    #[test]
+    fn missing_column_and_mapping() {
+        let r = run("t_s,temp1\n0,20\n1,21\n");
+        let e = predict(&first_order(), &r, &ColumnMap::default()).unwrap_err();
+        assert!(e.to_string().contains("needs input \"T1\""), "{e}");
+        let map = ColumnMap::parse(&["T1=temp1".into()]).unwrap();
+        assert_eq!(predict(&first_order(), &r, &map).unwrap().values[0][1], Some(0.5));
+    }
+}

@@ -1,0 +1,320 @@
+//! What a blob holds, as text for people and JSON for scripts, including
+//! what validation derived (TF poles, cancellations, steady-state gains, the
+//! collapsed linear form of a PCR).
+
+use model_core::blob::{crc32, FORMAT_VERSION, HEADER_LEN, TRAILER_LEN};
+use model_core::poly::{self, Complex};
+use model_core::{Params, Reference, ValidModel};
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::path::Path;
+
+fn reference_json(r: Reference) -> Value {
+    match r {
+        Reference::Absolute => json!("absolute"),
+        Reference::First => json!("first"),
+        Reference::Value(v) => json!(v),
+    }
+}
+
+fn reference_text(r: Reference) -> String {
+    match r {
+        Reference::Absolute => "absolute".into(),
+        Reference::First => "minus its first sample".into(),
+        Reference::Value(v) => format!("minus {v}"),
+    }
+}
+
+/// Roots with imaginary parts below root-finding noise shown as real.
+fn roots(c: &[f64]) -> Vec<Complex> {
+    poly::roots(c)
+        .map(|r| {
+            r.as_slice()
+                .iter()
+                .map(|z| {
+                    let im = if z.im.abs() < 1e-9 * (1.0 + z.re.abs()) { 0.0 } else { z.im };
+                    Complex::new(z.re, im)
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn complex_json(z: &[Complex]) -> Value {
+    Value::Array(
+        z.iter()
+            .map(|z| if z.im == 0.0 { json!(z.re) } else { json!([z.re, z.im]) })
+            .collect(),
+    )
+}
+
+fn complex_text(z: &[Complex]) -> String {
+    if z.is_empty() {
+        return "none".into();
+    }
+    z.iter()
+        .map(|z| {
+            if z.im == 0.0 {
+                format!("{:.6}", z.re)
+            } else {
+                format!("{:.6}{:+.6}i", z.re, z.im)
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn name_of(names: &[model_core::Name], i: u8) -> &str {
+    names.get(usize::from(i)).map_or("?", |n| n.as_str())
+}
+
+fn input_of(model: &ValidModel, i: u8) -> &str {
+    model
+        .inputs()
+        .get(usize::from(i))
+        .map_or("?", |c| c.name.as_str())
+}
+
+/// The blob as one JSON object.
+pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
+    let m = model.model();
+    let coefficients = match &m.params {
+        Params::Tf(entries) => Value::Array(
+            entries
+                .iter()
+                .zip(model.realised_tfs())
+                .map(|(e, r)| {
+                    json!({
+                        "output": name_of(model.outputs(), e.output),
+                        "input": input_of(model, e.input),
+                        "a": e.a.as_slice(),
+                        "b": e.b.as_slice(),
+                        "poles": complex_json(&roots(&e.b)),
+                        "zeros": complex_json(&roots(&e.a)),
+                        "cancelled_pairs": r.cancelled(),
+                        "realised_num": r.numerator(),
+                        "realised_den": r.denominator(),
+                        "steady_state_gain": r.dc_gain(),
+                    })
+                })
+                .collect(),
+        ),
+        Params::Linear(lin) => Value::Array(
+            lin.outputs
+                .iter()
+                .map(|eq| {
+                    let coef: serde_json::Map<String, Value> = eq
+                        .coef
+                        .iter()
+                        .map(|c| (input_of(model, c.channel).to_string(), json!(c.value)))
+                        .collect();
+                    json!({
+                        "output": name_of(model.outputs(), eq.output),
+                        "intercept": eq.intercept,
+                        "coef": coef,
+                        "position": eq.position.as_ref().map(|p| json!({
+                            "input": input_of(model, p.channel), "poly": p.poly.as_slice(), "k0": p.k0})),
+                    })
+                })
+                .collect(),
+        ),
+        Params::Pcr(pcr) => Value::Array(
+            pcr.outputs
+                .iter()
+                .map(|eq| {
+                    let (d0, d) = eq.equivalent_linear();
+                    let inputs: Vec<&str> = eq.inputs.iter().map(|c| input_of(model, *c)).collect();
+                    let collapsed: serde_json::Map<String, Value> = inputs
+                        .iter()
+                        .zip(&d)
+                        .map(|(n, v)| ((*n).to_string(), json!(v)))
+                        .collect();
+                    json!({
+                        "output": name_of(model.outputs(), eq.output),
+                        "inputs": inputs,
+                        "components": eq.components.iter().map(|c| json!({
+                            "intercept": c.intercept, "weights": c.weights.as_slice()})).collect::<Vec<_>>(),
+                        "intercept": eq.intercept,
+                        "beta": eq.beta.as_slice(),
+                        "equivalent_linear": {"intercept": d0, "coef": collapsed},
+                        "position": eq.position.as_ref().map(|p| json!({
+                            "input": input_of(model, p.channel), "poly": p.poly.as_slice(), "k0": p.k0})),
+                    })
+                })
+                .collect(),
+        ),
+        Params::Bp(net) => json!({
+            "inputs": net.inputs.iter().map(|c| input_of(model, *c)).collect::<Vec<_>>(),
+            "outputs": net.outputs.iter().map(|o| name_of(model.outputs(), *o)).collect::<Vec<_>>(),
+            "hidden": net.hidden(),
+            "hidden_activation": net.hidden_activation.name(),
+            "output_activation": net.output_activation.name(),
+            "w1": net.w1.as_slice(), "b1": net.b1.as_slice(),
+            "w2": net.w2.as_slice(), "b2": net.b2.as_slice(),
+            "x_min": net.x_min.as_slice(), "x_max": net.x_max.as_slice(),
+            "y_min": net.y_min.as_slice(), "y_max": net.y_max.as_slice(),
+        }),
+        Params::Arma(a) => json!({
+            "series": input_of(model, a.channel),
+            "output": name_of(model.outputs(), a.output),
+            "p": a.phi.len(), "d": a.diff, "q": a.theta.len(),
+            "mean": a.mean, "std": a.std, "constant": a.constant,
+            "phi": a.phi.as_slice(), "theta": a.theta.as_slice(),
+        }),
+    };
+    json!({
+        "kind": model.kind().name(),
+        "format_version": FORMAT_VERSION,
+        "bytes": bytes.len(),
+        "body_bytes": bytes.len().saturating_sub(HEADER_LEN + TRAILER_LEN),
+        "crc32": format!("{:#010x}", crc32(&bytes[..bytes.len().saturating_sub(TRAILER_LEN)])),
+        "dt_s": m.dt_s,
+        "inputs": model.inputs().iter().map(|c| json!({
+            "name": c.name.as_str(), "reference": reference_json(c.reference)})).collect::<Vec<_>>(),
+        "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
+        "coefficients": coefficients,
+    })
+}
+
+fn list(v: &[f64]) -> String {
+    let parts: Vec<String> = v.iter().map(|x| format!("{x}")).collect();
+    format!("[{}]", parts.join(", "))
+}
+
+/// The blob as text for a person.
+pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
+    let m = model.model();
+    let mut s = String::new();
+    let crc = crc32(&bytes[..bytes.len().saturating_sub(TRAILER_LEN)]);
+    let _ = writeln!(s, "{} ({} bytes)", path.display(), bytes.len());
+    let _ = writeln!(
+        s,
+        "  kind {}, blob format version {FORMAT_VERSION}, CRC-32 {crc:#010x} (ok)",
+        model.kind().name()
+    );
+    if model.kind().is_dynamic() {
+        let _ = writeln!(s, "  sample time {} s", m.dt_s);
+    }
+    let _ = writeln!(s, "  inputs:");
+    for c in model.inputs() {
+        let _ = writeln!(s, "    {:<12} {}", c.name.as_str(), reference_text(c.reference));
+    }
+    let outs: Vec<&str> = model.outputs().iter().map(|o| o.as_str()).collect();
+    let _ = writeln!(s, "  outputs: {}", outs.join(", "));
+    match &m.params {
+        Params::Tf(entries) => {
+            for (i, (e, r)) in entries.iter().zip(model.realised_tfs()).enumerate() {
+                let _ = writeln!(
+                    s,
+                    "  tf {}: {} <- {}",
+                    i + 1,
+                    name_of(model.outputs(), e.output),
+                    input_of(model, e.input)
+                );
+                let _ = writeln!(s, "    a = {}", list(&e.a));
+                let _ = writeln!(s, "    b = {}", list(&e.b));
+                let _ = writeln!(s, "    poles {}", complex_text(&roots(&e.b)));
+                let _ = writeln!(s, "    zeros {}", complex_text(&roots(&e.a)));
+                if r.cancelled() > 0 {
+                    let _ = writeln!(
+                        s,
+                        "    {} pole/zero pair(s) on the unit circle cancelled; runs as num {} / den {}",
+                        r.cancelled(),
+                        list(r.numerator()),
+                        list(r.denominator())
+                    );
+                }
+                let _ = writeln!(s, "    steady-state gain {:.6}", r.dc_gain());
+            }
+        }
+        Params::Linear(lin) => {
+            for eq in &lin.outputs {
+                let mut line = format!("{}", eq.intercept);
+                for c in &eq.coef {
+                    let _ = write!(line, " {:+} {}", c.value, input_of(model, c.channel));
+                }
+                let lhs = name_of(model.outputs(), eq.output);
+                match &eq.position {
+                    None => {
+                        let _ = writeln!(s, "  {lhs} = {line}");
+                    }
+                    Some(p) => {
+                        let _ = writeln!(s, "  k = {line}");
+                        let _ = writeln!(
+                            s,
+                            "  {lhs} = poly({}) + (k - {}) * {}, poly = {}",
+                            input_of(model, p.channel),
+                            p.k0,
+                            input_of(model, p.channel),
+                            list(&p.poly)
+                        );
+                    }
+                }
+            }
+        }
+        Params::Pcr(pcr) => {
+            for eq in &pcr.outputs {
+                let lhs = name_of(model.outputs(), eq.output);
+                let inputs: Vec<&str> = eq.inputs.iter().map(|c| input_of(model, *c)).collect();
+                for (j, c) in eq.components.iter().enumerate() {
+                    let mut line = format!("{}", c.intercept);
+                    for (w, n) in c.weights.iter().zip(&inputs) {
+                        let _ = write!(line, " {w:+} {n}");
+                    }
+                    let _ = writeln!(s, "  C{} = {line}", j + 1);
+                }
+                let mut line = format!("{}", eq.intercept);
+                for (j, b) in eq.beta.iter().enumerate() {
+                    let _ = write!(line, " {b:+} C{}", j + 1);
+                }
+                let _ = writeln!(s, "  {lhs} = {line}");
+                let (d0, d) = eq.equivalent_linear();
+                let mut line = format!("{d0:.6}");
+                for (v, n) in d.iter().zip(&inputs) {
+                    let _ = write!(line, " {v:+.6} {n}");
+                }
+                let _ = writeln!(s, "    equivalently {lhs} = {line}");
+                if let Some(p) = &eq.position {
+                    let _ = writeln!(
+                        s,
+                        "    positional: poly({}) + ({lhs} - {}) * {}, poly = {}",
+                        input_of(model, p.channel),
+                        p.k0,
+                        input_of(model, p.channel),
+                        list(&p.poly)
+                    );
+                }
+            }
+        }
+        Params::Bp(net) => {
+            let _ = writeln!(
+                s,
+                "  network {}-{}-{}, hidden {}, output {}, mapminmax scaling to [-1, 1]",
+                net.inputs.len(),
+                net.hidden(),
+                net.outputs.len(),
+                net.hidden_activation.name(),
+                net.output_activation.name()
+            );
+            let _ = writeln!(s, "    x_min {}  x_max {}", list(&net.x_min), list(&net.x_max));
+            let _ = writeln!(s, "    y_min {}  y_max {}", list(&net.y_min), list(&net.y_max));
+            let _ = writeln!(s, "    w1 {}", list(&net.w1));
+            let _ = writeln!(s, "    b1 {}", list(&net.b1));
+            let _ = writeln!(s, "    w2 {}", list(&net.w2));
+            let _ = writeln!(s, "    b2 {}", list(&net.b2));
+        }
+        Params::Arma(a) => {
+            let _ = writeln!(
+                s,
+                "  ARMA({}, {}) on the {}-times differenced series, standardised by mean {} std {}",
+                a.phi.len(),
+                a.theta.len(),
+                a.diff,
+                a.mean,
+                a.std
+            );
+            let _ = writeln!(s, "    constant {}  phi {}  theta {}", a.constant, list(&a.phi), list(&a.theta));
+        }
+    }
+    s
+}

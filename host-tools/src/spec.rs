@@ -1,0 +1,579 @@
+//! Model specs: a paper's published equations written by hand in TOML
+//! (CONTRACT.md section 4), turned into a validated [`model_core::Model`].
+//!
+//! Errors name the spec file, line and column: TOML syntax and unknown
+//! fields from the parser's span, model errors (an unstable TF, a shape that
+//! does not agree) from the span of the `[[tf]]`/`[[linear]]`/... entry at
+//! fault.
+
+use anyhow::{anyhow, bail, Context, Result};
+use model_core::bp::{Activation, BpNet};
+use model_core::linear::{Coef, Linear, LinearOutput};
+use model_core::model::{ModelError, MAX_CHANNELS, MAX_OUTPUTS};
+use model_core::pcr::{Component, Pcr, PcrOutput};
+use model_core::position::PositionTerm;
+use model_core::tf::TfEntry;
+use model_core::{Channel, Model, Name, Params, Reference, ValidModel};
+use serde::Deserialize;
+use std::ops::Range;
+use std::path::Path;
+use toml::Spanned;
+
+/// A reference as written: `"first"`, `"absolute"`, or a number.
+#[derive(Deserialize, Debug, Clone, Copy)]
+#[serde(untagged)]
+enum RefSpec {
+    Word(RefWord),
+    Value(f64),
+}
+
+#[derive(Deserialize, Debug, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum RefWord {
+    First,
+    Absolute,
+}
+
+impl RefSpec {
+    fn reference(self) -> Reference {
+        match self {
+            Self::Word(RefWord::First) => Reference::First,
+            Self::Word(RefWord::Absolute) => Reference::Absolute,
+            Self::Value(v) => Reference::Value(v),
+        }
+    }
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct TfSpec {
+    output: String,
+    input: String,
+    /// Defaults to "first": seed 004 drives each TF by the temperature change.
+    reference: Option<RefSpec>,
+    a: Vec<f64>,
+    b: Vec<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct PositionSpec {
+    input: String,
+    poly: Vec<f64>,
+    k0: f64,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct LinearSpec {
+    output: String,
+    intercept: f64,
+    coef: toml::map::Map<String, toml::Value>,
+    /// Defaults to "absolute": seed 002 regresses on the temperatures as read.
+    reference: Option<RefSpec>,
+    position: Option<PositionSpec>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct ComponentSpec {
+    intercept: f64,
+    weights: Vec<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct PcrSpec {
+    output: String,
+    inputs: Vec<String>,
+    components: Vec<ComponentSpec>,
+    intercept: f64,
+    beta: Vec<f64>,
+    reference: Option<RefSpec>,
+    position: Option<PositionSpec>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct BpSpec {
+    inputs: Vec<String>,
+    outputs: Vec<String>,
+    reference: Option<RefSpec>,
+    hidden_activation: Option<String>,
+    output_activation: Option<String>,
+    /// n rows of m input weights (MATLAB's `net.IW{1,1}`).
+    w1: Vec<Vec<f64>>,
+    b1: Vec<f64>,
+    /// q rows of n hidden weights (MATLAB's `net.LW{2,1}`).
+    w2: Vec<Vec<f64>>,
+    b2: Vec<f64>,
+    x_min: Vec<f64>,
+    x_max: Vec<f64>,
+    y_min: Vec<f64>,
+    y_max: Vec<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct ArmaSpec {
+    /// Column whose own past is forecast (e.g. "dz_um").
+    series: String,
+    /// Output name; defaults to the series, so `eval` scores the forecast.
+    output: Option<String>,
+    mean: Option<f64>,
+    std: Option<f64>,
+    diff: Option<u8>,
+    constant: Option<f64>,
+    #[serde(default)]
+    phi: Vec<f64>,
+    #[serde(default)]
+    theta: Vec<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct SpecFile {
+    kind: String,
+    dt_s: Option<f64>,
+    #[serde(default)]
+    tf: Vec<Spanned<TfSpec>>,
+    #[serde(default)]
+    linear: Vec<Spanned<LinearSpec>>,
+    #[serde(default)]
+    pcr: Vec<Spanned<PcrSpec>>,
+    bp: Option<Spanned<BpSpec>>,
+    arma: Option<Spanned<ArmaSpec>>,
+}
+
+/// Line and column (1-based) of a byte offset.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let upto = text.get(..offset.min(text.len())).unwrap_or(text);
+    let line = upto.matches('\n').count() + 1;
+    let col = upto.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, col)
+}
+
+/// Collects input channels and output names while a spec is translated.
+struct Builder<'a> {
+    file: &'a str,
+    text: &'a str,
+    inputs: heapless::Vec<Channel, MAX_CHANNELS>,
+    outputs: heapless::Vec<Name, MAX_OUTPUTS>,
+}
+
+fn name(s: &str) -> Result<Name> {
+    if s.trim().is_empty() {
+        bail!("empty column name");
+    }
+    Name::try_from(s).map_err(|_| {
+        anyhow!(
+            "column name \"{s}\" is longer than {} bytes",
+            model_core::model::NAME_LEN
+        )
+    })
+}
+
+impl Builder<'_> {
+    fn at(&self, span: &Range<usize>) -> String {
+        let (l, c) = line_col(self.text, span.start);
+        format!("{}:{l}:{c}", self.file)
+    }
+
+    fn input(&mut self, column: &str, reference: Reference) -> Result<u8> {
+        let ch = Channel {
+            name: name(column)?,
+            reference,
+        };
+        let idx = match self.inputs.iter().position(|c| *c == ch) {
+            Some(i) => i,
+            None => {
+                self.inputs
+                    .push(ch)
+                    .map_err(|_| anyhow!("more than {MAX_CHANNELS} input channels"))?;
+                self.inputs.len() - 1
+            }
+        };
+        Ok(u8::try_from(idx)?)
+    }
+
+    fn output(&mut self, column: &str) -> Result<u8> {
+        let n = name(column)?;
+        let idx = match self.outputs.iter().position(|o| *o == n) {
+            Some(i) => i,
+            None => {
+                self.outputs
+                    .push(n)
+                    .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
+                self.outputs.len() - 1
+            }
+        };
+        Ok(u8::try_from(idx)?)
+    }
+
+    fn position(&mut self, p: &Option<PositionSpec>) -> Result<Option<PositionTerm>> {
+        let Some(p) = p else { return Ok(None) };
+        Ok(Some(PositionTerm {
+            channel: self.input(&p.input, Reference::Absolute)?,
+            poly: vec_of(&p.poly, "position.poly")?,
+            k0: p.k0,
+        }))
+    }
+}
+
+fn vec_of<T: Clone, const N: usize>(values: &[T], what: &str) -> Result<heapless::Vec<T, N>> {
+    heapless::Vec::from_slice(values)
+        .map_err(|_| anyhow!("{what} has {} values, at most {N} allowed", values.len()))
+}
+
+fn activation(s: Option<&str>, default: Activation) -> Result<Activation> {
+    Ok(match s {
+        None => default,
+        Some("tansig") => Activation::Tansig,
+        Some("logsig") => Activation::Logsig,
+        Some("purelin") => Activation::Purelin,
+        Some(other) => bail!("unknown activation \"{other}\" (tansig, logsig or purelin)"),
+    })
+}
+
+/// Reads and validates a spec file.
+pub fn load(path: &Path) -> Result<ValidModel> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    parse(&path.display().to_string(), &text)
+}
+
+/// Parses and validates spec text; `file` names it in errors.
+pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
+    let spec: SpecFile = toml::from_str(text).map_err(|e| {
+        let (l, c) = e
+            .span()
+            .map_or((1, 1), |s| line_col(text, s.start));
+        // The parser's message may span lines ("invalid array\nexpected `]`").
+        let msg: Vec<&str> = e.message().lines().map(str::trim).filter(|s| !s.is_empty()).collect();
+        anyhow!("{file}:{l}:{c}: {}", msg.join("; "))
+    })?;
+    let mut b = Builder {
+        file,
+        text,
+        inputs: heapless::Vec::new(),
+        outputs: heapless::Vec::new(),
+    };
+    // Spans of the entries, so a model error can point at its entry.
+    let mut spans: Vec<Range<usize>> = Vec::new();
+    let expect_only = |present: &[(&str, bool)], kind: &str| -> Result<()> {
+        for (section, has) in present {
+            if *has && *section != kind {
+                bail!("{file}: kind = \"{kind}\" but the spec has [{section}] entries");
+            }
+        }
+        Ok(())
+    };
+    expect_only(
+        &[
+            ("tf", !spec.tf.is_empty()),
+            ("linear", !spec.linear.is_empty()),
+            ("pcr", !spec.pcr.is_empty()),
+            ("bp", spec.bp.is_some()),
+            ("arma", spec.arma.is_some()),
+        ],
+        spec.kind.as_str(),
+    )?;
+    let params = match spec.kind.as_str() {
+        "tf" => {
+            if spec.tf.is_empty() {
+                bail!("{file}: kind = \"tf\" needs at least one [[tf]] entry");
+            }
+            let mut entries = heapless::Vec::new();
+            for e in &spec.tf {
+                let span = e.span();
+                let at = b.at(&span);
+                let t = e.get_ref();
+                let entry = (|| -> Result<TfEntry> {
+                    let reference = t.reference.map_or(Reference::First, RefSpec::reference);
+                    Ok(TfEntry {
+                        output: b.output(&t.output)?,
+                        input: b.input(&t.input, reference)?,
+                        a: vec_of(&t.a, "a")?,
+                        b: vec_of(&t.b, "b")?,
+                    })
+                })()
+                .map_err(|err| anyhow!("{at}: [[tf]] {} <- {}: {err}", t.output, t.input))?;
+                entries
+                    .push(entry)
+                    .map_err(|_| anyhow!("{at}: more than {} [[tf]] entries", entries.capacity()))?;
+                spans.push(span);
+            }
+            Params::Tf(entries)
+        }
+        "linear" => {
+            if spec.linear.is_empty() {
+                bail!("{file}: kind = \"linear\" needs at least one [[linear]] entry");
+            }
+            let mut outputs = heapless::Vec::new();
+            for e in &spec.linear {
+                let span = e.span();
+                let at = b.at(&span);
+                let l = e.get_ref();
+                let eq = (|| -> Result<LinearOutput> {
+                    let reference = l.reference.map_or(Reference::Absolute, RefSpec::reference);
+                    let mut coef = heapless::Vec::new();
+                    for (col, v) in &l.coef {
+                        let value = v
+                            .as_float()
+                            .or_else(|| v.as_integer().map(|i| i as f64))
+                            .ok_or_else(|| anyhow!("coef.{col} is not a number"))?;
+                        coef.push(Coef {
+                            channel: b.input(col, reference)?,
+                            value,
+                        })
+                        .map_err(|_| anyhow!("more than {MAX_CHANNELS} coefficients"))?;
+                    }
+                    Ok(LinearOutput {
+                        output: b.output(&l.output)?,
+                        intercept: l.intercept,
+                        coef,
+                        position: b.position(&l.position)?,
+                    })
+                })()
+                .map_err(|err| anyhow!("{at}: [[linear]] {}: {err}", l.output))?;
+                outputs
+                    .push(eq)
+                    .map_err(|_| anyhow!("{at}: more than {MAX_OUTPUTS} [[linear]] entries"))?;
+                spans.push(span);
+            }
+            Params::Linear(Linear { outputs })
+        }
+        "pcr" => {
+            if spec.pcr.is_empty() {
+                bail!("{file}: kind = \"pcr\" needs at least one [[pcr]] entry");
+            }
+            let mut outputs = heapless::Vec::new();
+            for e in &spec.pcr {
+                let span = e.span();
+                let at = b.at(&span);
+                let p = e.get_ref();
+                let eq = (|| -> Result<PcrOutput> {
+                    let reference = p.reference.map_or(Reference::Absolute, RefSpec::reference);
+                    let mut inputs = heapless::Vec::new();
+                    for col in &p.inputs {
+                        inputs
+                            .push(b.input(col, reference)?)
+                            .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
+                    }
+                    let mut components = heapless::Vec::new();
+                    for (j, c) in p.components.iter().enumerate() {
+                        if c.weights.len() != p.inputs.len() {
+                            bail!(
+                                "component {} has {} weights for {} inputs",
+                                j + 1,
+                                c.weights.len(),
+                                p.inputs.len()
+                            );
+                        }
+                        components
+                            .push(Component {
+                                intercept: c.intercept,
+                                weights: vec_of(&c.weights, "weights")?,
+                            })
+                            .map_err(|_| anyhow!("too many components"))?;
+                    }
+                    if p.beta.len() != p.components.len() {
+                        bail!(
+                            "{} beta values for {} components",
+                            p.beta.len(),
+                            p.components.len()
+                        );
+                    }
+                    Ok(PcrOutput {
+                        output: b.output(&p.output)?,
+                        inputs,
+                        components,
+                        intercept: p.intercept,
+                        beta: vec_of(&p.beta, "beta")?,
+                        position: b.position(&p.position)?,
+                    })
+                })()
+                .map_err(|err| anyhow!("{at}: [[pcr]] {}: {err}", p.output))?;
+                outputs
+                    .push(eq)
+                    .map_err(|_| anyhow!("{at}: more than {MAX_OUTPUTS} [[pcr]] entries"))?;
+                spans.push(span);
+            }
+            Params::Pcr(Pcr { outputs })
+        }
+        "bp" => {
+            let e = spec
+                .bp
+                .as_ref()
+                .ok_or_else(|| anyhow!("{file}: kind = \"bp\" needs a [bp] table"))?;
+            let span = e.span();
+            let at = b.at(&span);
+            let n = e.get_ref();
+            let net = (|| -> Result<BpNet> {
+                let reference = n.reference.map_or(Reference::Absolute, RefSpec::reference);
+                let (m, hidden, q) = (n.inputs.len(), n.b1.len(), n.outputs.len());
+                if n.w1.len() != hidden || n.w1.iter().any(|r| r.len() != m) {
+                    bail!("w1 must be {hidden} rows (one per b1 value) of {m} weights (one per input)");
+                }
+                if n.w2.len() != q || n.w2.iter().any(|r| r.len() != hidden) {
+                    bail!("w2 must be {q} rows (one per output) of {hidden} weights");
+                }
+                let mut inputs = heapless::Vec::new();
+                for col in &n.inputs {
+                    inputs
+                        .push(b.input(col, reference)?)
+                        .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
+                }
+                let mut outputs = heapless::Vec::new();
+                for col in &n.outputs {
+                    outputs
+                        .push(b.output(col)?)
+                        .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
+                }
+                let w1: Vec<f64> = n.w1.iter().flatten().copied().collect();
+                let w2: Vec<f64> = n.w2.iter().flatten().copied().collect();
+                Ok(BpNet {
+                    inputs,
+                    outputs,
+                    hidden_activation: activation(n.hidden_activation.as_deref(), Activation::Tansig)?,
+                    output_activation: activation(n.output_activation.as_deref(), Activation::Purelin)?,
+                    w1: vec_of(&w1, "w1")?,
+                    b1: vec_of(&n.b1, "b1")?,
+                    w2: vec_of(&w2, "w2")?,
+                    b2: vec_of(&n.b2, "b2")?,
+                    x_min: vec_of(&n.x_min, "x_min")?,
+                    x_max: vec_of(&n.x_max, "x_max")?,
+                    y_min: vec_of(&n.y_min, "y_min")?,
+                    y_max: vec_of(&n.y_max, "y_max")?,
+                })
+            })()
+            .map_err(|err| anyhow!("{at}: [bp]: {err}"))?;
+            spans.push(span);
+            Params::Bp(net)
+        }
+        "arma" => {
+            let e = spec
+                .arma
+                .as_ref()
+                .ok_or_else(|| anyhow!("{file}: kind = \"arma\" needs an [arma] table"))?;
+            let span = e.span();
+            let at = b.at(&span);
+            let a = e.get_ref();
+            let arma = (|| -> Result<model_core::arma::Arma> {
+                Ok(model_core::arma::Arma {
+                    channel: b.input(&a.series, Reference::Absolute)?,
+                    output: b.output(a.output.as_deref().unwrap_or(&a.series))?,
+                    mean: a.mean.unwrap_or(0.0),
+                    std: a.std.unwrap_or(1.0),
+                    diff: a.diff.unwrap_or(0),
+                    constant: a.constant.unwrap_or(0.0),
+                    phi: vec_of(&a.phi, "phi")?,
+                    theta: vec_of(&a.theta, "theta")?,
+                })
+            })()
+            .map_err(|err| anyhow!("{at}: [arma]: {err}"))?;
+            spans.push(span);
+            Params::Arma(arma)
+        }
+        other => bail!(
+            "{file}: unknown kind \"{other}\" (tf, linear, pcr, bp or arma)"
+        ),
+    };
+    let dynamic = matches!(params, Params::Tf(_) | Params::Arma(_));
+    let dt_s = match (dynamic, spec.dt_s) {
+        (true, Some(dt)) => dt,
+        (true, None) => bail!("{file}: kind = \"{}\" is dynamic and needs dt_s", spec.kind),
+        (false, dt) => dt.unwrap_or(0.0),
+    };
+    let model = Model {
+        inputs: b.inputs,
+        outputs: b.outputs,
+        dt_s,
+        params,
+    };
+    model.validate().map_err(|e| match e {
+        ModelError::Tf { entry, error } => {
+            let span = spans.get(usize::from(entry)).cloned().unwrap_or(0..0);
+            let (l, c) = line_col(text, span.start);
+            anyhow!("{file}:{l}:{c}: [[tf]] entry {}: {error}", usize::from(entry) + 1)
+        }
+        other => anyhow!("{file}: {other}"),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SP2_AMB: &str = r#"
+kind = "tf"
+dt_s = 1.0
+
+[[tf]]
+output = "dz_um"
+input = "T1"
+reference = "first"
+a = [16.0005, -15.9975, 0.0]
+b = [1.0, -0.99983]
+
+[[tf]]
+output = "dz_um"
+input = "ambient_c"
+reference = "first"
+a = [-0.0251, 0.0251, 0.0]
+b = [1.0, -1.9985, 0.9985]
+"#;
+
+    #[test]
+    fn seed004_sp2_and_ambient() {
+        let m = parse("sp2.toml", SP2_AMB).unwrap();
+        assert_eq!(m.inputs().len(), 2);
+        assert_eq!(m.outputs().len(), 1);
+        assert_eq!(m.realised_tfs()[1].cancelled(), 1);
+    }
+
+    #[test]
+    fn syntax_and_field_errors_name_line_and_column() {
+        let bad = SP2_AMB.replace("reference = \"first\"\na = [16", "refrence = \"first\"\na = [16");
+        let e = parse("sp2.toml", &bad).unwrap_err().to_string();
+        assert!(e.starts_with("sp2.toml:8:1: unknown field `refrence`"), "{e}");
+        let e = parse("x.toml", "kind = \"tf\"\ndt_s = [").unwrap_err().to_string();
+        assert!(e.starts_with("x.toml:2:"), "{e}");
+        assert!(!e.contains('\n'), "one line: {e}");
+    }
+
+    #[test]
+    fn unstable_tf_points_at_its_entry() {
+        let bad = SP2_AMB.replace("b = [1.0, -0.99983]", "b = [1.0, -1.2]");
+        let e = parse("sp2.toml", &bad).unwrap_err().to_string();
+        assert!(e.starts_with("sp2.toml:5:1: [[tf]] entry 1: unstable"), "{e}");
+    }
+
+    #[test]
+    fn seed002_linear_and_seed003_pcr() {
+        let lin = r#"
+kind = "linear"
+[[linear]]
+output = "x_um"
+intercept = -0.2565
+coef = { T3 = 0.0189, T4 = -0.0124, T10 = 0.0082, T12 = -0.0074 }
+"#;
+        let m = parse("l.toml", lin).unwrap();
+        let names: Vec<&str> = m.inputs().iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["T3", "T4", "T10", "T12"], "key order preserved");
+        let pcr = r#"
+kind = "pcr"
+[[pcr]]
+output = "k"
+inputs = ["T1", "T2", "T5", "T7", "T11"]
+components = [{ intercept = -50.6062, weights = [0.1631, 0.4902, 0.2512, 0.6614, 1.1666] }]
+intercept = -0.3243
+beta = [0.0396]
+"#;
+        parse("p.toml", pcr).unwrap();
+        let e = parse("p.toml", &pcr.replace("beta = [0.0396]", "beta = [0.0396, 1.0]"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("2 beta values for 1 components"), "{e}");
+    }
+}
