@@ -101,9 +101,10 @@ pub const SAMPLE_PERIOD_MS: u32 = 1_000;
 pub const MONO_HZ: u32 = 1_000;
 
 /// Independent-watchdog timeout, fed once per sample period. The IWDG runs
-/// from the LSI, which is 17..47 kHz (32 kHz typical, DS10693 "LSI oscillator characteristics"); the
-/// HAL assumes 32 kHz, so the real timeout can be as short as 32/47 of this.
-/// 2 s keeps that worst case (1.36 s) above the 1 s feed period with margin.
+/// from the LSI, 17..47 kHz (32 kHz typical; DS10693 "LSI oscillator
+/// characteristics"); the HAL assumes 32 kHz, so the real timeout can be as
+/// short as 32/47 of this. 2 s keeps that worst case (1.36 s) above the 1 s
+/// feed period with margin; a 1 s timeout could fire between two feeds.
 pub const IWDG_TIMEOUT_MS: u32 = 2_000;
 
 /// Worst-case (fastest LSI) watchdog timeout in ms.

@@ -95,7 +95,9 @@ impl fmt::Display for GeometryError {
         f.write_str(match self {
             Self::NonFiniteReading => "probe reading or drift is NaN or infinite",
             Self::InvalidSpacing => "probe spacing is not finite and positive",
-            Self::InvalidLength => "deflection-centre distance or tool length is negative or not finite",
+            Self::InvalidLength => {
+                "deflection-centre distance or tool length is negative or not finite"
+            }
             Self::AngleOutOfRange => "tilt angle at or beyond +/-90 degrees",
             Self::Overflow => "tool-tip drift overflows f64",
         })
@@ -180,12 +182,19 @@ impl SpindleDrift {
     /// Displacement of the tool tip caused by this drift, µm, for a
     /// deflection centre `l_defl_mm` above the nose and a tool sticking out
     /// `tool_mm` below it (exact geometry; see the module doc).
-    pub fn tool_tip_drift(&self, l_defl_mm: f64, tool_mm: f64) -> Result<ToolTipDrift, GeometryError> {
+    pub fn tool_tip_drift(
+        &self,
+        l_defl_mm: f64,
+        tool_mm: f64,
+    ) -> Result<ToolTipDrift, GeometryError> {
         if !(l_defl_mm.is_finite() && tool_mm.is_finite() && l_defl_mm >= 0.0 && tool_mm >= 0.0) {
             return Err(GeometryError::InvalidLength);
         }
         // The fields are public, so a hand-built drift is re-checked here.
-        if !(self.elongation_um.is_finite() && self.yaw_rad.is_finite() && self.pitch_rad.is_finite()) {
+        if !(self.elongation_um.is_finite()
+            && self.yaw_rad.is_finite()
+            && self.pitch_rad.is_finite())
+        {
             return Err(GeometryError::NonFiniteReading);
         }
         if libm::fabs(self.yaw_rad) >= FRAC_PI_2 || libm::fabs(self.pitch_rad) >= FRAC_PI_2 {
@@ -280,7 +289,10 @@ mod tests {
     fn change_from_subtracts_the_reference() {
         let cold = readings(100.0, 200.0, 300.0, 400.0, 500.0);
         let warm = readings(112.0, 195.0, 300.0, 401.0, 520.0);
-        assert_eq!(warm.change_from(&cold), readings(12.0, -5.0, 0.0, 1.0, 20.0));
+        assert_eq!(
+            warm.change_from(&cold),
+            readings(12.0, -5.0, 0.0, 1.0, 20.0)
+        );
     }
 
     #[test]
@@ -288,7 +300,11 @@ mod tests {
         // Near probe moving +X more than the far one: nose swings +X, θx > 0;
         // the far probe moving more: θx < 0. Same in Y.
         let d = spindle_drift(&readings(5.0, -5.0, 0.0, 0.0, 0.0), 120.0);
-        let d = d.unwrap_or(SpindleDrift { elongation_um: 0.0, yaw_rad: 0.0, pitch_rad: 0.0 });
+        let d = d.unwrap_or(SpindleDrift {
+            elongation_um: 0.0,
+            yaw_rad: 0.0,
+            pitch_rad: 0.0,
+        });
         assert!(d.yaw_rad > 0.0 && d.pitch_rad < 0.0, "{d:?}");
     }
 
@@ -302,30 +318,77 @@ mod tests {
     #[test]
     fn rejects_bad_inputs() {
         let zero = ProbeReadings::default();
-        assert_eq!(spindle_drift(&zero, 0.0), Err(GeometryError::InvalidSpacing));
-        assert_eq!(spindle_drift(&zero, -1.0), Err(GeometryError::InvalidSpacing));
-        assert_eq!(spindle_drift(&zero, f64::NAN), Err(GeometryError::InvalidSpacing));
-        assert_eq!(spindle_drift(&zero, f64::MAX), Err(GeometryError::InvalidSpacing));
+        assert_eq!(
+            spindle_drift(&zero, 0.0),
+            Err(GeometryError::InvalidSpacing)
+        );
+        assert_eq!(
+            spindle_drift(&zero, -1.0),
+            Err(GeometryError::InvalidSpacing)
+        );
+        assert_eq!(
+            spindle_drift(&zero, f64::NAN),
+            Err(GeometryError::InvalidSpacing)
+        );
+        assert_eq!(
+            spindle_drift(&zero, f64::MAX),
+            Err(GeometryError::InvalidSpacing)
+        );
         let nan = readings(0.0, 0.0, 0.0, 0.0, f64::NAN);
-        assert_eq!(spindle_drift(&nan, 120.0), Err(GeometryError::NonFiniteReading));
+        assert_eq!(
+            spindle_drift(&nan, 120.0),
+            Err(GeometryError::NonFiniteReading)
+        );
         let huge = readings(f64::MAX, 0.0, -f64::MAX, 0.0, 0.0);
-        assert_eq!(spindle_drift(&huge, 1e-3), Err(GeometryError::NonFiniteReading));
+        assert_eq!(
+            spindle_drift(&huge, 1e-3),
+            Err(GeometryError::NonFiniteReading)
+        );
 
-        let ok = SpindleDrift { elongation_um: 1.0, yaw_rad: 0.0, pitch_rad: 0.0 };
-        assert_eq!(ok.tool_tip_drift(-1.0, 100.0), Err(GeometryError::InvalidLength));
-        assert_eq!(ok.tool_tip_drift(300.0, f64::INFINITY), Err(GeometryError::InvalidLength));
-        let steep = SpindleDrift { yaw_rad: FRAC_PI_2, ..ok };
-        assert_eq!(steep.tool_tip_drift(300.0, 100.0), Err(GeometryError::AngleOutOfRange));
-        let nan = SpindleDrift { pitch_rad: f64::NAN, ..ok };
-        assert_eq!(nan.tool_tip_drift(300.0, 100.0), Err(GeometryError::NonFiniteReading));
-        assert_eq!(ok.tool_tip_drift(f64::MAX, f64::MAX), Err(GeometryError::InvalidLength));
+        let ok = SpindleDrift {
+            elongation_um: 1.0,
+            yaw_rad: 0.0,
+            pitch_rad: 0.0,
+        };
+        assert_eq!(
+            ok.tool_tip_drift(-1.0, 100.0),
+            Err(GeometryError::InvalidLength)
+        );
+        assert_eq!(
+            ok.tool_tip_drift(300.0, f64::INFINITY),
+            Err(GeometryError::InvalidLength)
+        );
+        let steep = SpindleDrift {
+            yaw_rad: FRAC_PI_2,
+            ..ok
+        };
+        assert_eq!(
+            steep.tool_tip_drift(300.0, 100.0),
+            Err(GeometryError::AngleOutOfRange)
+        );
+        let nan = SpindleDrift {
+            pitch_rad: f64::NAN,
+            ..ok
+        };
+        assert_eq!(
+            nan.tool_tip_drift(300.0, 100.0),
+            Err(GeometryError::NonFiniteReading)
+        );
+        assert_eq!(
+            ok.tool_tip_drift(f64::MAX, f64::MAX),
+            Err(GeometryError::InvalidLength)
+        );
     }
 
     #[test]
     fn stable_z_matches_the_direct_formula() {
         // At a large tilt (0.3 rad) cancellation is harmless, so the direct
         // L − (L+E)·cos θ is a fair reference; 1e-9 µm is ~1e-15 of L.
-        let d = SpindleDrift { elongation_um: 15.0, yaw_rad: 0.3, pitch_rad: 0.0 };
+        let d = SpindleDrift {
+            elongation_um: 15.0,
+            yaw_rad: 0.3,
+            pitch_rad: 0.0,
+        };
         let tip = d.tool_tip_drift(250.0, 50.0).unwrap_or_default();
         let l_um = 300_000.0;
         let direct = l_um - (l_um + 15.0) * libm::cos(0.3);
@@ -334,11 +397,21 @@ mod tests {
 
     #[test]
     fn offsets_are_the_negated_drift() {
-        let d = SpindleDrift { elongation_um: 3.0, yaw_rad: 2e-5, pitch_rad: -1e-5 };
+        let d = SpindleDrift {
+            elongation_um: 3.0,
+            yaw_rad: 2e-5,
+            pitch_rad: -1e-5,
+        };
         let tip = d.tool_tip_drift(300.0, 80.0).unwrap_or_default();
         let off = d.compensation_offsets(300.0, 80.0).unwrap_or_default();
-        assert_eq!((off.x_um, off.y_um, off.z_um), (-tip.x_um, -tip.y_um, -tip.z_um));
-        assert!(tip.x_um > 0.0 && tip.y_um < 0.0 && tip.z_um < 0.0, "{tip:?}");
+        assert_eq!(
+            (off.x_um, off.y_um, off.z_um),
+            (-tip.x_um, -tip.y_um, -tip.z_um)
+        );
+        assert!(
+            tip.x_um > 0.0 && tip.y_um < 0.0 && tip.z_um < 0.0,
+            "{tip:?}"
+        );
     }
 
     #[test]

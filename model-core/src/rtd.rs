@@ -23,7 +23,8 @@
 //!   (D. Goldberg, *What every computer scientist should know about
 //!   floating-point arithmetic*, ACM Comput. Surv. 23(1), 1991; Press et al.,
 //!   *Numerical Recipes*, 3rd ed., §5.6). The textbook form `(−A + √…)/(2B)`
-//!   loses every significant digit near 0 °C.
+//!   cancels near 0 °C: its absolute error stays near ε·A/|B| ≈ 4e-13 °C,
+//!   but a temperature of a few µ°C keeps only a few significant digits.
 //! * `R < R0`: the quartic C term makes a closed form impractical, so Newton's
 //!   method runs from the quadratic root (which is within about 2.3 °C of
 //!   the answer at −200 °C, where the C term is largest). Below 0 °C the
@@ -37,10 +38,10 @@
 //!
 //! [`Ratiometric`] models a converter that measures the RTD against a
 //! reference resistor, so `R = code / full_scale_code · R_ref`. The MAX31865
-//! (Analog Devices/Maxim datasheet 19-6478) returns a 15-bit code (the RTD
+//! (Maxim datasheet 19-6478, Tables 4–5) returns a 15-bit code (the RTD
 //! register shifted right by one to drop the fault bit) with `full_scale_code
-//! = 2¹⁵`; its datasheet recommends `R_ref` = 400 Ω for a PT100 and 4 kΩ for a
-//! PT1000.
+//! = 2¹⁵`; its worked example (Table 9) pairs a PT100 with `R_ref` = 400 Ω,
+//! i.e. 4·R0, so a PT1000 takes 4 kΩ.
 //!
 //! # Faults
 //!
@@ -60,6 +61,8 @@ pub const CVD_C: f64 = -4.183e-12;
 pub const T_MIN_C: f64 = -200.0;
 /// Highest temperature IEC 60751 defines the curve for, in °C.
 pub const T_MAX_C: f64 = 850.0;
+
+const _: () = assert!(T_MIN_C < T_MAX_C);
 
 /// R/R0 at [`T_MIN_C`].
 const RATIO_MIN: f64 = cvd_ratio(T_MIN_C);
@@ -90,7 +93,7 @@ pub enum RtdError {
     /// A raw code at or above the converter's full-scale code.
     CodeOutOfRange,
     /// A configuration value (R0, R_ref, full-scale code, threshold) is not
-    /// finite and positive.
+    /// finite and positive, or an R0 is too extreme to keep precision.
     InvalidParameter,
 }
 
@@ -103,7 +106,7 @@ impl fmt::Display for RtdError {
             Self::Open => "RTD open circuit",
             Self::Short => "RTD short circuit",
             Self::CodeOutOfRange => "converter code at or above full scale",
-            Self::InvalidParameter => "RTD or converter parameter is not finite and positive",
+            Self::InvalidParameter => "RTD, converter or threshold parameter out of range",
         })
     }
 }
@@ -232,7 +235,9 @@ impl Rtd {
         };
         // The division above may round a boundary resistance a hair past the
         // range; the curve is monotonic, so clamping is exact, not a fudge.
-        Ok(t_c.max(T_MIN_C).min(T_MAX_C))
+        // `clamp` cannot panic: its bounds are ordered constants (asserted
+        // at compile time below).
+        Ok(t_c.clamp(T_MIN_C, T_MAX_C))
     }
 
     /// Classifies a measured resistance: the temperature if the reading is
@@ -275,11 +280,11 @@ impl Rtd {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FaultThresholds {
     /// A reading at or above this fraction of the converter's full scale
-    /// (`R_ref`) is [`RtdError::Open`]. Default 0.99: with the MAX31865
-    /// datasheet's reference resistors (400 Ω / 4 kΩ), R(850 °C) sits at
-    /// 0.976 of full scale, so no valid reading is flagged, while an open
-    /// input, which drives the converter to its top code (0.99997 of full
-    /// scale), is.
+    /// (`R_ref`) is [`RtdError::Open`]. Default 0.99: with the MAX31865's
+    /// 4·R0 reference (400 Ω / 4 kΩ), R(850 °C) sits at 0.976 of full
+    /// scale, so no valid reading is flagged, while an open input, which
+    /// pulls the input to the bias voltage and the converter to its top code
+    /// (0.99997 of full scale), is.
     pub open_fraction_of_full_scale: f64,
     /// A reading at or above this multiple of R(850 °C) is
     /// [`RtdError::Open`], for converters whose full scale is far above the
@@ -343,12 +348,13 @@ pub struct Ratiometric {
 }
 
 impl Ratiometric {
-    /// MAX31865 with the 400 Ω reference its datasheet gives for a PT100.
+    /// MAX31865 with the 400 Ω (4·R0) reference of its datasheet's PT100
+    /// example.
     pub const MAX31865_PT100: Self = Self {
         full_scale_code: 1 << 15,
         r_ref_ohm: 400.0,
     };
-    /// MAX31865 with the 4 kΩ reference its datasheet gives for a PT1000.
+    /// MAX31865 with a 4 kΩ (4·R0) reference for a PT1000.
     pub const MAX31865_PT1000: Self = Self {
         full_scale_code: 1 << 15,
         r_ref_ohm: 4000.0,
@@ -469,13 +475,32 @@ mod tests {
 
     #[test]
     fn newton_beats_the_quadratic_start() {
-        // At −200 °C the quadratic start is ~2.3 °C off; Newton must remove
-        // that to 1e-9 °C (its stopping step), or the C term was ignored.
-        let r = Rtd::PT100.r_min_ohm();
+        // At −150 °C the quadratic start is ~0.84 °C off (the C term is
+        // −3.5e-3 of R0); Newton must remove that to its 1e-9 °C stopping
+        // step, or the C term was ignored. (At −200 °C the clamp to the
+        // range would hide a missing Newton step.)
+        let r = Rtd::PT100.resistance_ohm(-150.0).unwrap_or(f64::NAN);
         let start = quadratic_root_c(r / 100.0);
-        assert!((start + 200.0).abs() > 1.0, "{start}");
+        assert!((start + 150.0).abs() > 0.5, "{start}");
         let t = Rtd::PT100.temperature_c(r).unwrap_or(f64::NAN);
-        assert!((t + 200.0).abs() < 1e-9, "{t}");
+        assert!((t + 150.0).abs() < 1e-9, "{t}");
+    }
+
+    #[test]
+    fn tiny_temperatures_keep_relative_precision() {
+        // 1 µ°C above zero. The textbook root (−A + √…)/(2B) cancels here
+        // and is off by ~ε·A/|B| ≈ 4e-13 °C, i.e. 4e-7 relative; the stable
+        // form keeps ~1e-15, so 1e-12 relative separates the two.
+        let t_c = 1e-6;
+        let r = Rtd::PT100.resistance_ohm(t_c).unwrap_or(f64::NAN);
+        let back = Rtd::PT100.temperature_c(r).unwrap_or(f64::NAN);
+        // The rounding of R and of R/R0 moves T by ~1e-8 relative, the
+        // same in both, so the reference takes the same x = R/R0 − 1 (exact
+        // by Sterbenz) and solves A·T + B·T² = x by its series
+        // T = (x/A)(1 − B·x/A²), whose next term is ~1e-26 relative.
+        let x = r / 100.0 - 1.0;
+        let exact = x / CVD_A * (1.0 - CVD_B * x / (CVD_A * CVD_A));
+        assert!((back - exact).abs() < 1e-12 * exact, "{back} vs {exact}");
     }
 
     #[test]
@@ -483,10 +508,22 @@ mod tests {
         let rtd = Rtd::PT100;
         assert_eq!(rtd.temperature_c(rtd.r_min_ohm()), Ok(T_MIN_C));
         assert_eq!(rtd.temperature_c(rtd.r_max_ohm()), Ok(T_MAX_C));
-        assert_eq!(rtd.resistance_ohm(-200.000_001), Err(RtdError::TemperatureOutOfRange));
-        assert_eq!(rtd.resistance_ohm(850.000_001), Err(RtdError::TemperatureOutOfRange));
-        assert_eq!(rtd.temperature_c(rtd.r_max_ohm() + 1e-9), Err(RtdError::ResistanceOutOfRange));
-        assert_eq!(rtd.temperature_c(rtd.r_min_ohm() - 1e-9), Err(RtdError::ResistanceOutOfRange));
+        assert_eq!(
+            rtd.resistance_ohm(-200.000_001),
+            Err(RtdError::TemperatureOutOfRange)
+        );
+        assert_eq!(
+            rtd.resistance_ohm(850.000_001),
+            Err(RtdError::TemperatureOutOfRange)
+        );
+        assert_eq!(
+            rtd.temperature_c(rtd.r_max_ohm() + 1e-9),
+            Err(RtdError::ResistanceOutOfRange)
+        );
+        assert_eq!(
+            rtd.temperature_c(rtd.r_min_ohm() - 1e-9),
+            Err(RtdError::ResistanceOutOfRange)
+        );
         assert_eq!(rtd.resistance_ohm(f64::NAN), Err(RtdError::NonFinite));
         assert_eq!(rtd.temperature_c(f64::INFINITY), Err(RtdError::NonFinite));
     }
@@ -511,20 +548,41 @@ mod tests {
         // 400 Ω / 2^15 = 12.2070 mΩ per code.
         assert_eq!(adc.lsb_ohm(), Ok(400.0 / 32768.0));
         assert_eq!(adc.resistance_ohm(RtdCode(8192)), Ok(100.0));
-        assert_eq!(adc.resistance_ohm(RtdCode(32768)), Err(RtdError::CodeOutOfRange));
+        assert_eq!(
+            adc.resistance_ohm(RtdCode(32768)),
+            Err(RtdError::CodeOutOfRange)
+        );
         assert_eq!(adc.code_for_resistance(100.0), Ok(RtdCode(8192)));
         // Nearest code: 100 Ω + 0.49 LSB rounds down, + 0.51 LSB up.
         let lsb = 400.0 / 32768.0;
-        assert_eq!(adc.code_for_resistance(100.0 + 0.49 * lsb), Ok(RtdCode(8192)));
-        assert_eq!(adc.code_for_resistance(100.0 + 0.51 * lsb), Ok(RtdCode(8193)));
+        assert_eq!(
+            adc.code_for_resistance(100.0 + 0.49 * lsb),
+            Ok(RtdCode(8192))
+        );
+        assert_eq!(
+            adc.code_for_resistance(100.0 + 0.51 * lsb),
+            Ok(RtdCode(8193))
+        );
         // Saturation, as the converter would.
         assert_eq!(adc.code_for_resistance(-5.0), Ok(RtdCode(0)));
         assert_eq!(adc.code_for_resistance(1e9), Ok(RtdCode(32767)));
         assert_eq!(adc.code_for_resistance(f64::NAN), Err(RtdError::NonFinite));
-        let broken = Ratiometric { full_scale_code: 0, r_ref_ohm: 400.0 };
-        assert_eq!(broken.resistance_ohm(RtdCode(0)), Err(RtdError::InvalidParameter));
-        let broken = Ratiometric { full_scale_code: 1, r_ref_ohm: f64::NAN };
-        assert_eq!(broken.code_for_resistance(1.0), Err(RtdError::InvalidParameter));
+        let broken = Ratiometric {
+            full_scale_code: 0,
+            r_ref_ohm: 400.0,
+        };
+        assert_eq!(
+            broken.resistance_ohm(RtdCode(0)),
+            Err(RtdError::InvalidParameter)
+        );
+        let broken = Ratiometric {
+            full_scale_code: 1,
+            r_ref_ohm: f64::NAN,
+        };
+        assert_eq!(
+            broken.code_for_resistance(1.0),
+            Err(RtdError::InvalidParameter)
+        );
     }
 
     #[test]
@@ -533,17 +591,32 @@ mod tests {
         let th = FaultThresholds::DEFAULT;
         // Without a converter, open starts at 2·R(850) = 780.96 Ω.
         assert_eq!(rtd.classify(781.0, None, &th), Err(RtdError::Open));
-        assert_eq!(rtd.classify(780.0, None, &th), Err(RtdError::ResistanceOutOfRange));
+        assert_eq!(
+            rtd.classify(780.0, None, &th),
+            Err(RtdError::ResistanceOutOfRange)
+        );
         // With the 400 Ω converter, open starts at 0.99·400 = 396 Ω.
         let adc = Ratiometric::MAX31865_PT100;
         assert_eq!(rtd.classify(396.0, Some(&adc), &th), Err(RtdError::Open));
-        assert_eq!(rtd.classify(395.9, Some(&adc), &th), Err(RtdError::ResistanceOutOfRange));
+        assert_eq!(
+            rtd.classify(395.9, Some(&adc), &th),
+            Err(RtdError::ResistanceOutOfRange)
+        );
         // Short below 0.5·R(−200) = 9.26 Ω.
         assert_eq!(rtd.classify(9.25, None, &th), Err(RtdError::Short));
-        assert_eq!(rtd.classify(9.27, None, &th), Err(RtdError::ResistanceOutOfRange));
+        assert_eq!(
+            rtd.classify(9.27, None, &th),
+            Err(RtdError::ResistanceOutOfRange)
+        );
         assert_eq!(rtd.classify(100.0, Some(&adc), &th), Ok(0.0));
-        let bad = FaultThresholds { short_factor_of_r_min: f64::NAN, ..th };
-        assert_eq!(rtd.classify(100.0, None, &bad), Err(RtdError::InvalidParameter));
+        let bad = FaultThresholds {
+            short_factor_of_r_min: f64::NAN,
+            ..th
+        };
+        assert_eq!(
+            rtd.classify(100.0, None, &bad),
+            Err(RtdError::InvalidParameter)
+        );
     }
 
     #[test]
