@@ -78,7 +78,9 @@ pub fn run(a: &EvalArgs) -> Result<()> {
                         // Both are finite: the reader rejects non-finite
                         // cells and the runner non-finite outputs.
                         acc.push(*yi, *yhat).map_err(|e| anyhow!("{name}: {e}"))?;
-                        all[k].push(*yi, *yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+                        all[k]
+                            .push(*yi, *yhat)
+                            .map_err(|e| anyhow!("{name}: {e}"))?;
                     }
                     _ => skipped += 1,
                 }
@@ -104,7 +106,10 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         if let Value::Object(o) = &mut obj {
             o.insert("column".into(), json!(map.column(name)));
             o.insert("rows_not_scored".into(), json!(unscored[k]));
-            o.insert("per_run".into(), Value::Array(std::mem::take(&mut per_run[k])));
+            o.insert(
+                "per_run".into(),
+                Value::Array(std::mem::take(&mut per_run[k])),
+            );
         }
         out.insert(name.to_string(), obj);
     }
@@ -119,7 +124,16 @@ pub fn run(a: &EvalArgs) -> Result<()> {
 fn print_table(out: &Map<String, Value>) {
     println!(
         "{:<10} {:>8} {:>9} {:>8} {:>7} {:>8} {:>9} {:>10} {:>8} {:>10}",
-        "target", "n", "rmse_um", "fit_%", "r2", "eta_%", "max_|r|", "mean_|r|", "dpk_um", "reduce_%"
+        "target",
+        "n",
+        "rmse_um",
+        "fit_%",
+        "r2",
+        "eta_%",
+        "max_|r|",
+        "mean_|r|",
+        "dpk_um",
+        "reduce_%"
     );
     for (name, m) in out {
         let f = |k: &str| m.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);

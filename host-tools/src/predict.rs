@@ -107,7 +107,11 @@ pub fn run(a: &PredictArgs) -> Result<()> {
                 "missing_cells": missing})
         );
     } else {
-        eprintln!("wrote {} ({rows} rows from {} run(s))", a.out.display(), runs.len());
+        eprintln!(
+            "wrote {} ({rows} rows from {} run(s))",
+            a.out.display(),
+            runs.len()
+        );
     }
     Ok(())
 }

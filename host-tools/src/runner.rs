@@ -144,8 +144,8 @@ pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Pre
     }
     let sampling = run.sampling();
     let median = sampling.dt_median_s.unwrap_or(dt);
-    let on_grid = run.len() < 2
-        || (sampling.is_uniform && (median - dt).abs() <= 1e-6 * dt.max(1e-9));
+    let on_grid =
+        run.len() < 2 || (sampling.is_uniform && (median - dt).abs() <= 1e-6 * dt.max(1e-9));
     let grid: Vec<f64> = if on_grid {
         run.t_s.clone()
     } else {
@@ -211,8 +211,12 @@ mod tests {
 
     #[test]
     fn uniform_run_steps_row_by_row() {
-        let p = predict(&first_order(), &run("t_s,T1\n0,20\n1,21\n2,21\n3,21\n"), &ColumnMap::default())
-            .unwrap();
+        let p = predict(
+            &first_order(),
+            &run("t_s,T1\n0,20\n1,21\n2,21\n3,21\n"),
+            &ColumnMap::default(),
+        )
+        .unwrap();
         // Step of +1 K from the first sample: 0, 0.5, 0.75, 0.875 exactly.
         assert_eq!(p.values[0], [Some(0.0), Some(0.5), Some(0.75), Some(0.875)]);
         assert!(p.notes.is_empty());
@@ -221,8 +225,12 @@ mod tests {
     #[test]
     fn coarser_run_is_resampled_and_says_so() {
         // Rows every 2 s, model dt 1 s: the grid adds t = 1, 3 with T1 = 20.5, 21.
-        let p = predict(&first_order(), &run("t_s,T1\n0,20\n2,21\n4,21\n"), &ColumnMap::default())
-            .unwrap();
+        let p = predict(
+            &first_order(),
+            &run("t_s,T1\n0,20\n2,21\n4,21\n"),
+            &ColumnMap::default(),
+        )
+        .unwrap();
         // Grid outputs: k0 0; k1 0.25; k2 0.625; k3 0.8125; k4 0.90625.
         assert_eq!(p.values[0], [Some(0.0), Some(0.625), Some(0.90625)]);
         assert!(p.notes[0].contains("resampled"), "{:?}", p.notes);
@@ -234,6 +242,9 @@ mod tests {
         let e = predict(&first_order(), &r, &ColumnMap::default()).unwrap_err();
         assert!(e.to_string().contains("needs input \"T1\""), "{e}");
         let map = ColumnMap::parse(&["T1=temp1".into()]).unwrap();
-        assert_eq!(predict(&first_order(), &r, &map).unwrap().values[0][1], Some(0.5));
+        assert_eq!(
+            predict(&first_order(), &r, &map).unwrap().values[0][1],
+            Some(0.5)
+        );
     }
 }

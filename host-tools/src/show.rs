@@ -32,7 +32,11 @@ fn roots(c: &[f64]) -> Vec<Complex> {
             r.as_slice()
                 .iter()
                 .map(|z| {
-                    let im = if z.im.abs() < 1e-9 * (1.0 + z.re.abs()) { 0.0 } else { z.im };
+                    let im = if z.im.abs() < 1e-9 * (1.0 + z.re.abs()) {
+                        0.0
+                    } else {
+                        z.im
+                    };
                     Complex::new(z.re, im)
                 })
                 .collect()
@@ -43,7 +47,13 @@ fn roots(c: &[f64]) -> Vec<Complex> {
 fn complex_json(z: &[Complex]) -> Value {
     Value::Array(
         z.iter()
-            .map(|z| if z.im == 0.0 { json!(z.re) } else { json!([z.re, z.im]) })
+            .map(|z| {
+                if z.im == 0.0 {
+                    json!(z.re)
+                } else {
+                    json!([z.re, z.im])
+                }
+            })
             .collect(),
     )
 }
@@ -197,7 +207,12 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
     }
     let _ = writeln!(s, "  inputs:");
     for c in model.inputs() {
-        let _ = writeln!(s, "    {:<12} {}", c.name.as_str(), reference_text(c.reference));
+        let _ = writeln!(
+            s,
+            "    {:<12} {}",
+            c.name.as_str(),
+            reference_text(c.reference)
+        );
     }
     let outs: Vec<&str> = model.outputs().iter().map(|o| o.as_str()).collect();
     let _ = writeln!(s, "  outputs: {}", outs.join(", "));
@@ -296,8 +311,18 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                 net.hidden_activation.name(),
                 net.output_activation.name()
             );
-            let _ = writeln!(s, "    x_min {}  x_max {}", list(&net.x_min), list(&net.x_max));
-            let _ = writeln!(s, "    y_min {}  y_max {}", list(&net.y_min), list(&net.y_max));
+            let _ = writeln!(
+                s,
+                "    x_min {}  x_max {}",
+                list(&net.x_min),
+                list(&net.x_max)
+            );
+            let _ = writeln!(
+                s,
+                "    y_min {}  y_max {}",
+                list(&net.y_min),
+                list(&net.y_max)
+            );
             let _ = writeln!(s, "    w1 {}", list(&net.w1));
             let _ = writeln!(s, "    b1 {}", list(&net.b1));
             let _ = writeln!(s, "    w2 {}", list(&net.w2));
@@ -313,7 +338,13 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                 a.mean,
                 a.std
             );
-            let _ = writeln!(s, "    constant {}  phi {}  theta {}", a.constant, list(&a.phi), list(&a.theta));
+            let _ = writeln!(
+                s,
+                "    constant {}  phi {}  theta {}",
+                a.constant,
+                list(&a.phi),
+                list(&a.theta)
+            );
         }
     }
     s

@@ -237,19 +237,22 @@ fn activation(s: Option<&str>, default: Activation) -> Result<Activation> {
 
 /// Reads and validates a spec file.
 pub fn load(path: &Path) -> Result<ValidModel> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     parse(&path.display().to_string(), &text)
 }
 
 /// Parses and validates spec text; `file` names it in errors.
 pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
     let spec: SpecFile = toml::from_str(text).map_err(|e| {
-        let (l, c) = e
-            .span()
-            .map_or((1, 1), |s| line_col(text, s.start));
+        let (l, c) = e.span().map_or((1, 1), |s| line_col(text, s.start));
         // The parser's message may span lines ("invalid array\nexpected `]`").
-        let msg: Vec<&str> = e.message().lines().map(str::trim).filter(|s| !s.is_empty()).collect();
+        let msg: Vec<&str> = e
+            .message()
+            .lines()
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .collect();
         anyhow!("{file}:{l}:{c}: {}", msg.join("; "))
     })?;
     let mut b = Builder {
@@ -298,9 +301,9 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
                     })
                 })()
                 .map_err(|err| anyhow!("{at}: [[tf]] {} <- {}: {err}", t.output, t.input))?;
-                entries
-                    .push(entry)
-                    .map_err(|_| anyhow!("{at}: more than {} [[tf]] entries", entries.capacity()))?;
+                entries.push(entry).map_err(|_| {
+                    anyhow!("{at}: more than {} [[tf]] entries", entries.capacity())
+                })?;
                 spans.push(span);
             }
             Params::Tf(entries)
@@ -475,9 +478,7 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             spans.push(span);
             Params::Arma(arma)
         }
-        other => bail!(
-            "{file}: unknown kind \"{other}\" (tf, linear, pcr, bp or arma)"
-        ),
+        other => bail!("{file}: unknown kind \"{other}\" (tf, linear, pcr, bp or arma)"),
     };
     let dynamic = matches!(params, Params::Tf(_) | Params::Arma(_));
     let dt_s = match (dynamic, spec.dt_s) {
@@ -495,7 +496,10 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
         ModelError::Tf { entry, error } => {
             let span = spans.get(usize::from(entry)).cloned().unwrap_or(0..0);
             let (l, c) = line_col(text, span.start);
-            anyhow!("{file}:{l}:{c}: [[tf]] entry {}: {error}", usize::from(entry) + 1)
+            anyhow!(
+                "{file}:{l}:{c}: [[tf]] entry {}: {error}",
+                usize::from(entry) + 1
+            )
         }
         other => anyhow!("{file}: {other}"),
     })
@@ -534,10 +538,18 @@ b = [1.0, -1.9985, 0.9985]
 
     #[test]
     fn syntax_and_field_errors_name_line_and_column() {
-        let bad = SP2_AMB.replace("reference = \"first\"\na = [16", "refrence = \"first\"\na = [16");
+        let bad = SP2_AMB.replace(
+            "reference = \"first\"\na = [16",
+            "refrence = \"first\"\na = [16",
+        );
         let e = parse("sp2.toml", &bad).unwrap_err().to_string();
-        assert!(e.starts_with("sp2.toml:8:1: unknown field `refrence`"), "{e}");
-        let e = parse("x.toml", "kind = \"tf\"\ndt_s = [").unwrap_err().to_string();
+        assert!(
+            e.starts_with("sp2.toml:8:1: unknown field `refrence`"),
+            "{e}"
+        );
+        let e = parse("x.toml", "kind = \"tf\"\ndt_s = [")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("x.toml:2:"), "{e}");
         assert!(!e.contains('\n'), "one line: {e}");
     }
@@ -546,7 +558,10 @@ b = [1.0, -1.9985, 0.9985]
     fn unstable_tf_points_at_its_entry() {
         let bad = SP2_AMB.replace("b = [1.0, -0.99983]", "b = [1.0, -1.2]");
         let e = parse("sp2.toml", &bad).unwrap_err().to_string();
-        assert!(e.starts_with("sp2.toml:5:1: [[tf]] entry 1: unstable"), "{e}");
+        assert!(
+            e.starts_with("sp2.toml:5:1: [[tf]] entry 1: unstable"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -571,9 +586,12 @@ intercept = -0.3243
 beta = [0.0396]
 "#;
         parse("p.toml", pcr).unwrap();
-        let e = parse("p.toml", &pcr.replace("beta = [0.0396]", "beta = [0.0396, 1.0]"))
-            .unwrap_err()
-            .to_string();
+        let e = parse(
+            "p.toml",
+            &pcr.replace("beta = [0.0396]", "beta = [0.0396, 1.0]"),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("2 beta values for 1 components"), "{e}");
     }
 }

@@ -117,7 +117,11 @@ pub fn crc32(bytes: &[u8]) -> u32 {
             let mut c = i as u32;
             let mut k = 0;
             while k < 8 {
-                c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+                c = if c & 1 != 0 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
                 k += 1;
             }
             table[i] = c;
@@ -153,7 +157,12 @@ fn le_u16(b: &[u8], at: usize) -> Option<u16> {
 
 fn le_u32(b: &[u8], at: usize) -> Option<u32> {
     let s = b.get(at..at + 4)?;
-    Some(u32::from_le_bytes([*s.first()?, *s.get(1)?, *s.get(2)?, *s.get(3)?]))
+    Some(u32::from_le_bytes([
+        *s.first()?,
+        *s.get(1)?,
+        *s.get(2)?,
+        *s.get(3)?,
+    ]))
 }
 
 /// Checks framing, version and CRC; returns the header and the body bytes.
@@ -220,9 +229,7 @@ pub fn decode(bytes: &[u8]) -> Result<ValidModel, BlobError> {
 /// Encodes a validated model into `buf`; returns the blob's length.
 pub fn encode(model: &ValidModel, buf: &mut [u8]) -> Result<usize, BlobError> {
     let body_len = {
-        let body = buf
-            .get_mut(HEADER_LEN..)
-            .ok_or(BlobError::BufferTooSmall)?;
+        let body = buf.get_mut(HEADER_LEN..).ok_or(BlobError::BufferTooSmall)?;
         postcard::to_slice(model.model(), body)
             .map_err(|_| BlobError::BufferTooSmall)?
             .len()

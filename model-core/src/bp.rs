@@ -13,8 +13,10 @@ use serde::{Deserialize, Serialize};
 
 /// Hidden neurons at most.
 pub const MAX_HIDDEN: usize = 32;
-/// Input-to-hidden weights at most.
-pub const MAX_W1: usize = MAX_HIDDEN * MAX_CHANNELS;
+/// Input-to-hidden weights at most (m x n): any net of the papers' size
+/// (seed 000: 4-11-3) and up to 16 inputs x 24 hidden or 24 x 16 fits, while
+/// the model stays a few KiB of the hub's RAM.
+pub const MAX_W1: usize = 384;
 /// Hidden-to-output weights at most.
 pub const MAX_W2: usize = MAX_HIDDEN * MAX_OUTPUTS;
 
@@ -163,7 +165,9 @@ impl BpNet {
             let acc = row
                 .iter()
                 .zip(&hidden)
-                .fold(self.b2.get(k).copied().unwrap_or(0.0), |a, (w, h)| a + w * h);
+                .fold(self.b2.get(k).copied().unwrap_or(0.0), |a, (w, h)| {
+                    a + w * h
+                });
             let o = self.output_activation.apply(acc);
             let lo = self.y_min.get(k).copied().unwrap_or(0.0);
             let hi = self.y_max.get(k).copied().unwrap_or(0.0);

@@ -30,4 +30,6 @@ pub mod rtd;
 pub mod tf;
 
 pub use blob::{decode, encode, BlobError};
-pub use model::{Channel, Model, ModelError, ModelKind, ModelState, Name, Params, Reference, ValidModel};
+pub use model::{
+    Channel, Model, ModelError, ModelKind, ModelState, Name, Params, Reference, ValidModel,
+};

@@ -99,6 +99,9 @@ impl ModelKind {
 }
 
 /// The coefficients of one model kind.
+// No heap on the hub: one model lives in a static sized by its largest kind,
+// so boxing the large variants is not an option.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Params {
     /// Transfer-function bank.
@@ -242,7 +245,9 @@ impl Model {
                 return Err(ModelError::DuplicateName);
             }
         }
-        if !self.dt_s.is_finite() || self.dt_s < 0.0 || (self.kind().is_dynamic() && self.dt_s <= 0.0)
+        if !self.dt_s.is_finite()
+            || self.dt_s < 0.0
+            || (self.kind().is_dynamic() && self.dt_s <= 0.0)
         {
             return Err(ModelError::BadSampleTime);
         }
@@ -581,5 +586,22 @@ impl ValidModel {
         state.arma = arma_state;
         state.started = true;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// RAM a hub spends on one loaded model and its state, printed for
+    /// docs/benchmarks.md and bounded so a capacity change that blows the
+    /// firmware's 16 KiB RAM budget fails here first.
+    #[test]
+    fn model_and_state_fit_the_ram_budget() {
+        let model = core::mem::size_of::<ValidModel>();
+        let state = core::mem::size_of::<ModelState>();
+        extern crate std;
+        std::eprintln!("ValidModel {model} B, ModelState {state} B");
+        assert!(model + state < 12 * 1024, "{model} + {state} bytes");
     }
 }

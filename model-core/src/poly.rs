@@ -120,7 +120,10 @@ pub fn roots(coeffs: &[f64]) -> Result<Roots, RootsError> {
         return Err(RootsError::NonFinite);
     }
     let trimmed = trim(coeffs);
-    let first = trimmed.iter().position(|c| *c != 0.0).unwrap_or(trimmed.len());
+    let first = trimmed
+        .iter()
+        .position(|c| *c != 0.0)
+        .unwrap_or(trimmed.len());
     let poly = trimmed.get(first..).unwrap_or(&[]);
     let mut out = Roots {
         roots: [Complex::new(0.0, 0.0); MAX_ORDER],
@@ -147,7 +150,11 @@ pub fn roots(coeffs: &[f64]) -> Result<Roots, RootsError> {
     };
     // Start points on a circle of the Cauchy bound's radius, off the real axis
     // so conjugate pairs separate (the classic 0.4 + 0.9i seed, scaled).
-    let radius = 1.0 + monic.iter().take(n).fold(0.0_f64, |a, m| a.max(libm::fabs(*m)));
+    let radius = 1.0
+        + monic
+            .iter()
+            .take(n)
+            .fold(0.0_f64, |a, m| a.max(libm::fabs(*m)));
     let seed = Complex::new(0.4, 0.9);
     let mut z = [Complex::new(0.0, 0.0); MAX_ORDER];
     let mut p = Complex::new(radius / seed.abs(), 0.0);
@@ -185,7 +192,10 @@ pub fn roots(coeffs: &[f64]) -> Result<Roots, RootsError> {
     }
     // Multiple roots converge only linearly; accept what the iteration gives
     // (accurate to about sqrt(eps) there) as long as every root is finite.
-    if z.iter().take(n).any(|r| !r.re.is_finite() || !r.im.is_finite()) {
+    if z.iter()
+        .take(n)
+        .any(|r| !r.re.is_finite() || !r.im.is_finite())
+    {
         return Err(RootsError::NoConvergence);
     }
     out.roots = z;
@@ -265,7 +275,10 @@ mod tests {
     fn double_root_found_to_sqrt_eps() {
         // (z - 1)^2: a double root converges linearly; 1e-7 ~ sqrt(eps).
         let r = roots(&[1.0, -2.0, 1.0]).unwrap();
-        assert!(r.as_slice().iter().all(|z| z.sub(Complex::new(1.0, 0.0)).abs() < 1e-7));
+        assert!(r
+            .as_slice()
+            .iter()
+            .all(|z| z.sub(Complex::new(1.0, 0.0)).abs() < 1e-7));
     }
 
     #[test]

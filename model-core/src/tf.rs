@@ -353,7 +353,10 @@ mod tests {
             RealisedTf::new(&[1.0], &[0.0, 1.0]).unwrap_err(),
             TfError::ZeroLeadingDenominator
         );
-        assert_eq!(RealisedTf::new(&[1.0], &[]).unwrap_err(), TfError::ZeroLeadingDenominator);
+        assert_eq!(
+            RealisedTf::new(&[1.0], &[]).unwrap_err(),
+            TfError::ZeroLeadingDenominator
+        );
         assert_eq!(
             RealisedTf::new(&[f64::NAN], &[1.0]).unwrap_err(),
             TfError::NonFinite

@@ -38,7 +38,14 @@ impl Rng {
 /// A random-walk temperature, deg C: `n` samples starting at `start_c`, steps
 /// of standard deviation `step_c`, reflected into `[lo_c, hi_c]` so a day of
 /// samples stays in a machine's range.
-pub fn random_walk(rng: &mut Rng, n: usize, start_c: f64, step_c: f64, lo_c: f64, hi_c: f64) -> Vec<f64> {
+pub fn random_walk(
+    rng: &mut Rng,
+    n: usize,
+    start_c: f64,
+    step_c: f64,
+    lo_c: f64,
+    hi_c: f64,
+) -> Vec<f64> {
     let mut t = start_c;
     (0..n)
         .map(|_| {

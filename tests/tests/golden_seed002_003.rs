@@ -54,7 +54,10 @@ coef = { T3 = 0.0189, T4 = -0.0124, T10 = 0.0082, T12 = -0.0074 }
         let x: Vec<f64> = cols.iter().map(|c| c[row].unwrap()).collect();
         let got = step(&model, &x);
         // f64 rounding of five products of size ~0.3: well under 1e-12.
-        assert!((got - expected).abs() < 1e-12, "row {row}: {got} vs {expected}");
+        assert!(
+            (got - expected).abs() < 1e-12,
+            "row {row}: {got} vs {expected}"
+        );
     }
 }
 
@@ -86,7 +89,12 @@ fn seed003_eq13_and_eq14_give_eq15() {
         // Each printed number carries up to half a unit in its last (4th)
         // decimal: |d(beta w)| <= half |w| + half |beta| + half^2, plus Eq. 15's own rounding.
         let tol = half * w[i] + half * beta + half * half + half;
-        assert!((d[i] - eq15[i]).abs() <= tol, "T coef {i}: {} vs {}", d[i], eq15[i]);
+        assert!(
+            (d[i] - eq15[i]).abs() <= tol,
+            "T coef {i}: {} vs {}",
+            d[i],
+            eq15[i]
+        );
     }
     // Constant: -0.3243 + 0.0396 * -50.6062, same rounding argument.
     let tol0 = half + half * 50.6062 + half * beta + half * half + half;
@@ -106,7 +114,11 @@ fn seed003_eq16_positioning_error() {
         "beta = [0.0396]\nposition = { input = \"y_mm\", poly = [-1.6437, 0.0, -0.0144, 1.5173e-4, -5.5207e-7, 6.8499e-10], k0 = -0.0171 }",
     );
     let model = through_blob("eq16.toml", &spec);
-    assert_eq!(model.inputs().len(), 6, "five temperatures and the position");
+    assert_eq!(
+        model.inputs().len(),
+        6,
+        "five temperatures and the position"
+    );
     let t = [22.1, 24.3, 26.0, 21.7, 23.2];
     for y in [0.0, 10.0, 140.0, 280.0] {
         let mut x = t.to_vec();
@@ -114,7 +126,8 @@ fn seed003_eq16_positioning_error() {
         let got = step(&model, &x);
         // Eq. 16 as printed, with Eq. 16's own (inconsistently rounded)
         // slope coefficients 0.0461 T11 and -2.3112.
-        let slope = 0.0065 * t[0] + 0.0194 * t[1] + 0.0099 * t[2] + 0.0262 * t[3] + 0.0461 * t[4] - 2.3112;
+        let slope =
+            0.0065 * t[0] + 0.0194 * t[1] + 0.0099 * t[2] + 0.0262 * t[3] + 0.0461 * t[4] - 2.3112;
         let printed = 6.8499e-10 * y.powi(5) - 5.5207e-7 * y.powi(4) + 1.5173e-4 * y.powi(3)
             - 0.0144 * y * y
             + slope * y
@@ -123,6 +136,9 @@ fn seed003_eq16_positioning_error() {
         // to 1.1e-4 each (0.0461 vs 0.046197 for T11): sum of |T| * 1.2e-4
         // plus the constant's rounding, times |y|.
         let tol = (t.iter().sum::<f64>() * 1.2e-4 + 1.2e-4) * y + 1e-9;
-        assert!((got - printed).abs() <= tol, "y {y}: {got} vs {printed} (tol {tol})");
+        assert!(
+            (got - printed).abs() <= tol,
+            "y {y}: {got} vs {printed} (tol {tol})"
+        );
     }
 }

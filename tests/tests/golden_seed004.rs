@@ -70,7 +70,9 @@ fn run(model: &ValidModel, temps: &[f64]) -> Vec<f64> {
     temps
         .iter()
         .map(|t| {
-            model.step(&mut state, &[*t], &mut out).expect("finite input");
+            model
+                .step(&mut state, &[*t], &mut out)
+                .expect("finite input");
             out[0]
         })
         .collect()
@@ -130,7 +132,11 @@ fn firmware_path_tracks_f64_reference_for_24_h() {
             "{:8} peak |y| {peak:9.3} um   firmware path max |err| {err_fw:.3e} um   f32 direct form {err_f32:.3e} um",
             tf.name
         );
-        assert!(err_fw < BUDGET_UM, "{}: firmware path off by {err_fw} um", tf.name);
+        assert!(
+            err_fw < BUDGET_UM,
+            "{}: firmware path off by {err_fw} um",
+            tf.name
+        );
         worst_f32.push((tf.name, err_f32));
     }
     // The documented reason for f64: the f32 direct form breaks the budget
