@@ -8,30 +8,24 @@
 //! # Architecture
 //!
 //! This binary is a thin shell, after quartiq/stabilizer: the RTIC app below
-//! only wires peripherals together and schedules tasks. The measurement
-//! pipeline (drivers generic over `embedded-hal`, sample -> model -> offset)
-//! will live in hardware-independent, host-tested modules and crates
-//! (`model-core`); this minimal version only has placeholders for it.
+//! only wires peripherals together and schedules tasks. Everything that can
+//! be is hardware-independent and host-tested: the `firmware` library
+//! (`lib.rs`: `board`, `layout`, `hub`) and `model-core`.
 //!
-//! * [`board`] and [`layout`]: plain constants (clocks, pinout, bus speeds,
-//!   task periods, memory map) that build on both host and target.
 //! * `app` (target only, `cfg(target_os = "none")`): the RTIC v2 application.
-//!   `sample` (priority 2) runs every [`board::SAMPLE_PERIOD_MS`], probes the
-//!   RTD converter, feeds the watchdog and hands its result to `emit`
-//!   (priority 1), which reports over USART2 and CAN1 without delaying the
-//!   next sample.
-//! * Host build: `fn main` prints the memory layout, pinout and defaults, so
-//!   CI (`cargo run -p firmware`) checks that they build and shows them.
+//!   `init` reads model slot A through `FlashExt::read` and loads it into a
+//!   `hub::Hub`. `sample` (priority 2) runs every `board::SAMPLE_PERIOD_MS`,
+//!   probes the RTD converter, steps the model, feeds the watchdog and hands
+//!   its result to `emit` (priority 1), which reports over USART2 and CAN1
+//!   without delaying the next sample.
+//! * Host build: `fn main` prints the memory layout, pinout, defaults and the
+//!   model slot facts, so CI (`cargo run -p firmware`) checks that they build
+//!   and shows them.
 //!
-//! Board build: `cargo build -p firmware --target thumbv7em-none-eabihf --release`.
+//! Board build: `cargo build -p firmware --target thumbv7em-none-eabihf --profile firmware`
+//! (`--no-default-features`: the shell without the model path).
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
-
-// On the board some constants are only printed by the host build.
-#[cfg_attr(target_os = "none", allow(dead_code))]
-pub mod board;
-#[cfg_attr(target_os = "none", allow(dead_code))]
-pub mod layout;
 
 /// Host build: print the memory layout, pinout and defaults.
 #[cfg(not(target_os = "none"))]
@@ -41,7 +35,7 @@ fn main() {
 
 #[cfg(not(target_os = "none"))]
 mod host {
-    use crate::{board, layout};
+    use firmware::{board, layout};
 
     /// Human-readable byte count.
     fn size(bytes: u32) -> String {
@@ -125,6 +119,46 @@ mod host {
         for (name, value) in rows {
             println!("  {name:<17} {value}");
         }
+        println!();
+
+        print_model_slot();
+    }
+
+    /// What a model slot accepts and what a loaded model costs in RAM.
+    #[cfg(feature = "model")]
+    fn print_model_slot() {
+        use firmware::hub::{Hub, MAX_INPUTS, MAX_OUTPUTS};
+        use model_core::blob::{FORMAT_VERSION, MAX_BLOB_LEN};
+        use model_core::{ModelState, ValidModel};
+        use std::mem::size_of;
+
+        let bytes = |n: usize| format!("{n} B ({:.1} KiB)", n as f64 / 1024.0);
+        println!("Model slot (read at boot from MODEL_A)");
+        println!(
+            "  {:<19} {FORMAT_VERSION} (magic \"TCMB\")",
+            "blob format version"
+        );
+        println!(
+            "  {:<19} {MAX_BLOB_LEN} B (slot {})",
+            "largest blob",
+            size(layout::MODEL_A.len)
+        );
+        println!(
+            "  {:<19} {MAX_INPUTS} inputs, {MAX_OUTPUTS} outputs",
+            "capacity"
+        );
+        println!("  {:<19} {}", "ValidModel", bytes(size_of::<ValidModel>()));
+        println!("  {:<19} {}", "ModelState", bytes(size_of::<ModelState>()));
+        println!(
+            "  {:<19} {} (static RAM of a loaded model)",
+            "Hub",
+            bytes(size_of::<Hub>())
+        );
+    }
+
+    #[cfg(not(feature = "model"))]
+    fn print_model_slot() {
+        println!("Model slot: not built in (feature `model` off): offsets are always zero");
     }
 }
 
@@ -167,11 +201,14 @@ mod rt {
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true, dispatchers = [UART4, UART5])]
 mod app {
-    use crate::{board, layout, rt::Mono};
+    use crate::rt::Mono;
     use bxcan::{Frame, StandardId};
+    use core::mem::MaybeUninit;
+    use firmware::{board, hub, layout};
     use rtic_monotonics::Timebase;
     use stm32f4xx_hal::{
         can::{Can, CanExt},
+        flash::FlashExt,
         gpio::{GpioExt, Output, PB6},
         hal::spi::MODE_1,
         hal_02::blocking::serial::Write as _,
@@ -202,9 +239,13 @@ mod app {
         rtd_cs: PB6<Output>,
         uart: Serial<pac::USART2>,
         can: bxcan::Can<Can<pac::CAN1>>,
+        hub: &'static mut hub::Hub,
     }
 
-    #[init]
+    // `hub_slot` is a static that starts uninitialised (so it costs .bss, not
+    // flash); `MaybeUninit::write` fills it safely and hands out the
+    // `&'static mut` that `sample` keeps.
+    #[init(local = [hub_slot: MaybeUninit<hub::Hub> = MaybeUninit::uninit()])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
 
@@ -233,6 +274,18 @@ mod app {
                 layout::MODEL_B.end()
             ]
         );
+
+        // The model: slot A as a byte slice of the memory-mapped flash (no
+        // `unsafe` here: the HAL's `FlashExt::read`). A flash smaller than the
+        // layout expects gives an empty slot, which loads as "no model".
+        let flash = dp.FLASH;
+        let start = (layout::MODEL_A.origin - layout::FLASH_BASE) as usize;
+        let slot = flash
+            .read()
+            .get(start..start + layout::MODEL_A.len as usize)
+            .unwrap_or(&[]);
+        let hub = cx.local.hub_slot.write(hub::Hub::load(slot));
+        log_model(hub);
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
@@ -280,13 +333,58 @@ mod app {
                 rtd_cs,
                 uart,
                 can,
+                hub,
             },
         )
     }
 
-    /// Periodic sampling (placeholder): probe the RTD converter's
-    /// configuration register, feed the watchdog, pass the result to `emit`.
-    #[task(priority = 2, local = [watchdog, rtd_spi, rtd_cs, seq: u32 = 0])]
+    /// Boot log of the model slot: what was loaded, or why nothing was.
+    #[cfg(feature = "model")]
+    fn log_model(hub: &hub::Hub) {
+        match (hub.model(), hub.load_error()) {
+            (Some(model), _) => {
+                let mut names = [""; hub::MAX_OUTPUTS];
+                for (dst, name) in names.iter_mut().zip(model.outputs()) {
+                    *dst = name.as_str();
+                }
+                defmt::info!(
+                    "model {=str}: {=usize} inputs -> {=[?]}",
+                    model.kind().name(),
+                    model.inputs().len(),
+                    names.get(..model.outputs().len()).unwrap_or(&[])
+                );
+            }
+            (None, Some(error)) => defmt::warn!("no model: {}", error),
+            (None, None) => defmt::warn!("no model"),
+        }
+    }
+
+    #[cfg(not(feature = "model"))]
+    fn log_model(_hub: &hub::Hub) {
+        defmt::info!("model support not built in: offsets stay zero");
+    }
+
+    /// Log a refused sample once when the hub starts holding its offsets.
+    #[cfg(feature = "model")]
+    fn log_fault(hub: &hub::Hub, offsets: &hub::Offsets) {
+        let faults = hub.faults();
+        if faults.consecutive == 1 {
+            if let Some(fault) = hub.last_fault() {
+                defmt::warn!(
+                    "model refused sample ({}): holding last good offsets {=[?]}",
+                    fault,
+                    offsets.values.get(..hub.output_count()).unwrap_or(&[])
+                );
+            }
+        }
+    }
+
+    #[cfg(not(feature = "model"))]
+    fn log_fault(_hub: &hub::Hub, _offsets: &hub::Offsets) {}
+
+    /// Periodic sampling: probe the RTD converter's configuration register,
+    /// step the model, feed the watchdog, pass the sequence number to `emit`.
+    #[task(priority = 2, local = [watchdog, rtd_spi, rtd_cs, hub, seq: u32 = 0])]
     async fn sample(cx: sample::Context) {
         let period = <Mono as Timebase>::Duration::from_ticks(board::SAMPLE_PERIOD_MS);
         let mut next = Mono::now();
@@ -301,8 +399,23 @@ mod app {
                 Err(_) => None,
             };
 
+            // No RTD driver yet: every channel reads as missing (NaN), so the
+            // model refuses each sample and the hub holds its last good
+            // offsets (zero) and counts the fault.
+            let readings = [f64::NAN; hub::MAX_INPUTS];
+            let hub = &mut **cx.local.hub;
+            let inputs = readings.get(..hub.input_count()).unwrap_or(&[]);
+            let offsets = hub.on_sample(inputs);
+            log_fault(hub, &offsets);
+
             *cx.local.seq = cx.local.seq.wrapping_add(1);
-            defmt::info!("sample {=u32}: RTD config {=?}", *cx.local.seq, config);
+            defmt::info!(
+                "sample {=u32}: RTD config {=?}, offsets {=[?]} ({=str})",
+                *cx.local.seq,
+                config,
+                offsets.values,
+                if offsets.fresh { "fresh" } else { "held" }
+            );
             cx.local.watchdog.feed();
 
             if emit::spawn(*cx.local.seq).is_err() {

@@ -18,3 +18,19 @@ pub fn write(model: &ValidModel, path: &Path) -> Result<Vec<u8>> {
     std::fs::write(path, &bytes).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(bytes)
 }
+
+/// The model named by `--model BLOB` or `--spec SPEC.toml` (one of them).
+/// A spec goes through the blob encoder and decoder, so it runs exactly as
+/// its flashed blob would.
+pub fn load(model: Option<&Path>, spec: Option<&Path>) -> Result<ValidModel> {
+    match (model, spec) {
+        (Some(path), None) => Ok(read(path)?.0),
+        (None, Some(path)) => {
+            let built = crate::spec::load(path)?;
+            let bytes = model_core::blob::encode_to_vec(&built)
+                .map_err(|e| anyhow!("{}: cannot encode the model: {e}", path.display()))?;
+            model_core::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))
+        }
+        _ => Err(anyhow!("give exactly one of --model and --spec")),
+    }
+}

@@ -13,8 +13,11 @@ use std::path::PathBuf;
 #[derive(Args)]
 pub struct EvalArgs {
     /// The model blob.
+    #[arg(long, required_unless_present = "spec", conflicts_with = "spec")]
+    pub model: Option<PathBuf>,
+    /// Or a model spec (TOML), built in memory exactly as `model build` would.
     #[arg(long)]
-    pub model: PathBuf,
+    pub spec: Option<PathBuf>,
     /// A run file (CSV); give it several times for several runs.
     #[arg(long, required = true)]
     pub data: Vec<PathBuf>,
@@ -50,9 +53,9 @@ fn metrics_json(m: &Metrics) -> Value {
 
 /// Runs `thermcomp eval`.
 pub fn run(a: &EvalArgs) -> Result<()> {
-    let (model, _) = crate::blobfile::read(&a.model)?;
+    let model = crate::blobfile::load(a.model.as_deref(), a.spec.as_deref())?;
     let map = ColumnMap::parse(&a.map)?;
-    let runs = read_runs(&a.data, a.skip_bad_rows)?;
+    let runs = read_runs(&a.data, a.skip_bad_rows, map.model_columns(&model, true))?;
     let n_out = model.outputs().len();
     let mut all = vec![MetricsAccumulator::new(); n_out];
     let mut per_run: Vec<Vec<Value>> = vec![Vec::new(); n_out];

@@ -11,8 +11,11 @@ use std::path::PathBuf;
 #[derive(Args)]
 pub struct PredictArgs {
     /// The model blob.
+    #[arg(long, required_unless_present = "spec", conflicts_with = "spec")]
+    pub model: Option<PathBuf>,
+    /// Or a model spec (TOML), built in memory exactly as `model build` would.
     #[arg(long)]
-    pub model: PathBuf,
+    pub spec: Option<PathBuf>,
     /// A run file (CSV); give it several times for several runs (each
     /// restarts the model's state; the output then has a leading `run` column).
     #[arg(long, required = true)]
@@ -31,9 +34,17 @@ pub struct PredictArgs {
     pub json: bool,
 }
 
-/// Reads every `--data` file, reporting skipped rows on stderr.
-pub fn read_runs(paths: &[PathBuf], skip_bad_rows: bool) -> Result<Vec<RunFile>> {
-    let opts = ReadOptions { skip_bad_rows };
+/// Reads every `--data` file, parsing only the columns in `needed` (other
+/// columns are kept by name and ignored), reporting skipped rows on stderr.
+pub fn read_runs(
+    paths: &[PathBuf],
+    skip_bad_rows: bool,
+    needed: Vec<String>,
+) -> Result<Vec<RunFile>> {
+    let opts = ReadOptions {
+        skip_bad_rows,
+        only: Some(needed),
+    };
     paths
         .iter()
         .map(|p| {
@@ -58,9 +69,9 @@ fn cell(v: Option<f64>) -> String {
 
 /// Runs `thermcomp predict`.
 pub fn run(a: &PredictArgs) -> Result<()> {
-    let (model, _) = crate::blobfile::read(&a.model)?;
+    let model = crate::blobfile::load(a.model.as_deref(), a.spec.as_deref())?;
     let map = ColumnMap::parse(&a.map)?;
-    let runs = read_runs(&a.data, a.skip_bad_rows)?;
+    let runs = read_runs(&a.data, a.skip_bad_rows, map.model_columns(&model, false))?;
     let file = std::fs::File::create(&a.out)
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     let mut w = std::io::BufWriter::new(file);

@@ -47,13 +47,18 @@ const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
 ///
 /// The default is strict, because a model fitted on partly unread data is
 /// worse than no model; skipping is an explicit choice of the user.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ReadOptions {
     /// Skip data rows with an error (bad or non-finite number, wrong field
     /// count, missing or non-increasing time) instead of failing, recording
     /// each one in [`RunFile::skipped`]. Header errors are always fatal, since
     /// without a valid header no row can be understood.
     pub skip_bad_rows: bool,
+    /// Read only these columns (and `t_s`). The others are listed in
+    /// [`RunFile::columns`] but their cells are not parsed: CONTRACT.md keeps
+    /// unknown columns and ignores them, so a text column (an operator's
+    /// note, a program name) must not make a run unreadable. `None` reads all.
+    pub only: Option<Vec<String>>,
 }
 
 /// A data row left out because of [`ReadOptions::skip_bad_rows`], kept so the
@@ -153,6 +158,8 @@ pub struct RunFile {
     values: Vec<Vec<Option<f64>>>,
     /// Rows left out under [`ReadOptions::skip_bad_rows`], in file order.
     pub skipped: Vec<SkippedRow>,
+    /// `read[i]`: whether `columns[i]` was parsed (see [`ReadOptions::only`]).
+    read: Vec<bool>,
 }
 
 impl RunFile {
@@ -194,6 +201,9 @@ impl RunFile {
     /// column here: it is [`RunFile::t_s`], which cannot have gaps.
     pub fn column(&self, name: &str) -> Option<&[Option<f64>]> {
         let index = self.columns.iter().position(|c| c == name)?;
+        if !self.read.get(index).copied().unwrap_or(false) {
+            return None;
+        }
         self.values.get(index).map(Vec::as_slice)
     }
 
@@ -210,7 +220,9 @@ impl RunFile {
         self.columns
             .iter()
             .zip(&self.values)
-            .map(|(name, values)| (name.as_str(), values.as_slice()))
+            .zip(&self.read)
+            .filter(|(_, read)| **read)
+            .map(|((name, values), _)| (name.as_str(), values.as_slice()))
     }
 
     /// The time steps of the run; see [`Sampling`].
@@ -238,6 +250,11 @@ impl RunFile {
         }
         let header = Header::parse(&record, line_of(&mut rdr, &record), &file)?;
 
+        let read: Vec<bool> = header
+            .columns
+            .iter()
+            .map(|c| opts.only.as_ref().is_none_or(|only| only.contains(c)))
+            .collect();
         let mut t_s = Vec::new();
         let mut values = vec![Vec::new(); header.columns.len()];
         let mut row = Vec::with_capacity(header.columns.len());
@@ -246,7 +263,7 @@ impl RunFile {
             // Asked for every row, not only bad ones, so that `LineStarts`
             // can drop what is behind it.
             let line = line_of(&mut rdr, &record);
-            match header.parse_row(&record, t_s.last().copied(), &mut row) {
+            match header.parse_row(&record, t_s.last().copied(), &read, &mut row) {
                 Ok(t) => {
                     t_s.push(t);
                     for (column, value) in values.iter_mut().zip(&row) {
@@ -283,6 +300,7 @@ impl RunFile {
             t_s,
             values,
             skipped,
+            read,
         })
     }
 }
@@ -464,6 +482,7 @@ impl Header {
         &self,
         record: &csv::ByteRecord,
         previous: Option<f64>,
+        read: &[bool],
         row: &mut Vec<Option<f64>>,
     ) -> Result<f64, RowErrorKind> {
         if record.len() != self.names.len() {
@@ -474,9 +493,18 @@ impl Header {
         }
         row.clear();
         let mut time = None;
+        let mut data_index = 0;
         for (index, (raw, name)) in record.iter().zip(&self.names).enumerate() {
             let column = index + 1;
-            let value = parse_cell(raw, column, name)?;
+            let wanted = index == self.time_index || read.get(data_index).copied().unwrap_or(true);
+            if index != self.time_index {
+                data_index += 1;
+            }
+            let value = if wanted {
+                parse_cell(raw, column, name)?
+            } else {
+                None
+            };
             if index == self.time_index {
                 time = Some(value.ok_or(RowErrorKind::MissingTime { column })?);
             } else {
@@ -991,9 +1019,11 @@ mod tests {
 
     const STRICT: ReadOptions = ReadOptions {
         skip_bad_rows: false,
+        only: None,
     };
     const SKIP: ReadOptions = ReadOptions {
         skip_bad_rows: true,
+        only: None,
     };
 
     fn read_str(csv: &str, opts: &ReadOptions) -> Result<RunFile, RunFileError> {
@@ -1563,5 +1593,30 @@ mod tests {
         for (name, values) in run.iter_columns() {
             assert_eq!(values.len(), run.len(), "{name}");
         }
+    }
+
+    #[test]
+    fn unread_columns_are_kept_by_name_and_never_parsed() {
+        let opts = ReadOptions {
+            only: Some(vec!["T1".into()]),
+            ..STRICT
+        };
+        let run = RunFile::from_reader(
+            "run.csv",
+            "t_s,T1,program,T2\n0,20,O1234 roughing,x\n1,21,,inf\n".as_bytes(),
+            &opts,
+        )
+        .unwrap();
+        assert_eq!(run.columns, ["T1", "program", "T2"]);
+        assert_eq!(run.column("T1"), Some(&[Some(20.0), Some(21.0)][..]));
+        assert_eq!(run.column("program"), None);
+        assert!(run.has_column("T2"));
+        assert_eq!(run.iter_columns().count(), 1);
+        // The columns asked for are still strict.
+        let e = RunFile::from_reader("run.csv", "t_s,T1\n0,abc\n".as_bytes(), &opts).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "run.csv:2:2 (T1): cannot parse \"abc\" as a number"
+        );
     }
 }

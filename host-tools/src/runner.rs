@@ -35,6 +35,21 @@ impl ColumnMap {
         Ok(Self(map))
     }
 
+    /// The columns a model reads (and, with `outputs`, the measured columns
+    /// its outputs are compared with).
+    pub fn model_columns(&self, model: &ValidModel, outputs: bool) -> Vec<String> {
+        let inputs = model.inputs().iter().map(|c| c.name.as_str());
+        let outs = model
+            .outputs()
+            .iter()
+            .map(|o| o.as_str())
+            .filter(|_| outputs);
+        inputs
+            .chain(outs)
+            .map(|n| self.column(n).to_string())
+            .collect()
+    }
+
     /// The column that carries model name `name`.
     pub fn column<'a>(&'a self, name: &'a str) -> &'a str {
         self.0.get(name).map_or(name, String::as_str)

@@ -1,0 +1,493 @@
+//! The model hub: the model loaded at boot, its run-time state, and the
+//! offsets it last produced.
+//!
+//! [`Hub::load`] decodes the blob in a model slot. A slot holds one
+//! self-delimiting blob (12-byte header with the body length at offset 8,
+//! body, 4-byte CRC; see `model_core::blob`) followed by whatever the rest
+//! of the flash sector holds (0xFF after an erase), so [`blob_len`] reads the
+//! length from the header before [`model_core::decode`] checks everything.
+//! An erased slot, a damaged blob or an invalid model leave the hub without a
+//! model: it then reports zero offsets, which is the machine uncompensated.
+//!
+//! [`Hub::on_sample`] steps the model once per sample. A sample the model
+//! refuses (a missing sensor reads as NaN) changes nothing: the hub holds the
+//! last good offsets and counts the fault. No path returns a non-finite
+//! offset, so nothing but finite numbers ever reaches the CNC.
+
+use model_core::blob::{HEADER_LEN, MAX_BLOB_LEN, TRAILER_LEN};
+use model_core::model::StepError;
+use model_core::{BlobError, ModelState, ValidModel};
+
+/// Most inputs a model can have (length of a full readings array).
+pub const MAX_INPUTS: usize = model_core::model::MAX_CHANNELS;
+/// Most outputs a model can have (length of [`Offsets::values`]).
+pub const MAX_OUTPUTS: usize = model_core::model::MAX_OUTPUTS;
+
+/// The offsets the hub reports after a sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Offsets {
+    /// One value per model output, in the model's output order (the output
+    /// unit, e.g. um). Entries past the model's output count, and all of
+    /// them without a model, are zero. Always finite.
+    pub values: [f64; MAX_OUTPUTS],
+    /// Whether `values` were computed from this sample; `false` when they
+    /// were held from an earlier sample or there is no model.
+    pub fresh: bool,
+}
+
+impl Offsets {
+    /// All zero: no compensation.
+    pub const ZERO: Self = Self {
+        values: [0.0; MAX_OUTPUTS],
+        fresh: false,
+    };
+}
+
+/// Samples the model refused, by cause (saturating counters).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Faults {
+    /// An input was NaN or infinite (a sensor missing or broken).
+    pub missing_input: u32,
+    /// The inputs were finite but an output overflowed.
+    pub overflow: u32,
+    /// Anything else (wrong number of readings: a bug in the caller).
+    pub other: u32,
+    /// Refused samples since the last good one (0 after a good sample).
+    pub consecutive: u32,
+}
+
+impl Faults {
+    /// All refused samples.
+    pub fn total(&self) -> u32 {
+        self.missing_input
+            .saturating_add(self.overflow)
+            .saturating_add(self.other)
+    }
+
+    fn count(&mut self, error: StepError) {
+        let counter = match error {
+            StepError::NonFiniteInput { .. } => &mut self.missing_input,
+            StepError::NonFiniteOutput => &mut self.overflow,
+            _ => &mut self.other,
+        };
+        *counter = counter.saturating_add(1);
+        self.consecutive = self.consecutive.saturating_add(1);
+    }
+}
+
+/// Length of the blob at the start of `slot`, read from its header and
+/// bounded by [`MAX_BLOB_LEN`] and the slot's size.
+///
+/// The result is only a length to hand to [`model_core::decode`], which
+/// checks magic, version, length and CRC itself: an erased slot (0xFF...)
+/// gives a length that decodes to [`BlobError::BadMagic`], a header that
+/// claims more than fits gives [`BlobError::LengthMismatch`], and a slot
+/// shorter than a header gives [`BlobError::TooShort`].
+pub fn blob_len(slot: &[u8]) -> usize {
+    let limit = slot.len().min(MAX_BLOB_LEN);
+    let declared = match slot.get(8..12) {
+        Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
+        _ => return limit,
+    };
+    usize::try_from(declared)
+        .ok()
+        .and_then(|body| body.checked_add(HEADER_LEN + TRAILER_LEN))
+        .map_or(limit, |total| total.min(limit))
+}
+
+/// The model (if any), its state, and the last good offsets.
+#[derive(Clone, Debug)]
+pub struct Hub {
+    model: Result<ValidModel, BlobError>,
+    state: ModelState,
+    offsets: [f64; MAX_OUTPUTS],
+    faults: Faults,
+    last_fault: Option<StepError>,
+}
+
+impl Hub {
+    /// Decodes the blob at the start of `slot` (a whole model slot, or any
+    /// prefix holding the blob). Never fails: without a valid model the hub
+    /// reports zero offsets, and [`Hub::load_error`] says why.
+    pub fn load(slot: &[u8]) -> Self {
+        let blob = slot.get(..blob_len(slot)).unwrap_or(&[]);
+        Self {
+            model: model_core::decode(blob),
+            state: ModelState::new(),
+            offsets: [0.0; MAX_OUTPUTS],
+            faults: Faults::default(),
+            last_fault: None,
+        }
+    }
+
+    /// The loaded model.
+    pub fn model(&self) -> Option<&ValidModel> {
+        self.model.as_ref().ok()
+    }
+
+    /// Why no model was loaded.
+    pub fn load_error(&self) -> Option<BlobError> {
+        self.model.as_ref().err().copied()
+    }
+
+    /// Readings [`Hub::on_sample`] expects: one per model input (0 without a model).
+    pub fn input_count(&self) -> usize {
+        self.model().map_or(0, |m| m.inputs().len())
+    }
+
+    /// Offsets the model produces (0 without a model).
+    pub fn output_count(&self) -> usize {
+        self.model().map_or(0, |m| m.outputs().len())
+    }
+
+    /// Refused samples so far.
+    pub fn faults(&self) -> Faults {
+        self.faults
+    }
+
+    /// Why the last refused sample was refused.
+    pub fn last_fault(&self) -> Option<StepError> {
+        self.last_fault
+    }
+
+    /// One sample: `readings` holds one raw value per model input, in the
+    /// model's input order ([`Hub::input_count`] of them; NaN for a channel
+    /// that could not be read). Steps the model and returns its outputs, or,
+    /// if the model refuses the sample, the last good offsets (zero before
+    /// the first good sample and without a model). Never non-finite.
+    pub fn on_sample(&mut self, readings: &[f64]) -> Offsets {
+        let Ok(model) = &self.model else {
+            return Offsets::ZERO;
+        };
+        let mut out = [0.0; MAX_OUTPUTS];
+        let result = match model.step(&mut self.state, readings, &mut out) {
+            // `step` already guarantees finite outputs; checked again here
+            // because this is the last stop before the CNC.
+            Ok(()) if out.iter().all(|v| v.is_finite()) => Ok(()),
+            Ok(()) => Err(StepError::NonFiniteOutput),
+            Err(e) => Err(e),
+        };
+        match result {
+            Ok(()) => {
+                self.offsets = out;
+                self.faults.consecutive = 0;
+                Offsets {
+                    values: out,
+                    fresh: true,
+                }
+            }
+            Err(e) => {
+                self.faults.count(e);
+                self.last_fault = Some(e);
+                Offsets {
+                    values: self.offsets,
+                    fresh: false,
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use model_core::linear::{Coef, Linear, LinearOutput};
+    use model_core::tf::TfEntry;
+    use model_core::{Channel, Model, Name, Params, Reference};
+
+    fn name(s: &str) -> Name {
+        Name::try_from(s).unwrap()
+    }
+
+    /// dx = 1 + 2 T1 - 0.5 T2, dz = -3 + 0.25 T2 (T2 measured against 20 C).
+    fn linear_model() -> ValidModel {
+        let mut inputs = heapless_vec();
+        inputs
+            .push(Channel {
+                name: name("T1"),
+                reference: Reference::Absolute,
+            })
+            .unwrap();
+        inputs
+            .push(Channel {
+                name: name("T2"),
+                reference: Reference::Value(20.0),
+            })
+            .unwrap();
+        let mut outputs = heapless_vec();
+        outputs.push(name("dx_um")).unwrap();
+        outputs.push(name("dz_um")).unwrap();
+        let mut eqs = heapless_vec();
+        let coef = |channel, value| Coef { channel, value };
+        let mut c0 = heapless_vec();
+        c0.push(coef(0, 2.0)).unwrap();
+        c0.push(coef(1, -0.5)).unwrap();
+        eqs.push(LinearOutput {
+            output: 0,
+            intercept: 1.0,
+            coef: c0,
+            position: None,
+        })
+        .unwrap();
+        let mut c1 = heapless_vec();
+        c1.push(coef(1, 0.25)).unwrap();
+        eqs.push(LinearOutput {
+            output: 1,
+            intercept: -3.0,
+            coef: c1,
+            position: None,
+        })
+        .unwrap();
+        Model {
+            inputs,
+            outputs,
+            dt_s: 0.0,
+            params: Params::Linear(Linear { outputs: eqs }),
+        }
+        .validate()
+        .unwrap()
+    }
+
+    /// A first-order lag dz: 0.5 y(k) = 0.1 u(k) - (-0.4) y(k-1), u = T - T(first).
+    fn tf_model() -> ValidModel {
+        let mut inputs = heapless_vec();
+        inputs
+            .push(Channel {
+                name: name("T_spindle"),
+                reference: Reference::First,
+            })
+            .unwrap();
+        let mut outputs = heapless_vec();
+        outputs.push(name("dz_um")).unwrap();
+        let mut a = heapless_vec();
+        a.push(0.1).unwrap();
+        let mut b = heapless_vec();
+        b.push(0.5).unwrap();
+        b.push(-0.4).unwrap();
+        let mut bank = heapless_vec();
+        bank.push(TfEntry {
+            output: 0,
+            input: 0,
+            a,
+            b,
+        })
+        .unwrap();
+        Model {
+            inputs,
+            outputs,
+            dt_s: 1.0,
+            params: Params::Tf(bank),
+        }
+        .validate()
+        .unwrap()
+    }
+
+    /// `heapless::Vec::new()` without naming heapless (not a dependency).
+    fn heapless_vec<T: Default>() -> T {
+        T::default()
+    }
+
+    /// A 128 KiB slot as the board sees it: the blob, then erased flash.
+    fn slot_with(model: &ValidModel) -> (Vec<u8>, usize) {
+        let mut slot = vec![0xFF; 128 * 1024];
+        let n = model_core::encode(model, &mut slot).unwrap();
+        (slot, n)
+    }
+
+    fn assert_finite(o: &Offsets) {
+        assert!(o.values.iter().all(|v| v.is_finite()), "{o:?}");
+    }
+
+    #[test]
+    fn valid_blob_in_an_erased_slot_loads() {
+        let model = linear_model();
+        let (slot, n) = slot_with(&model);
+        assert_eq!(blob_len(&slot), n);
+        let hub = Hub::load(&slot);
+        assert_eq!(hub.load_error(), None);
+        assert_eq!(hub.model(), Some(&model));
+        assert_eq!(hub.model().unwrap().kind().name(), "linear");
+        assert_eq!((hub.input_count(), hub.output_count()), (2, 2));
+        // Exactly the blob, no erased tail, loads too.
+        assert_eq!(Hub::load(&slot[..n]).model(), Some(&model));
+    }
+
+    #[test]
+    fn tf_blob_loads_and_runs() {
+        let model = tf_model();
+        let (slot, _) = slot_with(&model);
+        let mut hub = Hub::load(&slot);
+        assert_eq!(hub.model().map(|m| m.kind().name()), Some("tf"));
+        // Starts in steady state at the first sample's temperature: zero.
+        assert_eq!(hub.on_sample(&[25.0]).values, [0.0; MAX_OUTPUTS]);
+        // A 1 K step: y = (0.1 * 1 + 0.4 * 0) / 0.5 = 0.2, then 0.2 + 0.8 * 0.2.
+        let o = hub.on_sample(&[26.0]);
+        assert!(o.fresh);
+        assert!((o.values[0] - 0.2).abs() < 1e-12, "{o:?}");
+        let o = hub.on_sample(&[26.0]);
+        assert!((o.values[0] - 0.36).abs() < 1e-12, "{o:?}");
+    }
+
+    #[test]
+    fn erased_slot_gives_no_model_and_zero_offsets() {
+        let slot = vec![0xFF; 128 * 1024];
+        assert_eq!(blob_len(&slot), MAX_BLOB_LEN);
+        let mut hub = Hub::load(&slot);
+        assert_eq!(hub.load_error(), Some(BlobError::BadMagic));
+        assert!(hub.model().is_none());
+        assert_eq!(hub.input_count(), 0);
+        let o = hub.on_sample(&[]);
+        assert_eq!(o, Offsets::ZERO);
+        // Readings are ignored without a model, whatever they are.
+        assert_eq!(hub.on_sample(&[f64::NAN, 1.0]), Offsets::ZERO);
+        assert_eq!(hub.faults(), Faults::default());
+    }
+
+    #[test]
+    fn short_or_empty_slot_gives_no_model() {
+        assert_eq!(Hub::load(&[]).load_error(), Some(BlobError::TooShort));
+        assert_eq!(
+            Hub::load(&[0xFF; 11]).load_error(),
+            Some(BlobError::TooShort)
+        );
+    }
+
+    #[test]
+    fn corrupted_blob_gives_no_model_and_zero_offsets() {
+        let (mut slot, n) = slot_with(&linear_model());
+        slot[n / 2] ^= 0x01;
+        let mut hub = Hub::load(&slot);
+        assert!(
+            matches!(hub.load_error(), Some(BlobError::BadCrc { .. })),
+            "{:?}",
+            hub.load_error()
+        );
+        assert_eq!(hub.on_sample(&[30.0, 30.0]), Offsets::ZERO);
+    }
+
+    #[test]
+    fn truncated_blob_gives_no_model() {
+        let (slot, n) = slot_with(&linear_model());
+        let hub = Hub::load(&slot[..n - 1]);
+        assert!(
+            matches!(hub.load_error(), Some(BlobError::LengthMismatch { .. })),
+            "{:?}",
+            hub.load_error()
+        );
+    }
+
+    #[test]
+    fn oversized_length_in_header_is_bounded() {
+        let (mut slot, _) = slot_with(&linear_model());
+        slot[8..12].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert_eq!(blob_len(&slot), MAX_BLOB_LEN);
+        assert!(matches!(
+            Hub::load(&slot).load_error(),
+            Some(BlobError::LengthMismatch {
+                declared: u32::MAX,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn finite_readings_give_the_model_outputs() {
+        let model = linear_model();
+        let (slot, _) = slot_with(&model);
+        let mut hub = Hub::load(&slot);
+        let o = hub.on_sample(&[10.0, 24.0]);
+        assert!(o.fresh);
+        // dx = 1 + 2*10 - 0.5*(24-20) = 19, dz = -3 + 0.25*4 = -2.
+        assert_eq!(o.values, [19.0, -2.0, 0.0, 0.0]);
+        // Same as stepping the model directly.
+        let mut state = ModelState::new();
+        let mut direct = [0.0; 2];
+        model.step(&mut state, &[10.0, 24.0], &mut direct).unwrap();
+        assert_eq!(&o.values[..2], &direct);
+        assert_eq!(hub.faults(), Faults::default());
+    }
+
+    #[test]
+    fn nan_readings_hold_the_last_good_offsets_and_count_faults() {
+        let (slot, _) = slot_with(&linear_model());
+        let mut hub = Hub::load(&slot);
+
+        // Before any good sample: zeros held.
+        let o = hub.on_sample(&[f64::NAN, f64::NAN]);
+        assert_eq!(o, Offsets::ZERO);
+        assert_eq!(
+            hub.last_fault(),
+            Some(StepError::NonFiniteInput { channel: 0 })
+        );
+
+        let good = hub.on_sample(&[10.0, 24.0]);
+        assert_eq!(hub.faults().consecutive, 0);
+
+        for k in 1..=3 {
+            let o = hub.on_sample(&[10.0, f64::NAN]);
+            assert_eq!(o.values, good.values);
+            assert!(!o.fresh);
+            assert_finite(&o);
+            assert_eq!(hub.faults().consecutive, k);
+        }
+        let o = hub.on_sample(&[f64::INFINITY, 1.0]);
+        assert_eq!(o.values, good.values);
+        assert_eq!(
+            hub.last_fault(),
+            Some(StepError::NonFiniteInput { channel: 0 })
+        );
+        assert_eq!(
+            hub.faults(),
+            Faults {
+                missing_input: 5,
+                overflow: 0,
+                other: 0,
+                consecutive: 4
+            }
+        );
+
+        // Recovery: fresh outputs, consecutive count cleared, totals kept.
+        let o = hub.on_sample(&[11.0, 24.0]);
+        assert!(o.fresh);
+        assert_eq!(o.values[0], 21.0);
+        assert_eq!(hub.faults().consecutive, 0);
+        assert_eq!(hub.faults().total(), 5);
+    }
+
+    #[test]
+    fn wrong_reading_count_and_overflow_hold_offsets() {
+        let (slot, _) = slot_with(&linear_model());
+        let mut hub = Hub::load(&slot);
+        let good = hub.on_sample(&[10.0, 24.0]);
+        assert_eq!(hub.on_sample(&[10.0]).values, good.values);
+        assert_eq!(hub.on_sample(&[]).values, good.values);
+        // Finite inputs whose result overflows f64.
+        let o = hub.on_sample(&[f64::MAX, 24.0]);
+        assert_eq!(o.values, good.values);
+        assert_finite(&o);
+        let f = hub.faults();
+        assert_eq!((f.other, f.overflow, f.total()), (2, 1, 3));
+    }
+
+    #[test]
+    fn no_reading_ever_gives_non_finite_offsets() {
+        let (slot, _) = slot_with(&tf_model());
+        let mut hub = Hub::load(&slot);
+        let specials = [
+            0.0,
+            -1e308,
+            1e308,
+            f64::MAX,
+            f64::MIN,
+            f64::NAN,
+            f64::INFINITY,
+            25.0,
+        ];
+        for a in specials {
+            for b in specials {
+                assert_finite(&hub.on_sample(&[a]));
+                assert_finite(&hub.on_sample(&[b]));
+            }
+        }
+    }
+}

@@ -1,0 +1,255 @@
+//! `thermcomp` end to end, as a user runs it: exit codes, stdout/stderr
+//! discipline, one-line errors, the contract's JSON keys, several runs,
+//! irregular sampling.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const SP2_AMB: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../examples/seed004_sp2_ambient.toml"
+);
+
+fn thermcomp(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_thermcomp"))
+        .args(args)
+        .output()
+        .expect("thermcomp runs")
+}
+
+fn ok(args: &[&str]) -> (String, String) {
+    let out = thermcomp(args);
+    let (so, se) = (
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    );
+    assert!(out.status.success(), "thermcomp {args:?} failed: {se}");
+    (so, se)
+}
+
+/// Fails, with exactly one line on stderr and no panic.
+fn fails(args: &[&str]) -> String {
+    let out = thermcomp(args);
+    let se = String::from_utf8(out.stderr).unwrap();
+    assert!(!out.status.success(), "thermcomp {args:?} should fail");
+    assert!(!se.contains("panicked"), "panic: {se}");
+    assert_eq!(se.trim_end().lines().count(), 1, "one line: {se}");
+    assert!(out.stdout.is_empty(), "nothing on stdout: {:?}", out.stdout);
+    se
+}
+
+/// A spindle-like run: T1 steps up by 5 K after 10 min, ambient drifts 1 K
+/// over the run; dz_um is what the SP2 + ambient model itself predicts plus a
+/// small bias, so the metrics are known in shape.
+fn write_run(dir: &Path, name: &str, times: &[f64]) -> PathBuf {
+    let path = dir.join(name);
+    let mut s = String::from("t_s,T1,ambient_c,dz_um,extra\n");
+    for t in times {
+        let t1 = if *t >= 600.0 { 25.0 } else { 20.0 };
+        let amb = 20.0 + t / 7200.0;
+        s.push_str(&format!("{t},{t1},{amb},{},x\n", 0.1 * t / 7200.0));
+    }
+    std::fs::write(&path, s).unwrap();
+    path
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+#[test]
+fn build_show_predict_eval_seed004() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = dir.path().join("sp2.bin");
+    let (so, se) = ok(&["model", "build", "--spec", SP2_AMB, "--out", p(&blob)]);
+    assert!(so.is_empty() && se.contains("wrote"), "{so} {se}");
+
+    let (text, _) = ok(&["model", "show", "--model", p(&blob)]);
+    assert!(text.contains("kind tf"), "{text}");
+    assert!(
+        text.contains("cancelled"),
+        "ambient's pole/zero at 1: {text}"
+    );
+    let (json, _) = ok(&["model", "show", "--model", p(&blob), "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["kind"], "tf");
+    assert_eq!(v["format_version"], 1);
+    assert_eq!(v["outputs"][0], "dz_um");
+    assert_eq!(v["inputs"][1]["reference"], "first");
+    // SP2's gain (16.0005 - 15.9975) / (1 - 0.99983) to f64 rounding.
+    let gain = v["coefficients"][0]["steady_state_gain"].as_f64().unwrap();
+    assert!((gain - 0.003 / 0.00017).abs() < 1e-9, "{gain}");
+
+    let times: Vec<f64> = (0..7200).map(f64::from).collect();
+    let run = write_run(dir.path(), "run.csv", &times);
+    let pred = dir.path().join("pred.csv");
+    ok(&[
+        "predict",
+        "--model",
+        p(&blob),
+        "--data",
+        p(&run),
+        "--out",
+        p(&pred),
+    ]);
+    let text = std::fs::read_to_string(&pred).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("t_s,dz_um_pred"));
+    assert_eq!(lines.clone().count(), 7200, "row for row");
+    let first: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(first, ["0", "0"], "no change yet, no displacement");
+
+    let (json, _) = ok(&["eval", "--model", p(&blob), "--data", p(&run), "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let m = &v["dz_um"];
+    for key in [
+        "n",
+        "rmse_um",
+        "fit_pct",
+        "r2",
+        "eta_pct",
+        "max_abs_um",
+        "mean_abs_um",
+        "dpk_um",
+        "reduction_pct",
+    ] {
+        assert!(m[key].is_number(), "{key} missing: {m}");
+    }
+    assert_eq!(m["n"], 7200);
+    assert_eq!(v.as_object().unwrap().len(), 1, "keyed by target only");
+}
+
+#[test]
+fn several_runs_restart_the_state_and_are_scored_together_and_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let times: Vec<f64> = (0..3600).map(f64::from).collect();
+    let a = write_run(dir.path(), "a.csv", &times);
+    let b = write_run(dir.path(), "b.csv", &times);
+    let (json, _) = ok(&[
+        "eval",
+        "--spec",
+        SP2_AMB,
+        "--data",
+        p(&a),
+        "--data",
+        p(&b),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let m = &v["dz_um"];
+    assert_eq!(m["n"], 7200);
+    let runs = m["per_run"].as_array().unwrap();
+    assert_eq!(runs.len(), 2);
+    // Identical runs and a restarted state: identical per-run figures.
+    assert_eq!(runs[0]["rmse_um"], runs[1]["rmse_um"]);
+    assert_eq!(runs[0]["rmse_um"], m["rmse_um"]);
+
+    let pred = dir.path().join("pred.csv");
+    ok(&[
+        "predict",
+        "--spec",
+        SP2_AMB,
+        "--data",
+        p(&a),
+        "--data",
+        p(&b),
+        "--out",
+        p(&pred),
+    ]);
+    let text = std::fs::read_to_string(&pred).unwrap();
+    assert!(text.starts_with("run,t_s,dz_um_pred\n"), "{}", &text[..40]);
+    assert_eq!(text.lines().count(), 1 + 7200);
+}
+
+#[test]
+fn irregular_sampling_is_resampled_and_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let uniform: Vec<f64> = (0..3600).map(f64::from).collect();
+    // A logger that drifts and skips: steps of 0.7..1.3 s, some rows missing.
+    let mut irregular = Vec::new();
+    let mut t = 0.0;
+    let mut k = 0u32;
+    while t < 3599.0 {
+        irregular.push(t);
+        k += 1;
+        t += if k % 7 == 0 {
+            2.6
+        } else {
+            0.7 + 0.6 * f64::from(k % 3) / 2.0
+        };
+    }
+    let u = write_run(dir.path(), "u.csv", &uniform);
+    let i = write_run(dir.path(), "i.csv", &irregular);
+    let (ju, _) = ok(&["eval", "--spec", SP2_AMB, "--data", p(&u), "--json"]);
+    let (ji, se) = ok(&["eval", "--spec", SP2_AMB, "--data", p(&i), "--json"]);
+    assert!(
+        se.contains("sampling irregular") && se.contains("resampled"),
+        "{se}"
+    );
+    let (vu, vi): (serde_json::Value, serde_json::Value) = (
+        serde_json::from_str(&ju).unwrap(),
+        serde_json::from_str(&ji).unwrap(),
+    );
+    // Same physics, same answer: the 5 K step is sampled at most 1.3 s apart,
+    // so linear interpolation moves the TF output by under a percent of the
+    // peak (~90 um after an hour): rmse within 0.5 um.
+    let (ru, ri) = (
+        vu["dz_um"]["rmse_um"].as_f64().unwrap(),
+        vi["dz_um"]["rmse_um"].as_f64().unwrap(),
+    );
+    assert!((ru - ri).abs() < 0.5, "uniform {ru} vs irregular {ri}");
+}
+
+#[test]
+fn bad_input_gets_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "t_s,T1,ambient_c,dz_um\n0,20,20,0\n1,2O.5,20,0\n").unwrap();
+    let se = fails(&["eval", "--spec", SP2_AMB, "--data", p(&bad)]);
+    assert!(
+        se.contains("bad.csv:3:2 (T1): cannot parse \"2O.5\" as a number"),
+        "{se}"
+    );
+    let (_, se) = ok(&[
+        "eval",
+        "--spec",
+        SP2_AMB,
+        "--data",
+        p(&bad),
+        "--skip-bad-rows",
+        "--json",
+    ]);
+    assert!(se.contains("skipped 1 bad rows"), "{se}");
+
+    let nocol = dir.path().join("nocol.csv");
+    std::fs::write(&nocol, "t_s,T1,dz_um\n0,20,0\n1,21,0\n").unwrap();
+    let se = fails(&["eval", "--spec", SP2_AMB, "--data", p(&nocol)]);
+    assert!(se.contains("needs input \"ambient_c\""), "{se}");
+
+    let spec = dir.path().join("bad.toml");
+    std::fs::write(&spec, "kind = \"tf\"\ndt_s = 1.0\n[[tf]]\noutput = \"dz_um\"\ninput = \"T1\"\na = [1.0]\nb = [1.0, -1.0]\n").unwrap();
+    let se = fails(&[
+        "model",
+        "build",
+        "--spec",
+        p(&spec),
+        "--out",
+        p(&dir.path().join("x.bin")),
+    ]);
+    assert!(se.contains("bad.toml:3:1: [[tf]] entry 1: pole 1"), "{se}");
+
+    let garbage = dir.path().join("garbage.bin");
+    std::fs::write(&garbage, b"TCMB\x01\x00\x01\x00\xff\xff\xff\xffhello").unwrap();
+    let se = fails(&["model", "show", "--model", p(&garbage)]);
+    assert!(se.contains("truncated or padded"), "{se}");
+    std::fs::write(&garbage, b"PK\x03\x04 not a blob at all").unwrap();
+    let se = fails(&["model", "show", "--model", p(&garbage)]);
+    assert!(se.contains("bad magic"), "{se}");
+    let se = fails(&[
+        "model",
+        "show",
+        "--model",
+        p(&dir.path().join("missing.bin")),
+    ]);
+    assert!(se.contains("cannot read"), "{se}");
+}
