@@ -199,92 +199,64 @@ mod tests {
         Name::try_from(s).unwrap()
     }
 
+    fn vec<T: Clone, const N: usize>(items: &[T]) -> heapless::Vec<T, N> {
+        heapless::Vec::from_slice(items).unwrap()
+    }
+
+    fn channel(n: &str, reference: Reference) -> Channel {
+        Channel {
+            name: name(n),
+            reference,
+        }
+    }
+
     /// dx = 1 + 2 T1 - 0.5 T2, dz = -3 + 0.25 T2 (T2 measured against 20 C).
     fn linear_model() -> ValidModel {
-        let mut inputs = heapless_vec();
-        inputs
-            .push(Channel {
-                name: name("T1"),
-                reference: Reference::Absolute,
-            })
-            .unwrap();
-        inputs
-            .push(Channel {
-                name: name("T2"),
-                reference: Reference::Value(20.0),
-            })
-            .unwrap();
-        let mut outputs = heapless_vec();
-        outputs.push(name("dx_um")).unwrap();
-        outputs.push(name("dz_um")).unwrap();
-        let mut eqs = heapless_vec();
         let coef = |channel, value| Coef { channel, value };
-        let mut c0 = heapless_vec();
-        c0.push(coef(0, 2.0)).unwrap();
-        c0.push(coef(1, -0.5)).unwrap();
-        eqs.push(LinearOutput {
-            output: 0,
-            intercept: 1.0,
-            coef: c0,
-            position: None,
-        })
-        .unwrap();
-        let mut c1 = heapless_vec();
-        c1.push(coef(1, 0.25)).unwrap();
-        eqs.push(LinearOutput {
-            output: 1,
-            intercept: -3.0,
-            coef: c1,
-            position: None,
-        })
-        .unwrap();
         Model {
-            inputs,
-            outputs,
+            inputs: vec(&[
+                channel("T1", Reference::Absolute),
+                channel("T2", Reference::Value(20.0)),
+            ]),
+            outputs: vec(&[name("dx_um"), name("dz_um")]),
             dt_s: 0.0,
-            params: Params::Linear(Linear { outputs: eqs }),
+            params: Params::Linear(Linear {
+                outputs: vec(&[
+                    LinearOutput {
+                        output: 0,
+                        intercept: 1.0,
+                        coef: vec(&[coef(0, 2.0), coef(1, -0.5)]),
+                        position: None,
+                    },
+                    LinearOutput {
+                        output: 1,
+                        intercept: -3.0,
+                        coef: vec(&[coef(1, 0.25)]),
+                        position: None,
+                    },
+                ]),
+            }),
         }
         .validate()
         .unwrap()
     }
 
-    /// A first-order lag dz: 0.5 y(k) = 0.1 u(k) - (-0.4) y(k-1), u = T - T(first).
+    /// A first-order lag on the spindle temperature's rise since the first
+    /// sample (seed 004's form): 0.5 y(k) = 0.1 u(k) + 0.4 y(k-1).
     fn tf_model() -> ValidModel {
-        let mut inputs = heapless_vec();
-        inputs
-            .push(Channel {
-                name: name("T_spindle"),
-                reference: Reference::First,
-            })
-            .unwrap();
-        let mut outputs = heapless_vec();
-        outputs.push(name("dz_um")).unwrap();
-        let mut a = heapless_vec();
-        a.push(0.1).unwrap();
-        let mut b = heapless_vec();
-        b.push(0.5).unwrap();
-        b.push(-0.4).unwrap();
-        let mut bank = heapless_vec();
-        bank.push(TfEntry {
-            output: 0,
-            input: 0,
-            a,
-            b,
-        })
-        .unwrap();
         Model {
-            inputs,
-            outputs,
+            inputs: vec(&[channel("T_spindle", Reference::First)]),
+            outputs: vec(&[name("dz_um")]),
             dt_s: 1.0,
-            params: Params::Tf(bank),
+            params: Params::Tf(vec(&[TfEntry {
+                output: 0,
+                input: 0,
+                a: vec(&[0.1]),
+                b: vec(&[0.5, -0.4]),
+            }])),
         }
         .validate()
         .unwrap()
-    }
-
-    /// `heapless::Vec::new()` without naming heapless (not a dependency).
-    fn heapless_vec<T: Default>() -> T {
-        T::default()
     }
 
     /// A 128 KiB slot as the board sees it: the blob, then erased flash.
