@@ -1,71 +1,161 @@
 #!/usr/bin/env bash
-# Build the release firmware for the STM32F446 and report its size.
+# Build the firmware for the STM32F446 twice and report what the model path costs.
 #
 #   scripts/firmware-size.sh            # human-readable report + a machine line
-#   scripts/firmware-size.sh | tail -1  # flash_bytes=N ram_bytes=M
+#   scripts/firmware-size.sh | tail -1  # flash_bytes=N ram_bytes=M (default build)
 #
-# Size tool, first found wins: arm-none-eabi-size, llvm-size from the Rust
-# toolchain's llvm-tools component, llvm-size on PATH, `cargo size`
-# (cargo-binutils). CI uses llvm-tools: `rustup component add llvm-tools`
-# (no apt needed); the script installs it itself if no tool is found and
-# rustup is available. `apt-get install -y binutils-arm-none-eabi` works too.
+# Builds (`--profile firmware`: LTO, one codegen unit, opt-level "s"; root Cargo.toml):
+#   baseline    --no-default-features: the RTIC shell without model-core
+#               (offsets always zero)
+#   with model  default features: decodes slot A at boot and steps the model
+#               every sample. One firmware runs every model kind, so this is
+#               the shared code cost of decode + validate + step of all kinds.
+# The default build is built last, so the ELF under
+# target/thumbv7em-none-eabihf/firmware/firmware is the one to flash; the
+# baseline ELF is kept next to it as firmware-baseline.
+#
+# Then the largest model-core/libm symbols of the default build (llvm-nm) and
+# the model path's code by source file (line table of `llvm-objdump -d -l`):
+# LTO inlines decode/validate/step into `init` and the `sample` task, so nm
+# alone does not show most of it.
+#
+# Tools, first found wins: arm-none-eabi-size, else llvm-size / llvm-nm /
+# llvm-objdump from the Rust toolchain's llvm-tools component, else on PATH.
+# CI: `rustup component add llvm-tools` (the script tries it itself if no size
+# tool is found). `apt-get install -y binutils-arm-none-eabi` works for size.
 #
 # flash = text + data (code, rodata, vector table, .data load image)
 # ram   = data + bss  (static RAM incl. .uninit, e.g. the defmt RTT buffer;
 #                      the stack is not counted)
-# Honours CARGO_TARGET_DIR; extra arguments go to `cargo build`.
+# Honours CARGO_TARGET_DIR; extra arguments go to both `cargo build`s.
 set -euo pipefail
 
 TARGET=thumbv7em-none-eabihf
+PROFILE=firmware
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
 case "$TARGET_DIR" in /*) ;; *) TARGET_DIR="$ROOT/$TARGET_DIR" ;; esac
-ELF="$TARGET_DIR/$TARGET/release/firmware"
+ELF="$TARGET_DIR/$TARGET/$PROFILE/firmware"
+BASE_ELF="$ELF-baseline"
 # Region sizes from memory.x (FLASH = sectors 0-5, RAM = SRAM1+SRAM2).
 FLASH_REGION=$((256 * 1024))
 RAM_REGION=$((128 * 1024))
 
 cd "$ROOT"
 rustup target add "$TARGET" >/dev/null 2>&1 || true
-cargo build -p firmware --target "$TARGET" --release "$@" >&2
 
-find_llvm_size() {
-  local sysroot
-  sysroot="$(rustc --print sysroot)"
-  compgen -G "$sysroot/lib/rustlib/*/bin/llvm-size" | head -n1 || true
+# An LLVM tool from the toolchain's llvm-tools component, else from PATH.
+llvm_tool() {
+  local found
+  found="$(compgen -G "$(rustc --print sysroot)/lib/rustlib/*/bin/$1" | head -n1 || true)"
+  if [ -z "$found" ] && command -v "$1" >/dev/null 2>&1; then
+    found="$(command -v "$1")"
+  fi
+  printf '%s' "$found"
 }
 
-SIZE_CMD=()
 if command -v arm-none-eabi-size >/dev/null 2>&1; then
-  SIZE_CMD=(arm-none-eabi-size -B "$ELF")
-elif tool="$(find_llvm_size)" && [ -n "$tool" ]; then
-  SIZE_CMD=("$tool" -B "$ELF")
-elif command -v llvm-size >/dev/null 2>&1; then
-  SIZE_CMD=(llvm-size -B "$ELF")
-elif cargo size --version >/dev/null 2>&1; then
-  SIZE_CMD=(cargo size -q -p firmware --target "$TARGET" --release --)
-elif command -v rustup >/dev/null 2>&1 && rustup component add llvm-tools >&2 \
-  && tool="$(find_llvm_size)" && [ -n "$tool" ]; then
-  SIZE_CMD=("$tool" -B "$ELF")
+  SIZE=arm-none-eabi-size
 else
+  SIZE="$(llvm_tool llvm-size)"
+  if [ -z "$SIZE" ] && command -v rustup >/dev/null 2>&1 && rustup component add llvm-tools >&2; then
+    SIZE="$(llvm_tool llvm-size)"
+  fi
+fi
+if [ -z "$SIZE" ]; then
   echo "error: no size tool; run 'rustup component add llvm-tools'" >&2
   exit 1
 fi
+NM="$(llvm_tool llvm-nm)"
+OBJDUMP="$(llvm_tool llvm-objdump)"
 
-# Berkeley format: a header line, then "text data bss dec hex filename".
-read -r text data bss _ < <("${SIZE_CMD[@]}" | awk '$1 ~ /^[0-9]+$/ { line = $0 } END { print line }')
-if [ -z "${bss:-}" ]; then
-  echo "error: could not parse output of ${SIZE_CMD[*]}" >&2
-  exit 1
+# "flash ram text data bss" of an ELF (Berkeley format: header, then
+# "text data bss dec hex filename").
+measure() {
+  local text data bss
+  read -r text data bss _ < <("$SIZE" -B "$1" | awk '$1 ~ /^[0-9]+$/ { line = $0 } END { print line }')
+  if [ -z "${bss:-}" ]; then
+    echo "error: could not parse output of $SIZE -B $1" >&2
+    exit 1
+  fi
+  echo "$((text + data)) $((data + bss)) $text $data $bss"
+}
+
+build() {
+  cargo build -p firmware --target "$TARGET" --profile "$PROFILE" "$@" >&2
+}
+
+build --no-default-features "$@"
+cp "$ELF" "$BASE_ELF"
+read -r base_flash base_ram base_text base_data base_bss < <(measure "$BASE_ELF")
+build "$@"
+read -r flash ram text data bss < <(measure "$ELF")
+
+pct() { printf '%d.%d%%' $(($1 * 100 / $2)) $(($1 * 1000 / $2 % 10)); }
+row() { printf '  %-22s %8s %8s %8s %8s %8s\n' "$@"; }
+
+echo "firmware size ($TARGET, profile $PROFILE) via ${SIZE##*/}"
+echo "  elf: $ELF (baseline: ${BASE_ELF##*/})"
+row "build" "flash" "ram" "text" "data" "bss"
+row "baseline (no model)" "$base_flash" "$base_ram" "$base_text" "$base_data" "$base_bss"
+row "with model (default)" "$flash" "$ram" "$text" "$data" "$bss"
+row "model path costs" "+$((flash - base_flash))" "+$((ram - base_ram))" \
+  "+$((text - base_text))" "+$((data - base_data))" "+$((bss - base_bss))"
+echo "  default build: flash $(pct "$flash" "$FLASH_REGION") of the $((FLASH_REGION / 1024)) KiB FLASH region," \
+  "ram $(pct "$ram" "$RAM_REGION") of $((RAM_REGION / 1024)) KiB (static; stack not counted)"
+
+# Legacy-mangled local symbols that llvm-nm leaves half-demangled
+# (`_$LT$impl$u20$...`): undo the escapes and drop the hash.
+tidy_symbols() {
+  sed -E -e 's/\$LT\$/</g; s/\$GT\$/>/g; s/\$u20\$/ /g; s/\$C\$/,/g; s/\$RF\$/\&/g' \
+    -e 's/\$BP\$/*/g; s/\$u5b\$/[/g; s/\$u5d\$/]/g; s/\$u3b\$/;/g; s/\$u7b\$/{/g; s/\$u7d\$/}/g' \
+    -e 's/\.\./::/g; s/ _</ </; s/::h[0-9a-f]{16}$//'
+}
+
+echo
+if [ -n "$NM" ]; then
+  echo "largest model-core and libm symbols (default build; bytes, nm type, name)"
+  "$NM" --print-size --size-sort --demangle "$ELF" | tidy_symbols \
+    | { grep -E 'model_core::|libm::' || true; } | tail -n 15 | sort -r -k2,2 \
+    | while read -r _ size type name; do
+      printf '  %6d %s %.110s\n' "$((16#$size))" "$type" "$name"
+    done
+else
+  echo "(no llvm-nm: 'rustup component add llvm-tools' for the symbol list)"
 fi
-flash=$((text + data))
-ram=$((data + bss))
 
-echo "firmware size ($TARGET, release) via ${SIZE_CMD[0]##*/}"
-echo "  elf:   $ELF"
-printf '  text %8d   data %8d   bss %8d\n' "$text" "$data" "$bss"
-printf '  flash %7d B of %d B FLASH region (%d.%d%%)\n' "$flash" "$FLASH_REGION" \
-  $((flash * 100 / FLASH_REGION)) $((flash * 1000 / FLASH_REGION % 10))
-printf '  ram   %7d B of %d B RAM region (%d.%d%%, static; stack not counted)\n' "$ram" "$RAM_REGION" \
-  $((ram * 100 / RAM_REGION)) $((ram * 1000 / RAM_REGION % 10))
+# Bytes of .text per source file from the line table: each instruction counts
+# for the file its line-table row names. Inlined generic helpers (core::iter,
+# slices, Result/Option) count for core, not for the model-core function that
+# used them, so these are lower bounds.
+if [ -n "$OBJDUMP" ]; then
+  echo
+  echo "model path code by source file (default build; line table, lower bounds)"
+  "$OBJDUMP" -d -l --no-show-raw-insn "$ELF" | awk '
+    function hex(s,   i, n) {
+      n = 0; s = tolower(s)
+      for (i = 1; i <= length(s); i++) n = n * 16 + index("0123456789abcdef", substr(s, i, 1)) - 1
+      return n
+    }
+    /^[0-9a-f]+ <.*>:$/ { have = 0; next }
+    /^; \/.*:[0-9]+$/ { cur = $2; sub(/:[0-9]+$/, "", cur); next }
+    /^ *[0-9a-f]+:/ {
+      a = $1; sub(/:$/, "", a); addr = hex(a)
+      if (have && addr > prev) bytes[file] += addr - prev
+      prev = addr; file = cur; have = 1
+    }
+    END {
+      for (f in bytes) {
+        g = ""
+        if (match(f, /model-core\/src\/[a-z_]+\.rs$/)) g = "model-core " substr(f, RSTART + 15)
+        else if (f ~ /compiler-builtins\/src\/float\//) g = "compiler-builtins float (soft f64)"
+        else if (match(f, /\/(libm|postcard|heapless|serde_core|serde)-[0-9][^\/]*\//)) {
+          g = substr(f, RSTART + 1, RLENGTH - 2); sub(/-[0-9][^-]*$/, "", g)
+        }
+        if (g != "") sum[g] += bytes[f]
+      }
+      for (g in sum) printf "%d %s\n", sum[g], g
+    }' | sort -rn | while read -r n what; do printf '  %6d %s\n' "$n" "$what"; done
+fi
+
 echo "flash_bytes=$flash ram_bytes=$ram"
