@@ -141,14 +141,44 @@ impl Arma {
         st.seen = st.seen.saturating_add(1);
     }
 
-    /// Every coefficient finite and `std > 0`.
-    pub fn is_valid(&self) -> bool {
+    /// Every coefficient is finite.
+    pub fn is_finite(&self) -> bool {
         self.mean.is_finite()
             && self.std.is_finite()
-            && self.std > 0.0
             && self.constant.is_finite()
-            && usize::from(self.diff) <= MAX_DIFF
             && self.phi.iter().chain(&self.theta).all(|c| c.is_finite())
+    }
+
+    /// The model can run for ever: `std` a normal positive number, `d` at
+    /// most [`MAX_DIFF`], the AR part stationary (roots of
+    /// `1 - phi_1 q - ... - phi_p q^p` strictly inside the unit circle in z)
+    /// and the MA part invertible (same for `1 + theta_1 q + ...`): the
+    /// innovations are computed recursively through the MA terms, so a
+    /// non-invertible MA part would make them grow without bound.
+    pub fn is_valid(&self) -> bool {
+        fn inside_unit_circle(lead_sign: f64, c: &[f64]) -> bool {
+            let mut poly = [0.0; MAX_ARMA_ORDER + 1];
+            poly[0] = 1.0;
+            for (p, v) in poly.iter_mut().skip(1).zip(c) {
+                *p = lead_sign * v;
+            }
+            let n = c.len() + 1;
+            match crate::poly::roots(poly.get(..n).unwrap_or(&[])) {
+                Ok(r) => r.as_slice().iter().all(|z| z.abs() < 1.0 - 1e-9),
+                Err(_) => false,
+            }
+        }
+        self.is_finite()
+            && self.std.is_normal()
+            && self.std > 0.0
+            && usize::from(self.diff) <= MAX_DIFF
+            && inside_unit_circle(-1.0, &self.phi)
+            && inside_unit_circle(1.0, &self.theta)
+    }
+
+    /// The state holds only finite numbers (checked before a step commits).
+    pub fn state_is_finite(st: &ArmaState) -> bool {
+        st.z.iter().chain(&st.e).all(|v| v.is_finite())
     }
 }
 

@@ -23,6 +23,14 @@ pub const MAX_OUTPUTS: usize = 4;
 /// Bytes in a column name (`ambient_c`, `T16`, `dz_um` fit easily).
 pub const NAME_LEN: usize = 24;
 
+/// Largest input magnitude `step` accepts. No quantity the hub reads
+/// (temperature in C, speed in rpm, power in kW, position in mm, displacement
+/// in um) comes near 1e9; a value beyond is a broken reading, and refusing it
+/// keeps every model's state bounded (a finite but absurd sample could
+/// otherwise overflow the next step's arithmetic for as long as it stays in
+/// the history).
+pub const MAX_INPUT_MAGNITUDE: f64 = 1e9;
+
 /// A run-file column name.
 pub type Name = heapless::String<NAME_LEN>;
 
@@ -174,7 +182,8 @@ pub enum ModelError {
         error: TfError,
     },
     /// The ARMA forecaster's channel must be absolute (it forecasts the
-    /// channel itself) and its standard deviation positive.
+    /// channel itself), its standard deviation positive, its AR part
+    /// stationary and its MA part invertible.
     BadArma,
 }
 
@@ -190,7 +199,10 @@ impl core::fmt::Display for ModelError {
             Self::OutputUnused { output } => write!(f, "output #{output} is computed by nothing"),
             Self::BadSampleTime => write!(f, "bad sample time (dynamic models need dt_s > 0)"),
             Self::Tf { entry, error } => write!(f, "tf entry #{entry}: {error}"),
-            Self::BadArma => write!(f, "ARMA needs an absolute channel and std > 0"),
+            Self::BadArma => write!(
+                f,
+                "ARMA needs an absolute channel, std > 0, a stationary AR and an invertible MA part"
+            ),
         }
     }
 }
@@ -322,11 +334,11 @@ impl Model {
                 }
             }
             Params::Bp(net) => {
-                if !net.shapes_agree() {
-                    return Err(ModelError::ShapeMismatch);
-                }
                 if !net.is_finite() {
                     return Err(ModelError::NonFinite);
+                }
+                if !net.shapes_agree() {
+                    return Err(ModelError::ShapeMismatch);
                 }
                 for ch in &net.inputs {
                     index(*ch, n_in)?;
@@ -342,6 +354,9 @@ impl Model {
                     .inputs
                     .get(ch)
                     .is_some_and(|c| c.reference == Reference::Absolute);
+                if !arma.is_finite() {
+                    return Err(ModelError::NonFinite);
+                }
                 if !arma.is_valid() || !absolute {
                     return Err(ModelError::BadArma);
                 }
@@ -385,6 +400,12 @@ pub enum StepError {
         /// Index of the input channel.
         channel: u8,
     },
+    /// An input's magnitude exceeds [`MAX_INPUT_MAGNITUDE`]: a broken
+    /// reading, refused so that it never enters the model's state.
+    InputOutOfRange {
+        /// Index of the input channel.
+        channel: u8,
+    },
     /// The inputs are finite but so extreme that an output overflowed.
     NonFiniteOutput,
 }
@@ -397,6 +418,9 @@ impl core::fmt::Display for StepError {
             }
             Self::OutputSpace => write!(f, "output buffer too small"),
             Self::NonFiniteInput { channel } => write!(f, "input #{channel} is not finite"),
+            Self::InputOutOfRange { channel } => {
+                write!(f, "input #{channel} exceeds {MAX_INPUT_MAGNITUDE:e} in magnitude")
+            }
             Self::NonFiniteOutput => write!(f, "an output overflowed"),
         }
     }
@@ -497,48 +521,51 @@ impl ValidModel {
         if outputs.len() < n_out {
             return Err(StepError::OutputSpace);
         }
-        if let Some(ch) = inputs.iter().position(|v| !v.is_finite()) {
-            return Err(StepError::NonFiniteInput { channel: to_u8(ch) });
+        for (ch, v) in inputs.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(StepError::NonFiniteInput { channel: to_u8(ch) });
+            }
+            if libm::fabs(*v) > MAX_INPUT_MAGNITUDE {
+                return Err(StepError::InputOutOfRange { channel: to_u8(ch) });
+            }
         }
+        // Compute everything from the current state without touching it;
+        // commit only once every output is known to be finite, so a refused
+        // sample leaves the state exactly as it was (and nothing large is
+        // copied: only the small per-kind pieces that change).
         let first = !state.started;
-        let mut refs = state.references;
         let mut x = [0.0; MAX_CHANNELS];
         for (((xi, raw), ch), r) in x
             .iter_mut()
             .zip(inputs)
             .zip(&self.model.inputs)
-            .zip(refs.iter_mut())
+            .zip(&state.references)
         {
             *xi = match ch.reference {
                 Reference::Absolute => *raw,
                 Reference::Value(v) => raw - v,
-                Reference::First => {
-                    if first {
-                        *r = *raw;
-                    }
-                    raw - *r
-                }
+                // At the first sample the reference is the sample itself.
+                Reference::First if first => 0.0,
+                Reference::First => raw - r,
             };
         }
         let mut out = [0.0; MAX_OUTPUTS];
         let mut tf_out = [0.0; MAX_TF_ENTRIES];
-        let mut tf_hist = state.tf;
-        let mut arma_state = state.arma;
+        let mut arma_next: Option<ArmaState> = None;
         match &self.model.params {
             Params::Tf(entries) => {
-                for ((((entry, tf), hist), y), _) in entries
+                for (((entry, tf), hist), y) in entries
                     .iter()
                     .zip(&self.realised)
-                    .zip(tf_hist.iter_mut())
+                    .zip(&state.tf)
                     .zip(tf_out.iter_mut())
-                    .zip(0..)
                 {
                     let u = x.get(usize::from(entry.input)).copied().unwrap_or(0.0);
-                    if first {
-                        *hist = tf.steady_state(u);
-                    }
-                    *y = tf.output(hist, u);
-                    hist.push(u, *y);
+                    *y = if first {
+                        tf.output(&tf.steady_state(u), u)
+                    } else {
+                        tf.output(hist, u)
+                    };
                     if let Some(o) = out.get_mut(usize::from(entry.output)) {
                         *o += *y;
                     }
@@ -565,25 +592,48 @@ impl ValidModel {
             }),
             Params::Arma(arma) => {
                 let y = x.get(usize::from(arma.channel)).copied().unwrap_or(0.0);
-                let forecast = arma.forecast(&arma_state);
-                arma.observe(&mut arma_state, y, forecast);
+                let forecast = arma.forecast(&state.arma);
+                let mut next = state.arma;
+                arma.observe(&mut next, y, forecast);
+                if !Arma::state_is_finite(&next) {
+                    return Err(StepError::NonFiniteOutput);
+                }
+                arma_next = Some(next);
                 if let Some(o) = out.get_mut(usize::from(arma.output)) {
                     *o = forecast;
                 }
             }
         }
         let produced = out.get(..n_out).unwrap_or(&[]);
-        let tf_ok = tf_out.iter().all(|v| v.is_finite());
-        if !tf_ok || produced.iter().any(|v| !v.is_finite()) {
+        if tf_out.iter().chain(produced).any(|v| !v.is_finite()) {
             return Err(StepError::NonFiniteOutput);
         }
-        // Commit only now: a failed step leaves the state untouched.
+        // Commit.
         for (dst, src) in outputs.iter_mut().zip(produced) {
             *dst = *src;
         }
-        state.references = refs;
-        state.tf = tf_hist;
-        state.arma = arma_state;
+        if let Params::Tf(entries) = &self.model.params {
+            for (((entry, tf), hist), y) in entries
+                .iter()
+                .zip(&self.realised)
+                .zip(state.tf.iter_mut())
+                .zip(&tf_out)
+            {
+                let u = x.get(usize::from(entry.input)).copied().unwrap_or(0.0);
+                if first {
+                    *hist = tf.steady_state(u);
+                }
+                hist.push(u, *y);
+            }
+        }
+        if let Some(next) = arma_next {
+            state.arma = next;
+        }
+        if first {
+            for (r, raw) in state.references.iter_mut().zip(inputs) {
+                *r = *raw;
+            }
+        }
         state.started = true;
         Ok(())
     }
@@ -603,5 +653,36 @@ mod tests {
         extern crate std;
         std::eprintln!("ValidModel {model} B, ModelState {state} B");
         assert!(model + state < 12 * 1024, "{model} + {state} bytes");
+    }
+
+    fn arma(phi: &[f64], theta: &[f64]) -> Model {
+        Model {
+            inputs: heapless::Vec::from_slice(&[Channel {
+                name: Name::try_from("dz_um").unwrap(),
+                reference: Reference::Absolute,
+            }])
+            .unwrap(),
+            outputs: heapless::Vec::from_slice(&[Name::try_from("dz_um").unwrap()]).unwrap(),
+            dt_s: 60.0,
+            params: Params::Arma(Arma {
+                channel: 0,
+                output: 0,
+                mean: 0.0,
+                std: 1.0,
+                diff: 1,
+                constant: 0.0,
+                phi: heapless::Vec::from_slice(phi).unwrap(),
+                theta: heapless::Vec::from_slice(theta).unwrap(),
+            }),
+        }
+    }
+
+    #[test]
+    fn arma_must_be_stationary_and_invertible() {
+        // AR roots of z^2 - 0.5 z - 0.3: 0.852 and -0.352, inside: accepted.
+        assert!(arma(&[0.5, 0.3], &[-0.4]).validate().is_ok());
+        // AR root 1.05 (explosive) and MA root -1.5 (non-invertible): refused.
+        assert_eq!(arma(&[1.05], &[]).validate(), Err(ModelError::BadArma));
+        assert_eq!(arma(&[0.5], &[1.5]).validate(), Err(ModelError::BadArma));
     }
 }

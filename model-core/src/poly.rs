@@ -8,8 +8,9 @@
 //! low orders used here (at most [`MAX_ORDER`]); a factor `(1 - r q)` is
 //! removed by synthetic division.
 
-/// Highest polynomial order handled (coefficients per polynomial: `MAX_ORDER + 1`).
-pub const MAX_ORDER: usize = 8;
+/// Highest polynomial order whose roots are found: transfer functions
+/// (order <= 8) and ARMA's AR/MA polynomials (order <= 10).
+pub const MAX_ORDER: usize = 10;
 
 /// A complex number, just enough arithmetic for root finding.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -163,6 +164,7 @@ pub fn roots(coeffs: &[f64]) -> Result<Roots, RootsError> {
         *zi = p;
     }
     const MAX_ITER: usize = 2000;
+    let mut previous = f64::INFINITY;
     for _ in 0..MAX_ITER {
         let mut worst = 0.0_f64;
         for i in 0..n {
@@ -186,9 +188,13 @@ pub fn roots(coeffs: &[f64]) -> Result<Roots, RootsError> {
         if worst.is_nan() {
             return Err(RootsError::NoConvergence);
         }
-        if worst < 1e-15 {
+        // Converged: steps at rounding level, or no longer shrinking once
+        // small (rounding noise stalls the iteration short of 1e-15 for roots
+        // near |z| = 1, and multiple roots only converge linearly).
+        if worst < 1e-15 || (worst < 1e-9 && worst > 0.5 * previous) {
             break;
         }
+        previous = worst;
     }
     // Multiple roots converge only linearly; accept what the iteration gives
     // (accurate to about sqrt(eps) there) as long as every root is finite.

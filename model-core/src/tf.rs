@@ -25,9 +25,11 @@
 //! stable direct form. A pole on or outside the unit circle without a
 //! cancelling zero is rejected: it would integrate any offset without bound.
 
-use crate::poly::{self, MAX_ORDER};
+use crate::poly;
 use serde::{Deserialize, Serialize};
 
+/// Highest TF order (delays in `a` or `b`); seed 004 needs 3.
+pub const MAX_ORDER: usize = 8;
 /// Coefficients per polynomial.
 pub const MAX_COEFFS: usize = MAX_ORDER + 1;
 

@@ -23,7 +23,7 @@ use model_core::arma::Arma;
 use model_core::blob::{self, crc32, BlobError, FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_BLOB_LEN};
 use model_core::bp::{Activation, BpNet};
 use model_core::linear::{Coef, Linear, LinearOutput};
-use model_core::model::StepError;
+use model_core::model::{StepError, MAX_INPUT_MAGNITUDE};
 use model_core::pcr::{Component, Pcr, PcrOutput};
 use model_core::position::PositionTerm;
 use model_core::tf::{RealisedTf, TfEntry, TfError};
@@ -710,7 +710,7 @@ fn non_finite_coefficients_are_refused() {
         for (label, model) in cases {
             refused_both_ways(&format!("{label} = {bad}"), model, NonFinite);
         }
-        // ARMA folds finiteness into its own check (`Arma::is_valid`).
+        // ARMA coefficients are checked for finiteness like every other kind.
         for (label, model) in [
             ("arma phi", with_arma(|a| a.phi[1] = bad)),
             ("arma theta", with_arma(|a| a.theta[0] = bad)),
@@ -718,7 +718,7 @@ fn non_finite_coefficients_are_refused() {
             ("arma std", with_arma(|a| a.std = bad)),
             ("arma constant", with_arma(|a| a.constant = bad)),
         ] {
-            refused_both_ways(&format!("{label} = {bad}"), model, ModelError::BadArma);
+            refused_both_ways(&format!("{label} = {bad}"), model, NonFinite);
         }
         // A dynamic model's sample time.
         refused_both_ways(
@@ -731,9 +731,8 @@ fn non_finite_coefficients_are_refused() {
             ModelError::BadSampleTime,
         );
     }
-    // The mapminmax scales: an infinite one is NonFinite. A NaN one fails the
-    // `x_min <= x_max` ordering check first (NaN compares false), so it is
-    // reported as ShapeMismatch; either way it is refused.
+    // The mapminmax scales: infinite or NaN, both are NonFinite (finiteness is
+    // checked before the `x_min <= x_max` ordering, which NaN would fail).
     refused_both_ways(
         "bp x_min = -inf",
         with_bp(|n| n.x_min[0] = f64::NEG_INFINITY),
@@ -747,7 +746,7 @@ fn non_finite_coefficients_are_refused() {
     refused_both_ways(
         "bp x_max = NaN",
         with_bp(|n| n.x_max[2] = f64::NAN),
-        ModelError::ShapeMismatch,
+        NonFinite,
     );
 }
 
@@ -1150,9 +1149,8 @@ proptest! {
                         "{}: {:?} -> {:?}", label, &sample[..n_in], out
                     );
                     prop_assert!(state.started());
-                    // ARMA excepted: arma_state_stays_finite_after_extreme_input.
                     prop_assert!(
-                        label == "arma" || state_is_finite(&state),
+                        state_is_finite(&state),
                         "{}: {:?} -> {:?}", label, &sample[..n_in], state
                     );
                 }
@@ -1162,8 +1160,17 @@ proptest! {
                         "{}: {:?} wrote {:?}", label, e, out
                     );
                     prop_assert!(state == before, "{}: {:?} changed the state", label, e);
-                    if let Some(ch) = sample[..n_in].iter().position(|v| !v.is_finite()) {
-                        prop_assert_eq!(e, StepError::NonFiniteInput { channel: ch as u8 });
+                    // The first bad channel is named, whatever made it bad.
+                    let bad = sample[..n_in]
+                        .iter()
+                        .position(|v| !v.is_finite() || v.abs() > MAX_INPUT_MAGNITUDE);
+                    if let Some(ch) = bad {
+                        let expected = if sample[ch].is_finite() {
+                            StepError::InputOutOfRange { channel: ch as u8 }
+                        } else {
+                            StepError::NonFiniteInput { channel: ch as u8 }
+                        };
+                        prop_assert_eq!(e, expected);
                     }
                 }
             }
@@ -1217,20 +1224,18 @@ fn state_stays_finite_after_extreme_inputs() {
     }
 }
 
-/// Known model-core bug, kept as a reproducer. ARMA's `observe` computes
+/// Regression test for a bug found by this file. ARMA's `observe` computed
 /// `z = (y - mean) / std` and the innovation `(y - yhat) / std` unchecked,
-/// and `step` checks only the outputs, so a finite but extreme sample is
-/// accepted (`Ok`, the forecast was made before it) and poisons the state:
+/// and `step` checked only the outputs, so a finite but extreme sample was
+/// accepted (`Ok`, the forecast was made before it) and poisoned the state:
 /// after 1e300, -1e300, f64::MAX the innovation `MAX - yhat` (yhat about
 /// -1e300) overflows and `e[0] = inf` is stored. Even a single f64::MAX
 /// after ordinary samples leaves `z[0] = 2.9e307`, from which every later
 /// forecast overflows. Either way every later step fails with
 /// `NonFiniteOutput` and, as failed steps do not commit, the model never
-/// recovers until its state is reset. Remove the `ignore` once `step`
-/// refuses a sample whose standardised value or innovation is not finite
-/// (or bounds them).
+/// recovered until its state was reset. `step` now refuses inputs beyond
+/// `MAX_INPUT_MAGNITUDE` and any step whose new ARMA state is not finite.
 #[test]
-#[ignore = "model-core bug: ARMA lets inf into its state (see doc comment)"]
 fn arma_state_stays_finite_after_extreme_input() {
     let vm = valid(arma_2_1_d1());
     for extreme in [&[1e300, -1e300, f64::MAX][..], &[f64::MAX][..]] {
