@@ -419,7 +419,10 @@ impl core::fmt::Display for StepError {
             Self::OutputSpace => write!(f, "output buffer too small"),
             Self::NonFiniteInput { channel } => write!(f, "input #{channel} is not finite"),
             Self::InputOutOfRange { channel } => {
-                write!(f, "input #{channel} exceeds {MAX_INPUT_MAGNITUDE:e} in magnitude")
+                write!(
+                    f,
+                    "input #{channel} exceeds {MAX_INPUT_MAGNITUDE:e} in magnitude"
+                )
             }
             Self::NonFiniteOutput => write!(f, "an output overflowed"),
         }
