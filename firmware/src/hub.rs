@@ -48,6 +48,9 @@ impl Offsets {
 pub struct Faults {
     /// An input was NaN or infinite (a sensor missing or broken).
     pub missing_input: u32,
+    /// An input was finite but beyond `model_core::model::MAX_INPUT_MAGNITUDE`
+    /// (a broken conversion).
+    pub out_of_range: u32,
     /// The inputs were finite but an output overflowed.
     pub overflow: u32,
     /// Anything else (wrong number of readings: a bug in the caller).
@@ -60,6 +63,7 @@ impl Faults {
     /// All refused samples.
     pub fn total(&self) -> u32 {
         self.missing_input
+            .saturating_add(self.out_of_range)
             .saturating_add(self.overflow)
             .saturating_add(self.other)
     }
@@ -67,6 +71,7 @@ impl Faults {
     fn count(&mut self, error: StepError) {
         let counter = match error {
             StepError::NonFiniteInput { .. } => &mut self.missing_input,
+            StepError::InputOutOfRange { .. } => &mut self.out_of_range,
             StepError::NonFiniteOutput => &mut self.overflow,
             _ => &mut self.other,
         };
@@ -412,6 +417,7 @@ mod tests {
             hub.faults(),
             Faults {
                 missing_input: 5,
+                out_of_range: 0,
                 overflow: 0,
                 other: 0,
                 consecutive: 4
@@ -427,18 +433,18 @@ mod tests {
     }
 
     #[test]
-    fn wrong_reading_count_and_overflow_hold_offsets() {
+    fn wrong_reading_count_and_absurd_readings_hold_offsets() {
         let (slot, _) = slot_with(&linear_model());
         let mut hub = Hub::load(&slot);
         let good = hub.on_sample(&[10.0, 24.0]);
         assert_eq!(hub.on_sample(&[10.0]).values, good.values);
         assert_eq!(hub.on_sample(&[]).values, good.values);
-        // Finite inputs whose result overflows f64.
+        // A finite but absurd reading (a broken conversion) is refused.
         let o = hub.on_sample(&[f64::MAX, 24.0]);
         assert_eq!(o.values, good.values);
         assert_finite(&o);
         let f = hub.faults();
-        assert_eq!((f.other, f.overflow, f.total()), (2, 1, 3));
+        assert_eq!((f.other, f.out_of_range, f.total()), (2, 1, 3));
     }
 
     #[test]
