@@ -1,33 +1,22 @@
 //! `thermcomp eval`: a model's predictions scored against the measured
 //! columns, over all runs together and per run (CONTRACT.md section 1).
 
-use crate::predict::read_runs;
-use crate::runner::{self, ColumnMap};
+use crate::runner;
+use crate::source::{ModelSource, RunSource};
 use anyhow::{anyhow, Result};
 use clap::Args;
 use model_core::metrics::{Metrics, MetricsAccumulator};
 use serde_json::{json, Map, Value};
-use std::path::PathBuf;
 
 /// Arguments of `thermcomp eval`.
 #[derive(Args)]
 pub struct EvalArgs {
-    /// The model blob.
-    #[arg(long, required_unless_present = "spec", conflicts_with = "spec")]
-    pub model: Option<PathBuf>,
-    /// Or a model spec (TOML), built in memory exactly as `model build` would.
-    #[arg(long)]
-    pub spec: Option<PathBuf>,
-    /// A run file (CSV); give it several times for several runs.
-    #[arg(long, required = true)]
-    pub data: Vec<PathBuf>,
-    /// Read model name NAME from column COLUMN (repeatable): an input, or an
-    /// output compared with a differently named measured column (dz_um=ch1_um).
-    #[arg(long = "map", value_name = "NAME=COLUMN")]
-    pub map: Vec<String>,
-    /// Skip rows with unparsable cells instead of failing (they are counted and reported).
-    #[arg(long)]
-    pub skip_bad_rows: bool,
+    /// The model to run.
+    #[command(flatten)]
+    pub model: ModelSource,
+    /// The runs to run it on.
+    #[command(flatten)]
+    pub runs: RunSource,
     /// Print one JSON object keyed by target column.
     #[arg(long)]
     pub json: bool,
@@ -53,9 +42,9 @@ fn metrics_json(m: &Metrics) -> Value {
 
 /// Runs `thermcomp eval`.
 pub fn run(a: &EvalArgs) -> Result<()> {
-    let model = crate::blobfile::load(a.model.as_deref(), a.spec.as_deref())?;
-    let map = ColumnMap::parse(&a.map)?;
-    let runs = read_runs(&a.data, a.skip_bad_rows, map.model_columns(&model, true))?;
+    let model = a.model.load()?;
+    let map = a.runs.column_map()?;
+    let runs = a.runs.read(map.model_columns(&model, true))?;
     let n_out = model.outputs().len();
     let mut all = vec![MetricsAccumulator::new(); n_out];
     let mut per_run: Vec<Vec<Value>> = vec![Vec::new(); n_out];

@@ -7,4 +7,5 @@ pub mod predict;
 pub mod runfile;
 pub mod runner;
 pub mod show;
+pub mod source;
 pub mod spec;

@@ -1,7 +1,7 @@
 //! `thermcomp predict`: a model's outputs for run files, row for row.
 
-use crate::runfile::{ReadOptions, RunFile};
-use crate::runner::{self, ColumnMap};
+use crate::runner;
+use crate::source::{ModelSource, RunSource};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::io::Write;
@@ -10,56 +10,19 @@ use std::path::PathBuf;
 /// Arguments of `thermcomp predict`.
 #[derive(Args)]
 pub struct PredictArgs {
-    /// The model blob.
-    #[arg(long, required_unless_present = "spec", conflicts_with = "spec")]
-    pub model: Option<PathBuf>,
-    /// Or a model spec (TOML), built in memory exactly as `model build` would.
-    #[arg(long)]
-    pub spec: Option<PathBuf>,
-    /// A run file (CSV); give it several times for several runs (each
-    /// restarts the model's state; the output then has a leading `run` column).
-    #[arg(long, required = true)]
-    pub data: Vec<PathBuf>,
-    /// Where to write `t_s` and one `<output>_pred` column per model output.
+    /// The model to run.
+    #[command(flatten)]
+    pub model: ModelSource,
+    /// The runs to run it on.
+    #[command(flatten)]
+    pub runs: RunSource,
+    /// Where to write `t_s` and one `<output>_pred` column per model output
+    /// (with several runs, a leading `run` column names each row's file).
     #[arg(long)]
     pub out: PathBuf,
-    /// Read model name NAME from column COLUMN (repeatable), e.g. T1=T5.
-    #[arg(long = "map", value_name = "NAME=COLUMN")]
-    pub map: Vec<String>,
-    /// Skip rows with unparsable cells instead of failing (they are counted and reported).
-    #[arg(long)]
-    pub skip_bad_rows: bool,
     /// Print a JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
-}
-
-/// Reads every `--data` file, parsing only the columns in `needed` (other
-/// columns are kept by name and ignored), reporting skipped rows on stderr.
-pub fn read_runs(
-    paths: &[PathBuf],
-    skip_bad_rows: bool,
-    needed: Vec<String>,
-) -> Result<Vec<RunFile>> {
-    let opts = ReadOptions {
-        skip_bad_rows,
-        only: Some(needed),
-    };
-    paths
-        .iter()
-        .map(|p| {
-            let run = RunFile::read(p, &opts)?;
-            if !run.skipped.is_empty() {
-                eprintln!(
-                    "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
-                    p.display(),
-                    run.skipped.len(),
-                    run.skipped[0].reason
-                );
-            }
-            Ok(run)
-        })
-        .collect()
 }
 
 /// Writes an empty cell for a missing value, else the shortest exact text.
@@ -69,9 +32,9 @@ fn cell(v: Option<f64>) -> String {
 
 /// Runs `thermcomp predict`.
 pub fn run(a: &PredictArgs) -> Result<()> {
-    let model = crate::blobfile::load(a.model.as_deref(), a.spec.as_deref())?;
-    let map = ColumnMap::parse(&a.map)?;
-    let runs = read_runs(&a.data, a.skip_bad_rows, map.model_columns(&model, false))?;
+    let model = a.model.load()?;
+    let map = a.runs.column_map()?;
+    let runs = a.runs.read(map.model_columns(&model, false))?;
     let file = std::fs::File::create(&a.out)
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     let mut w = std::io::BufWriter::new(file);

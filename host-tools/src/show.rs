@@ -4,6 +4,7 @@
 
 use model_core::blob::{crc32, FORMAT_VERSION, HEADER_LEN, TRAILER_LEN};
 use model_core::poly::{self, Complex};
+use model_core::position::PositionTerm;
 use model_core::{Params, Reference, ValidModel};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -122,8 +123,7 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
                         "output": name_of(model.outputs(), eq.output),
                         "intercept": eq.intercept,
                         "coef": coef,
-                        "position": eq.position.as_ref().map(|p| json!({
-                            "input": input_of(model, p.channel), "poly": p.poly.as_slice(), "k0": p.k0})),
+                        "position": eq.position.as_ref().map(|p| position_json(model, p)),
                     })
                 })
                 .collect(),
@@ -147,8 +147,7 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
                         "intercept": eq.intercept,
                         "beta": eq.beta.as_slice(),
                         "equivalent_linear": {"intercept": d0, "coef": collapsed},
-                        "position": eq.position.as_ref().map(|p| json!({
-                            "input": input_of(model, p.channel), "poly": p.poly.as_slice(), "k0": p.k0})),
+                        "position": eq.position.as_ref().map(|p| position_json(model, p)),
                     })
                 })
                 .collect(),
@@ -184,6 +183,35 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
         "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
         "coefficients": coefficients,
     })
+}
+
+fn position_json(model: &ValidModel, p: &PositionTerm) -> Value {
+    json!({"input": input_of(model, p.channel), "poly": p.poly.as_slice(), "k0": p.k0})
+}
+
+/// `lhs = rhs`, or, with a position term, `k = rhs` and the positioning error.
+fn regression_text(
+    s: &mut String,
+    model: &ValidModel,
+    lhs: &str,
+    rhs: &str,
+    position: Option<&PositionTerm>,
+) {
+    match position {
+        None => {
+            let _ = writeln!(s, "  {lhs} = {rhs}");
+        }
+        Some(p) => {
+            let pos = input_of(model, p.channel);
+            let _ = writeln!(s, "  k = {rhs}");
+            let _ = writeln!(
+                s,
+                "  {lhs} = poly({pos}) + (k - {}) * {pos}, poly = {}",
+                p.k0,
+                list(&p.poly)
+            );
+        }
+    }
 }
 
 fn list(v: &[f64]) -> String {
@@ -249,22 +277,7 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                     let _ = write!(line, " {:+} {}", c.value, input_of(model, c.channel));
                 }
                 let lhs = name_of(model.outputs(), eq.output);
-                match &eq.position {
-                    None => {
-                        let _ = writeln!(s, "  {lhs} = {line}");
-                    }
-                    Some(p) => {
-                        let _ = writeln!(s, "  k = {line}");
-                        let _ = writeln!(
-                            s,
-                            "  {lhs} = poly({}) + (k - {}) * {}, poly = {}",
-                            input_of(model, p.channel),
-                            p.k0,
-                            input_of(model, p.channel),
-                            list(&p.poly)
-                        );
-                    }
-                }
+                regression_text(&mut s, model, lhs, &line, eq.position.as_ref());
             }
         }
         Params::Pcr(pcr) => {
@@ -282,23 +295,13 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                 for (j, b) in eq.beta.iter().enumerate() {
                     let _ = write!(line, " {b:+} C{}", j + 1);
                 }
-                let _ = writeln!(s, "  {lhs} = {line}");
                 let (d0, d) = eq.equivalent_linear();
-                let mut line = format!("{d0:.6}");
+                let mut collapsed = format!("{d0:.6}");
                 for (v, n) in d.iter().zip(&inputs) {
-                    let _ = write!(line, " {v:+.6} {n}");
+                    let _ = write!(collapsed, " {v:+.6} {n}");
                 }
-                let _ = writeln!(s, "    equivalently {lhs} = {line}");
-                if let Some(p) = &eq.position {
-                    let _ = writeln!(
-                        s,
-                        "    positional: poly({}) + ({lhs} - {}) * {}, poly = {}",
-                        input_of(model, p.channel),
-                        p.k0,
-                        input_of(model, p.channel),
-                        list(&p.poly)
-                    );
-                }
+                let _ = write!(line, "\n    = {collapsed}");
+                regression_text(&mut s, model, lhs, &line, eq.position.as_ref());
             }
         }
         Params::Bp(net) => {

@@ -1,0 +1,74 @@
+//! The arguments that name a model and the runs to apply it to, shared by
+//! every subcommand that runs a model (`predict`, `eval`, and later `replay`).
+
+use crate::runfile::{ReadOptions, RunFile};
+use crate::runner::ColumnMap;
+use anyhow::Result;
+use clap::Args;
+use model_core::ValidModel;
+use std::path::PathBuf;
+
+/// `--model BLOB` or `--spec SPEC.toml`.
+#[derive(Args)]
+pub struct ModelSource {
+    /// The model blob.
+    #[arg(long, required_unless_present = "spec", conflicts_with = "spec")]
+    pub model: Option<PathBuf>,
+    /// Or a model spec (TOML), built in memory exactly as `model build` would.
+    #[arg(long)]
+    pub spec: Option<PathBuf>,
+}
+
+impl ModelSource {
+    /// The validated model.
+    pub fn load(&self) -> Result<ValidModel> {
+        crate::blobfile::load(self.model.as_deref(), self.spec.as_deref())
+    }
+}
+
+/// `--data` (repeatable), `--map`, `--skip-bad-rows`.
+#[derive(Args)]
+pub struct RunSource {
+    /// A run file (CSV); give it several times for several runs (each
+    /// restarts the model's state).
+    #[arg(long, required = true)]
+    pub data: Vec<PathBuf>,
+    /// Read model name NAME from column COLUMN (repeatable): an input (T1=T5),
+    /// or an output compared with a differently named column (dz_um=ch1_um).
+    #[arg(long = "map", value_name = "NAME=COLUMN")]
+    pub map: Vec<String>,
+    /// Skip rows with unparsable cells instead of failing (they are counted and reported).
+    #[arg(long)]
+    pub skip_bad_rows: bool,
+}
+
+impl RunSource {
+    /// The `--map` pairs.
+    pub fn column_map(&self) -> Result<ColumnMap> {
+        ColumnMap::parse(&self.map)
+    }
+
+    /// Reads every run, parsing only the columns in `needed` (others are kept
+    /// by name and ignored), and reports skipped rows on stderr.
+    pub fn read(&self, needed: Vec<String>) -> Result<Vec<RunFile>> {
+        let opts = ReadOptions {
+            skip_bad_rows: self.skip_bad_rows,
+            only: Some(needed),
+        };
+        self.data
+            .iter()
+            .map(|p| {
+                let run = RunFile::read(p, &opts)?;
+                if let Some(first) = run.skipped.first() {
+                    eprintln!(
+                        "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
+                        p.display(),
+                        run.skipped.len(),
+                        first.reason
+                    );
+                }
+                Ok(run)
+            })
+            .collect()
+    }
+}
