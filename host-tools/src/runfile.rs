@@ -33,7 +33,7 @@ pub const TIME_COLUMN: &str = "t_s";
 /// 50 million points (400 MB of `f64`) is far beyond any real run (a week at
 /// 100 Hz is 60 million), so hitting it means a wrong unit or a swapped
 /// argument, which is better reported than answered by exhausting memory.
-pub const MAX_GRID_POINTS: usize = 50_000_000;
+pub const MAX_GRID_POINTS: usize = 10_000_000;
 
 /// Cell text longer than this many characters is shortened in error messages,
 /// so that a run of garbage (say, a binary file read by mistake) still gives a
