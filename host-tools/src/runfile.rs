@@ -30,9 +30,10 @@ pub const TIME_COLUMN: &str = "t_s";
 
 /// Largest grid [`uniform_grid`] will build.
 ///
-/// 50 million points (400 MB of `f64`) is far beyond any real run (a week at
-/// 100 Hz is 60 million), so hitting it means a wrong unit or a swapped
-/// argument, which is better reported than answered by exhausting memory.
+/// 10 million points is far beyond any real run on a model's grid (115 days
+/// at 1 s; the runner keeps a few `Option<f64>` vectors of this length per
+/// channel), so hitting it means a wrong unit or a swapped argument, which is
+/// better reported than answered by exhausting memory.
 pub const MAX_GRID_POINTS: usize = 10_000_000;
 
 /// Cell text longer than this many characters is shortened in error messages,
@@ -889,7 +890,7 @@ pub fn resample_linear(t: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option
 }
 
 /// The uniform grid t0, t0+dt, ... up to and including the last time <= t_end
-/// (guard dt <= 0/non-finite and absurd sizes with an error, e.g. > 50 million
+/// (guard dt <= 0/non-finite and absurd sizes with an error, e.g. > 10 million
 /// points).
 ///
 /// The time base onto which runs are resampled for fitting and evaluation.
@@ -1549,13 +1550,13 @@ mod tests {
         );
         assert_eq!(
             msg(uniform_grid(0.0, 1e300, 1.0)),
-            "time grid from 0 s to 1e300 s every 1 s would exceed 50000000 points"
+            "time grid from 0 s to 1e300 s every 1 s would exceed 10000000 points"
         );
         assert!(matches!(
             uniform_grid(-f64::MAX, f64::MAX, 1e300),
             Err(GridError::TooManyPoints { .. })
         ));
-        // The limit is checked at its edge without building a 400 MB grid.
+        // The limit is checked at its edge without building an 80 MB grid.
         assert!(matches!(
             uniform_grid(0.0, MAX_GRID_POINTS as f64, 1.0),
             Err(GridError::TooManyPoints { .. })
