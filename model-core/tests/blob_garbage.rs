@@ -16,181 +16,28 @@
 //! - `step` never writes a non-finite output, and a refused step changes
 //!   neither the output buffer nor the state.
 //!
-//! Models are built from model-core types directly (no spec reader), one per
-//! kind, with published coefficients where a seed paper prints them.
+//! The models, one per kind with published coefficients where a seed paper
+//! prints them, are the shared fixtures of `tests/common/mod.rs`.
 
+mod common;
+
+use common::{
+    arma_2_1_d1, bp_3_4_2, from_roots, hv, linear_seed002, name, pcr_seed003, tf_sp2_ambient,
+};
 use model_core::arma::Arma;
 use model_core::blob::{self, crc32, BlobError, FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_BLOB_LEN};
-use model_core::bp::{Activation, BpNet};
-use model_core::linear::{Coef, Linear, LinearOutput};
+use model_core::bp::BpNet;
+use model_core::linear::LinearOutput;
 use model_core::model::{StepError, MAX_INPUT_MAGNITUDE};
-use model_core::pcr::{Component, Pcr, PcrOutput};
+use model_core::pcr::PcrOutput;
 use model_core::position::PositionTerm;
 use model_core::tf::{RealisedTf, TfEntry, TfError};
-use model_core::{
-    decode, Channel, Model, ModelError, ModelKind, ModelState, Name, Params, Reference, ValidModel,
-};
+use model_core::{decode, Model, ModelError, ModelKind, ModelState, Params, Reference, ValidModel};
 use proptest::prelude::*;
 
 // ---------------------------------------------------------------------------
-// Model builders
+// Models
 // ---------------------------------------------------------------------------
-
-fn hv<T: Clone, const N: usize>(values: &[T]) -> heapless::Vec<T, N> {
-    heapless::Vec::from_slice(values).expect("test data fits the capacity")
-}
-
-fn name(s: &str) -> Name {
-    Name::try_from(s).expect("short name")
-}
-
-fn chan(s: &str, reference: Reference) -> Channel {
-    Channel {
-        name: name(s),
-        reference,
-    }
-}
-
-fn outputs(names: &[&str]) -> heapless::Vec<Name, { model_core::model::MAX_OUTPUTS }> {
-    names.iter().map(|n| name(n)).collect()
-}
-
-/// Seed 004 Eq. 2 with Table 3's SP2 and Table 2's ambient TF, as
-/// `examples/seed004_sp2_ambient.toml` writes it.
-fn tf_sp2_ambient() -> Model {
-    Model {
-        inputs: [
-            chan("T1", Reference::First),
-            chan("ambient_c", Reference::First),
-        ]
-        .into_iter()
-        .collect(),
-        outputs: outputs(&["dz_um"]),
-        dt_s: 1.0,
-        params: Params::Tf(hv(&[
-            TfEntry {
-                output: 0,
-                input: 0,
-                a: hv(&[16.0005, -15.9975, 0.0]),
-                b: hv(&[1.0, -0.99983]),
-            },
-            TfEntry {
-                output: 0,
-                input: 1,
-                a: hv(&[-0.0251, 0.0251, 0.0]),
-                b: hv(&[1.0, -1.9985, 0.9985]),
-            },
-        ])),
-    }
-}
-
-/// Seed 002 Eq. 6: `x_m = -0.2565 + 0.0189 T3 - 0.0124 T4 + 0.0082 T10 - 0.0074 T12`.
-fn linear_seed002() -> Model {
-    let cols = ["T3", "T4", "T10", "T12"];
-    let values = [0.0189, -0.0124, 0.0082, -0.0074];
-    Model {
-        inputs: cols.iter().map(|c| chan(c, Reference::Absolute)).collect(),
-        outputs: outputs(&["x_um"]),
-        dt_s: 0.0,
-        params: Params::Linear(Linear {
-            outputs: hv(&[LinearOutput {
-                output: 0,
-                intercept: -0.2565,
-                coef: (0u8..)
-                    .zip(values)
-                    .map(|(channel, value)| Coef { channel, value })
-                    .collect(),
-                position: None,
-            }]),
-        }),
-    }
-}
-
-/// Seed 003 Eq. 13 and 14 (one principal component of five temperatures);
-/// with `position`, Eq. 16's Y-axis positioning error (k0 = -0.0171).
-fn pcr_seed003(position: bool) -> Model {
-    let mut inputs: heapless::Vec<Channel, { model_core::model::MAX_CHANNELS }> =
-        ["T1", "T2", "T5", "T7", "T11"]
-            .iter()
-            .map(|c| chan(c, Reference::Absolute))
-            .collect();
-    let position = position.then(|| {
-        inputs
-            .push(chan("y_mm", Reference::Absolute))
-            .expect("room");
-        PositionTerm {
-            channel: 5,
-            poly: hv(&[-1.6437, 0.0, -0.0144, 1.5173e-4, -5.5207e-7, 6.8499e-10]),
-            k0: -0.0171,
-        }
-    });
-    Model {
-        inputs,
-        outputs: outputs(&["k"]),
-        dt_s: 0.0,
-        params: Params::Pcr(Pcr {
-            outputs: hv(&[PcrOutput {
-                output: 0,
-                inputs: hv(&[0, 1, 2, 3, 4]),
-                components: hv(&[Component {
-                    intercept: -50.6062,
-                    weights: hv(&[0.1631, 0.4902, 0.2512, 0.6614, 1.1666]),
-                }]),
-                intercept: -0.3243,
-                beta: hv(&[0.0396]),
-                position,
-            }]),
-        }),
-    }
-}
-
-/// A small 3-4-2 net (tansig hidden layer, purelin outputs) with made-up
-/// weights: the decoder does not care where weights come from.
-fn bp_3_4_2() -> Model {
-    Model {
-        inputs: ["T1", "T2", "T3"]
-            .iter()
-            .map(|c| chan(c, Reference::Absolute))
-            .collect(),
-        outputs: outputs(&["dx_um", "dz_um"]),
-        dt_s: 0.0,
-        params: Params::Bp(BpNet {
-            inputs: hv(&[0, 1, 2]),
-            outputs: hv(&[0, 1]),
-            hidden_activation: Activation::Tansig,
-            output_activation: Activation::Purelin,
-            w1: hv(&[
-                0.5, -0.25, 0.125, 1.0, 0.0, -0.75, -0.3, 0.6, 0.2, 0.05, -0.45, 0.9,
-            ]),
-            b1: hv(&[0.1, -0.2, 0.3, -0.4]),
-            w2: hv(&[0.8, -0.6, 0.4, 0.2, -0.1, 0.7, -0.5, 0.3]),
-            b2: hv(&[0.05, -0.05]),
-            x_min: hv(&[18.0, 19.0, 20.0]),
-            x_max: hv(&[35.0, 38.0, 41.0]),
-            y_min: hv(&[-5.0, -40.0]),
-            y_max: hv(&[5.0, 2.0]),
-        }),
-    }
-}
-
-/// ARMA(2, 1) on the once-differenced, standardised series (seed 001's form).
-fn arma_2_1_d1() -> Model {
-    Model {
-        inputs: [chan("dz_um", Reference::Absolute)].into_iter().collect(),
-        outputs: outputs(&["dz_um"]),
-        dt_s: 60.0,
-        params: Params::Arma(Arma {
-            channel: 0,
-            output: 0,
-            mean: -12.5,
-            std: 6.25,
-            diff: 1,
-            constant: 0.01,
-            phi: hv(&[0.6, -0.2]),
-            theta: hv(&[0.3]),
-        }),
-    }
-}
 
 /// One model of each kind (and PCR with and without the position term, so
 /// both arms of the `Option` are on the wire).
@@ -941,20 +788,6 @@ fn coeff() -> impl Strategy<Value = f64> {
         1 => Just(1.0),
         1 => Just(-1.0),
     ]
-}
-
-/// `(1 - r1 q)(1 - r2 q)...` for real roots `rs`, ascending powers of q.
-fn from_roots(rs: &[f64]) -> Vec<f64> {
-    let mut p = vec![1.0];
-    for r in rs {
-        let mut next = vec![0.0; p.len() + 1];
-        for (i, c) in p.iter().enumerate() {
-            next[i] += c;
-            next[i + 1] -= r * c;
-        }
-        p = next;
-    }
-    p
 }
 
 fn mul(p: &[f64], q: &[f64]) -> Vec<f64> {
