@@ -21,8 +21,11 @@ fn cell() -> impl Strategy<Value = String> {
 }
 
 fn csv_text() -> impl Strategy<Value = String> {
-    (1usize..5, proptest::collection::vec(proptest::collection::vec(cell(), 0..6), 0..30)).prop_map(
-        |(n_cols, rows)| {
+    (
+        1usize..5,
+        proptest::collection::vec(proptest::collection::vec(cell(), 0..6), 0..30),
+    )
+        .prop_map(|(n_cols, rows)| {
             let mut s = String::from("t_s");
             for c in 1..n_cols {
                 s.push_str(&format!(",T{c}"));
@@ -33,8 +36,7 @@ fn csv_text() -> impl Strategy<Value = String> {
                 s.push('\n');
             }
             s
-        },
-    )
+        })
 }
 
 const TF_SPEC: &str = "kind = \"tf\"\ndt_s = 1.0\n[[tf]]\noutput = \"dz_um\"\ninput = \"T1\"\na = [0.5]\nb = [1.0, -0.5]\n";
