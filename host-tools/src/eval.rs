@@ -22,7 +22,8 @@ pub struct EvalArgs {
     pub json: bool,
 }
 
-fn metrics_json(m: &Metrics) -> Value {
+/// The contract's metric keys (CONTRACT.md section 1) and a few more.
+pub fn metrics_json(m: &Metrics) -> Value {
     json!({
         "n": m.n,
         "rmse_um": m.rmse,

@@ -2,10 +2,13 @@
 //! subcommands, kept apart from `main` so tests can call them directly.
 
 pub mod blobfile;
+pub mod dataset;
 pub mod eval;
+pub mod fit;
 pub mod predict;
 pub mod runfile;
 pub mod runner;
+pub mod score;
 pub mod show;
 pub mod source;
 pub mod spec;

@@ -5,7 +5,7 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
-use host_tools::{blobfile, eval, predict, show, spec};
+use host_tools::{blobfile, eval, fit, predict, show, spec};
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -34,6 +34,8 @@ enum Command {
     /// mean_abs_um of |r|; dpk_um = |max r| + |min r|; reduction_pct =
     /// (1 - mean|r| / mean|y|) * 100.
     Eval(eval::EvalArgs),
+    /// Train a model (mlr, pcr) on calibration rows, score it on held-out rows, write the blob.
+    Fit(fit::FitArgs),
 }
 
 #[derive(Subcommand)]
@@ -97,6 +99,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::Predict(a) => predict::run(&a),
         Command::Eval(a) => eval::run(&a),
+        Command::Fit(a) => fit::run(&a),
     }
 }
 

@@ -1,0 +1,106 @@
+//! Dense least squares for the trainers: centred and scaled columns solved
+//! by SVD (never the normal equations, whose condition number is the square
+//! of the data's: correlated temperature sensors make that fatal).
+
+use anyhow::{bail, Result};
+use nalgebra::{DMatrix, DVector};
+
+/// Column means and standard deviations (sample, n - 1) of row vectors.
+pub fn moments(rows: &[Vec<f64>], m: usize) -> (Vec<f64>, Vec<f64>) {
+    let n = rows.len() as f64;
+    let mut mean = vec![0.0; m];
+    for r in rows {
+        for (acc, v) in mean.iter_mut().zip(r) {
+            *acc += v;
+        }
+    }
+    mean.iter_mut().for_each(|v| *v /= n);
+    let mut var = vec![0.0; m];
+    for r in rows {
+        for ((acc, v), mu) in var.iter_mut().zip(r).zip(&mean) {
+            *acc += (v - mu) * (v - mu);
+        }
+    }
+    let std = var
+        .iter()
+        .map(|v| (v / (n - 1.0).max(1.0)).sqrt())
+        .collect();
+    (mean, std)
+}
+
+/// Standardised design matrix: `(x - mean) / std` per column (a constant
+/// column is only centred, giving zeros, which the SVD then ignores).
+pub fn standardised(rows: &[Vec<f64>], mean: &[f64], std: &[f64]) -> DMatrix<f64> {
+    let m = mean.len();
+    DMatrix::from_fn(rows.len(), m, |i, j| {
+        let s = if std[j] > 0.0 { std[j] } else { 1.0 };
+        (rows[i][j] - mean[j]) / s
+    })
+}
+
+/// Least squares `y ~ b0 + sum b_j x_j` on row vectors `x`. Columns are
+/// centred and scaled, solved by SVD with singular values below 1e-10 of the
+/// largest treated as zero (the minimum-norm answer for collinear sensors),
+/// and mapped back to raw units. Returns `(b0, b)`.
+pub fn least_squares(x: &[Vec<f64>], y: &[f64]) -> Result<(f64, Vec<f64>)> {
+    let n = x.len();
+    let m = x.first().map_or(0, Vec::len);
+    if n != y.len() {
+        bail!("least squares: {n} rows of inputs but {} targets", y.len());
+    }
+    if n <= m {
+        bail!("least squares: {n} rows for {m} inputs and an intercept: not enough data");
+    }
+    let (mean, std) = moments(x, m);
+    let z = standardised(x, &mean, &std);
+    let y_mean = y.iter().sum::<f64>() / n as f64;
+    let yc = DVector::from_iterator(n, y.iter().map(|v| v - y_mean));
+    let svd = z.svd(true, true);
+    let tol = 1e-10 * svd.singular_values.max();
+    let beta = match svd.solve(&yc, tol) {
+        Ok(b) => b,
+        Err(e) => bail!("least squares: SVD failed: {e}"),
+    };
+    let b: Vec<f64> = beta
+        .iter()
+        .zip(&std)
+        .map(|(bz, s)| if *s > 0.0 { bz / s } else { 0.0 })
+        .collect();
+    let b0 = y_mean - b.iter().zip(&mean).map(|(b, m)| b * m).sum::<f64>();
+    Ok((b0, b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_plane_is_recovered() {
+        // y = 1 + 2 x1 - 3 x2, no noise: recovered to rounding (1e-10).
+        let x: Vec<Vec<f64>> = (0..20)
+            .map(|i| vec![f64::from(i), f64::from((i * 7) % 5)])
+            .collect();
+        let y: Vec<f64> = x.iter().map(|r| 1.0 + 2.0 * r[0] - 3.0 * r[1]).collect();
+        let (b0, b) = least_squares(&x, &y).unwrap();
+        assert!(
+            (b0 - 1.0).abs() < 1e-10 && (b[0] - 2.0).abs() < 1e-10 && (b[1] + 3.0).abs() < 1e-10
+        );
+    }
+
+    #[test]
+    fn collinear_columns_get_the_minimum_norm_answer() {
+        // x2 = x1 exactly: y = 4 x1 splits as 2 + 2 (minimum norm), not 1e15 - 1e15.
+        let x: Vec<Vec<f64>> = (0..10).map(|i| vec![f64::from(i), f64::from(i)]).collect();
+        let y: Vec<f64> = x.iter().map(|r| 4.0 * r[0]).collect();
+        let (b0, b) = least_squares(&x, &y).unwrap();
+        assert!(
+            (b[0] - 2.0).abs() < 1e-9 && (b[1] - 2.0).abs() < 1e-9 && b0.abs() < 1e-9,
+            "{b0} {b:?}"
+        );
+    }
+
+    #[test]
+    fn too_few_rows_is_an_error() {
+        assert!(least_squares(&[vec![1.0, 2.0]], &[1.0]).is_err());
+    }
+}

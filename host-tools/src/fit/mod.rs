@@ -1,0 +1,236 @@
+//! `thermcomp fit`: trains a model on calibration rows, scores it on
+//! held-out rows, and writes the blob.
+//!
+//! Each kind lives in its own module and turns a [`Dataset`] into a
+//! [`Fitted`] model; this module reads the runs, splits them, writes the
+//! blob, and scores the model with the same runner `predict` and `eval` use
+//! (through the encoded blob, so the figures are those of what is flashed).
+
+pub mod linalg;
+pub mod mlr;
+pub mod pcr;
+
+use crate::dataset::{Dataset, InputForm};
+use crate::runfile::{ReadOptions, RunFile};
+use crate::score::{score, TargetScore};
+use anyhow::{anyhow, bail, Result};
+use clap::{Args, ValueEnum};
+use model_core::model::{Name, MAX_CHANNELS, MAX_OUTPUTS};
+use model_core::{Channel, ValidModel};
+use serde_json::{json, Map, Value};
+use std::path::PathBuf;
+
+/// Model kinds `fit` trains.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FitKind {
+    /// Multiple linear regression (least squares by SVD).
+    Mlr,
+    /// Principal component regression (seed 003).
+    Pcr,
+}
+
+/// Arguments of `thermcomp fit`.
+#[derive(Args)]
+pub struct FitArgs {
+    /// A calibration run (CSV); repeatable. Each run restarts a dynamic model's state.
+    #[arg(long, required = true)]
+    pub data: Vec<PathBuf>,
+    /// A validation run, held out whole (repeatable).
+    #[arg(long)]
+    pub validate: Vec<PathBuf>,
+    /// Target column(s), comma-separated (e.g. ch1_um or dx_um,dz_um).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub target: Vec<String>,
+    /// Input columns, comma-separated (default: every column named T<number>).
+    #[arg(long, value_delimiter = ',')]
+    pub inputs: Vec<String>,
+    /// The model kind.
+    #[arg(long, value_enum)]
+    pub model: FitKind,
+    /// Where to write the model blob.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Hold out every row at or after this time (s) of each --data run.
+    #[arg(long, value_name = "SECONDS")]
+    pub holdout_from_s: Option<f64>,
+    /// How inputs enter the model: "change" from each run's first sample
+    /// (default: cancels day-to-day offsets of absolute temperature), or "absolute".
+    #[arg(long, value_enum, default_value = "change")]
+    pub reference: InputForm,
+    /// Skip rows with unparsable cells instead of failing (they are counted and reported).
+    #[arg(long)]
+    pub skip_bad_rows: bool,
+    /// Print one JSON object with the fit and held-out figures.
+    #[arg(long)]
+    pub json: bool,
+    /// PCR options.
+    #[command(flatten)]
+    pub pcr: pcr::PcrArgs,
+}
+
+/// What a kind's trainer returns.
+pub struct Fitted {
+    /// The validated model, ready to encode.
+    pub model: ValidModel,
+    /// Kind-specific figures for the JSON (`details`).
+    pub details: Value,
+}
+
+/// Model input channels for `ds`'s inputs in its form.
+pub fn channels(ds: &Dataset) -> Result<heapless::Vec<Channel, MAX_CHANNELS>> {
+    let mut out = heapless::Vec::new();
+    for name in &ds.inputs {
+        out.push(Channel {
+            name: Name::try_from(name.as_str())
+                .map_err(|_| anyhow!("input name \"{name}\" is too long"))?,
+            reference: ds.form.reference(),
+        })
+        .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
+    }
+    Ok(out)
+}
+
+/// Model output names for `ds`'s targets.
+pub fn outputs(ds: &Dataset) -> Result<heapless::Vec<Name, MAX_OUTPUTS>> {
+    let mut out = heapless::Vec::new();
+    for name in &ds.targets {
+        out.push(
+            Name::try_from(name.as_str())
+                .map_err(|_| anyhow!("target name \"{name}\" is too long"))?,
+        )
+        .map_err(|_| anyhow!("more than {MAX_OUTPUTS} targets"))?;
+    }
+    Ok(out)
+}
+
+fn read(paths: &[PathBuf], opts: &ReadOptions) -> Result<Vec<RunFile>> {
+    paths
+        .iter()
+        .map(|p| {
+            let run = RunFile::read(p, opts)?;
+            if let Some(first) = run.skipped.first() {
+                eprintln!(
+                    "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
+                    p.display(),
+                    run.skipped.len(),
+                    first.reason
+                );
+            }
+            Ok(run)
+        })
+        .collect()
+}
+
+/// Every column named `T<number>`, in file order: the default inputs.
+fn temperature_columns(run: &RunFile) -> Vec<String> {
+    run.columns
+        .iter()
+        .filter(|c| {
+            c.strip_prefix('T')
+                .is_some_and(|n| !n.is_empty() && n.chars().all(|ch| ch.is_ascii_digit()))
+        })
+        .cloned()
+        .collect()
+}
+
+fn scores_text(scores: &[TargetScore]) -> String {
+    let mut s = format!(
+        "{:<10} {:<12} {:>7} {:>9} {:>8} {:>8} {:>9} {:>9}\n",
+        "target", "part", "n", "rmse_um", "fit_%", "r2", "dpk_um", "reduce_%"
+    );
+    for t in scores {
+        for (part, m) in [("calibration", &t.calibration), ("held-out", &t.holdout)] {
+            if let Some(m) = m {
+                s.push_str(&format!(
+                    "{:<10} {:<12} {:>7} {:>9.3} {:>8.2} {:>8.4} {:>9.3} {:>9.2}\n",
+                    t.output, part, m.n, m.rmse, m.fit_pct, m.r2, m.dpk, m.reduction_pct
+                ));
+            }
+        }
+    }
+    s
+}
+
+/// Runs `thermcomp fit`.
+pub fn run(a: &FitArgs) -> Result<()> {
+    // Read only the columns the fit uses; the inputs default needs the header first.
+    let header_only = ReadOptions {
+        skip_bad_rows: true,
+        only: Some(Vec::new()),
+    };
+    let first = a.data.first().ok_or_else(|| anyhow!("no --data"))?;
+    let inputs = if a.inputs.is_empty() {
+        let cols = temperature_columns(&RunFile::read(first, &header_only)?);
+        if cols.is_empty() {
+            bail!(
+                "{}: no T<number> columns; name the inputs with --inputs",
+                first.display()
+            );
+        }
+        cols
+    } else {
+        a.inputs.clone()
+    };
+    let needed: Vec<String> = inputs.iter().chain(&a.target).cloned().collect();
+    let opts = ReadOptions {
+        skip_bad_rows: a.skip_bad_rows,
+        only: Some(needed),
+    };
+    let runs = read(&a.data, &opts)?;
+    let validate = read(&a.validate, &opts)?;
+    let ds = Dataset::new(
+        &runs,
+        &validate,
+        &inputs,
+        &a.target,
+        a.reference,
+        a.holdout_from_s,
+    )?;
+    let fitted = match a.model {
+        FitKind::Mlr => mlr::fit(&ds)?,
+        FitKind::Pcr => pcr::fit(&ds, &a.pcr)?,
+    };
+    let bytes = crate::blobfile::write(&fitted.model, &a.out)?;
+    // Score what was written, decoded back: the figures are the blob's.
+    let flashed = model_core::decode(&bytes).map_err(|e| anyhow!("written blob: {e}"))?;
+    let split: Vec<(&RunFile, usize)> = runs
+        .iter()
+        .zip(&ds.runs)
+        .map(|(r, d)| (r, d.calib_end))
+        .chain(validate.iter().map(|r| (r, 0)))
+        .collect();
+    let scores = score(&flashed, &split)?;
+    let (n_calib, _) = ds.calibration_rows();
+    if a.json {
+        let targets: Map<String, Value> = scores
+            .iter()
+            .map(|t| (t.output.clone(), t.json()))
+            .collect();
+        println!(
+            "{}",
+            json!({
+                "model": flashed.kind().name(),
+                "out": a.out.display().to_string(),
+                "bytes": bytes.len(),
+                "inputs": ds.inputs,
+                "reference": ds.form.name(),
+                "holdout_from_s": a.holdout_from_s,
+                "calibration_rows": n_calib.len(),
+                "holdout_rows": ds.holdout_len(),
+                "targets": targets,
+                "details": fitted.details,
+            })
+        );
+    } else {
+        print!("{}", scores_text(&scores));
+        eprintln!(
+            "wrote {} ({} bytes, {} model on {} inputs, {} calibration rows)",
+            a.out.display(),
+            bytes.len(),
+            flashed.kind().name(),
+            ds.inputs.len(),
+            n_calib.len()
+        );
+    }
+    Ok(())
+}
