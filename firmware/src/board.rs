@@ -184,13 +184,13 @@ pub const PINOUT: [PinAssignment; 9] = [
 // Compile-time checks on the design constants.
 const _: () = {
     assert!(CAN_TIMING.bitrate(PCLK1_HZ) == CAN_BITRATE);
-    assert!(PCLK1_HZ % (CAN_TIMING.prescaler * CAN_TIMING.quanta()) == 0);
+    assert!(PCLK1_HZ.is_multiple_of(CAN_TIMING.prescaler * CAN_TIMING.quanta()));
     assert!(CAN_TIMING.ts1 >= 1 && CAN_TIMING.ts1 <= 16);
     assert!(CAN_TIMING.ts2 >= 1 && CAN_TIMING.ts2 <= 8);
     assert!(CAN_TIMING.sjw >= 1 && CAN_TIMING.sjw <= 4 && CAN_TIMING.sjw <= CAN_TIMING.ts2);
     assert!(CAN_TIMING.prescaler >= 1 && CAN_TIMING.prescaler <= 1024);
     assert!(SYSCLK_HZ == HSE_HZ / 4 * 180 / 2);
-    assert!(SYSCLK_HZ % MONO_HZ == 0 && MONO_HZ == 1_000);
+    assert!(SYSCLK_HZ.is_multiple_of(MONO_HZ) && MONO_HZ == 1_000);
     // The watchdog must survive one feed period plus 25 % jitter even with the fastest LSI.
     assert!(IWDG_TIMEOUT_MIN_MS > SAMPLE_PERIOD_MS + SAMPLE_PERIOD_MS / 4);
     assert!(IWDG_TIMEOUT_MS < 32_768); // HAL limit

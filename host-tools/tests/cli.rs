@@ -172,7 +172,7 @@ fn irregular_sampling_is_resampled_and_said() {
     while t < 3599.0 {
         irregular.push(t);
         k += 1;
-        t += if k % 7 == 0 {
+        t += if k.is_multiple_of(7) {
             2.6
         } else {
             0.7 + 0.6 * f64::from(k % 3) / 2.0
