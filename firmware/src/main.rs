@@ -39,7 +39,7 @@ mod host {
 
     /// Human-readable byte count.
     fn size(bytes: u32) -> String {
-        if bytes % 1024 == 0 {
+        if bytes.is_multiple_of(1024) {
             format!("{} KiB", bytes / 1024)
         } else {
             format!("{bytes} B")
