@@ -128,12 +128,14 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
                 })
                 .collect(),
         ),
-        Params::Pcr(pcr) => Value::Array(
-            pcr.outputs
-                .iter()
-                .map(|eq| {
-                    let (d0, d) = eq.equivalent_linear();
-                    let inputs: Vec<&str> = eq.inputs.iter().map(|c| input_of(model, *c)).collect();
+        Params::Pcr(pcr) => {
+            let inputs: Vec<&str> = pcr.inputs.iter().map(|c| input_of(model, *c)).collect();
+            json!({
+                "inputs": inputs,
+                "components": pcr.components.iter().map(|c| json!({
+                    "intercept": c.intercept, "weights": c.weights.as_slice()})).collect::<Vec<_>>(),
+                "outputs": pcr.outputs.iter().map(|eq| {
+                    let (d0, d) = pcr.equivalent_linear(eq);
                     let collapsed: serde_json::Map<String, Value> = inputs
                         .iter()
                         .zip(&d)
@@ -141,17 +143,14 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
                         .collect();
                     json!({
                         "output": name_of(model.outputs(), eq.output),
-                        "inputs": inputs,
-                        "components": eq.components.iter().map(|c| json!({
-                            "intercept": c.intercept, "weights": c.weights.as_slice()})).collect::<Vec<_>>(),
                         "intercept": eq.intercept,
                         "beta": eq.beta.as_slice(),
                         "equivalent_linear": {"intercept": d0, "coef": collapsed},
                         "position": eq.position.as_ref().map(|p| position_json(model, p)),
                     })
-                })
-                .collect(),
-        ),
+                }).collect::<Vec<_>>(),
+            })
+        }
         Params::Bp(net) => json!({
             "inputs": net.inputs.iter().map(|c| input_of(model, *c)).collect::<Vec<_>>(),
             "outputs": net.outputs.iter().map(|o| name_of(model.outputs(), *o)).collect::<Vec<_>>(),
@@ -281,21 +280,21 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
             }
         }
         Params::Pcr(pcr) => {
+            let inputs: Vec<&str> = pcr.inputs.iter().map(|c| input_of(model, *c)).collect();
+            for (j, c) in pcr.components.iter().enumerate() {
+                let mut line = format!("{}", c.intercept);
+                for (w, n) in c.weights.iter().zip(&inputs) {
+                    let _ = write!(line, " {w:+} {n}");
+                }
+                let _ = writeln!(s, "  C{} = {line}", j + 1);
+            }
             for eq in &pcr.outputs {
                 let lhs = name_of(model.outputs(), eq.output);
-                let inputs: Vec<&str> = eq.inputs.iter().map(|c| input_of(model, *c)).collect();
-                for (j, c) in eq.components.iter().enumerate() {
-                    let mut line = format!("{}", c.intercept);
-                    for (w, n) in c.weights.iter().zip(&inputs) {
-                        let _ = write!(line, " {w:+} {n}");
-                    }
-                    let _ = writeln!(s, "  C{} = {line}", j + 1);
-                }
                 let mut line = format!("{}", eq.intercept);
                 for (j, b) in eq.beta.iter().enumerate() {
                     let _ = write!(line, " {b:+} C{}", j + 1);
                 }
-                let (d0, d) = eq.equivalent_linear();
+                let (d0, d) = pcr.equivalent_linear(eq);
                 let mut collapsed = format!("{d0:.6}");
                 for (v, n) in d.iter().zip(&inputs) {
                     let _ = write!(collapsed, " {v:+.6} {n}");

@@ -10,7 +10,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use model_core::bp::{Activation, BpNet};
 use model_core::linear::{Coef, Linear, LinearOutput};
 use model_core::model::{ModelError, MAX_CHANNELS, MAX_OUTPUTS};
-use model_core::pcr::{Component, Pcr, PcrOutput};
+use model_core::pcr::{Component, Pcr, PcrOutput, MAX_COMPONENTS};
 use model_core::position::PositionTerm;
 use model_core::tf::TfEntry;
 use model_core::{Channel, Model, Name, Params, Reference, ValidModel};
@@ -350,20 +350,34 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             if spec.pcr.is_empty() {
                 bail!("{file}: kind = \"pcr\" needs at least one [[pcr]] entry");
             }
-            let mut outputs = heapless::Vec::new();
+            // Each entry brings its own inputs and components; the model
+            // shares one set, so entries are merged exactly: the union of
+            // inputs (weight 0 where an entry lacks one) and all components
+            // (each output's beta 0 on the others' components).
+            struct Entry {
+                inputs: Vec<u8>,
+                first_component: usize,
+                eq: PcrOutput,
+            }
+            let mut entries: Vec<Entry> = Vec::new();
+            let mut union: Vec<u8> = Vec::new();
+            let mut raw_components: Vec<(usize, f64, Vec<f64>)> = Vec::new();
             for e in &spec.pcr {
                 let span = e.span();
                 let at = b.at(&span);
                 let p = e.get_ref();
-                let eq = (|| -> Result<PcrOutput> {
+                let entry = (|| -> Result<Entry> {
                     let reference = p.reference.map_or(Reference::Absolute, RefSpec::reference);
-                    let mut inputs = heapless::Vec::new();
-                    for col in &p.inputs {
-                        inputs
-                            .push(b.input(col, reference)?)
-                            .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
+                    let inputs = p
+                        .inputs
+                        .iter()
+                        .map(|col| b.input(col, reference))
+                        .collect::<Result<Vec<u8>>>()?;
+                    for ch in &inputs {
+                        if !union.contains(ch) {
+                            union.push(*ch);
+                        }
                     }
-                    let mut components = heapless::Vec::new();
                     for (j, c) in p.components.iter().enumerate() {
                         if c.weights.len() != p.inputs.len() {
                             bail!(
@@ -373,12 +387,6 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
                                 p.inputs.len()
                             );
                         }
-                        components
-                            .push(Component {
-                                intercept: c.intercept,
-                                weights: vec_of(&c.weights, "weights")?,
-                            })
-                            .map_err(|_| anyhow!("too many components"))?;
                     }
                     if p.beta.len() != p.components.len() {
                         bail!(
@@ -387,22 +395,62 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
                             p.components.len()
                         );
                     }
-                    Ok(PcrOutput {
-                        output: b.output(&p.output)?,
+                    let first_component = raw_components.len();
+                    for c in &p.components {
+                        raw_components.push((entries.len(), c.intercept, c.weights.clone()));
+                    }
+                    Ok(Entry {
                         inputs,
-                        components,
-                        intercept: p.intercept,
-                        beta: vec_of(&p.beta, "beta")?,
-                        position: b.position(&p.position)?,
+                        first_component,
+                        eq: PcrOutput {
+                            output: b.output(&p.output)?,
+                            intercept: p.intercept,
+                            beta: vec_of(&p.beta, "beta")?,
+                            position: b.position(&p.position)?,
+                        },
                     })
                 })()
                 .map_err(|err| anyhow!("{at}: [[pcr]] {}: {err}", p.output))?;
-                outputs
-                    .push(eq)
-                    .map_err(|_| anyhow!("{at}: more than {MAX_OUTPUTS} [[pcr]] entries"))?;
+                entries.push(entry);
                 spans.push(span);
             }
-            Params::Pcr(Pcr { outputs })
+            if raw_components.len() > MAX_COMPONENTS {
+                bail!(
+                    "{file}: {} components in all, a model holds at most {MAX_COMPONENTS}",
+                    raw_components.len()
+                );
+            }
+            let mut components = heapless::Vec::new();
+            for (owner, intercept, weights) in &raw_components {
+                let mut w = vec![0.0; union.len()];
+                for (ch, v) in entries[*owner].inputs.iter().zip(weights) {
+                    if let Some(pos) = union.iter().position(|u| u == ch) {
+                        w[pos] = *v;
+                    }
+                }
+                let _ = components.push(Component {
+                    intercept: *intercept,
+                    weights: vec_of(&w, "weights")?,
+                });
+            }
+            let mut outputs = heapless::Vec::new();
+            for entry in entries {
+                let mut beta = vec![0.0; raw_components.len()];
+                for (j, v) in entry.eq.beta.iter().enumerate() {
+                    beta[entry.first_component + j] = *v;
+                }
+                outputs
+                    .push(PcrOutput {
+                        beta: vec_of(&beta, "beta")?,
+                        ..entry.eq
+                    })
+                    .map_err(|_| anyhow!("{file}: more than {MAX_OUTPUTS} [[pcr]] entries"))?;
+            }
+            Params::Pcr(Pcr {
+                inputs: vec_of(&union, "inputs")?,
+                components,
+                outputs,
+            })
         }
         "bp" => {
             let e = spec

@@ -308,22 +308,25 @@ impl Model {
                 }
             }
             Params::Pcr(pcr) => {
+                for ch in &pcr.inputs {
+                    index(*ch, n_in)?;
+                }
+                if pcr.components.is_empty() {
+                    return Err(ModelError::ShapeMismatch);
+                }
+                for comp in &pcr.components {
+                    if comp.weights.len() != pcr.inputs.len() {
+                        return Err(ModelError::ShapeMismatch);
+                    }
+                    finite(&comp.weights)?;
+                    finite(&[comp.intercept])?;
+                }
                 for eq in &pcr.outputs {
                     mark(eq.output)?;
                     finite(&[eq.intercept])?;
                     finite(&eq.beta)?;
-                    for ch in &eq.inputs {
-                        index(*ch, n_in)?;
-                    }
-                    if eq.components.is_empty() || eq.components.len() != eq.beta.len() {
+                    if eq.beta.len() != pcr.components.len() {
                         return Err(ModelError::ShapeMismatch);
-                    }
-                    for comp in &eq.components {
-                        if comp.weights.len() != eq.inputs.len() {
-                            return Err(ModelError::ShapeMismatch);
-                        }
-                        finite(&comp.weights)?;
-                        finite(&[comp.intercept])?;
                     }
                     if let Some(pos) = &eq.position {
                         index(pos.channel, n_in)?;
@@ -581,13 +584,11 @@ impl ValidModel {
                     }
                 }
             }
-            Params::Pcr(pcr) => {
-                for eq in &pcr.outputs {
-                    if let Some(o) = out.get_mut(usize::from(eq.output)) {
-                        *o = eq.evaluate(&x);
-                    }
+            Params::Pcr(pcr) => pcr.evaluate(&x, |k, v| {
+                if let Some(o) = out.get_mut(usize::from(k)) {
+                    *o = v;
                 }
-            }
+            }),
             Params::Bp(net) => net.evaluate(&x, |k, v| {
                 if let Some(o) = out.get_mut(usize::from(k)) {
                     *o = v;

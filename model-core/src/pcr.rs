@@ -4,7 +4,7 @@
 //! (multicollinearity); PCR regresses on a few principal components instead.
 //! The blob keeps the PCR form as the paper prints it: each component is an
 //! affine map of the raw inputs, `C_j = c_j + sum_i w_ji x_i` (Eq. 14, the
-//! standardisation folded in), and the output is
+//! standardisation folded in), and each output is
 //! `y = beta_0 + sum_j beta_j C_j` (Eq. 13). Optionally `y` is the slope of a
 //! positioning error, `poly(P) + (y - k0) P` (Eq. 16).
 
@@ -12,73 +12,93 @@ use crate::model::{MAX_CHANNELS, MAX_OUTPUTS};
 use crate::position::PositionTerm;
 use serde::{Deserialize, Serialize};
 
-/// Principal components kept per output: seed 003 keeps one (85 % of the
-/// variance); four leave room for less collinear sensor sets.
-pub const MAX_COMPONENTS: usize = 4;
+/// Principal components: seed 003 keeps one (85 % of the variance); eight
+/// leave room for weakly correlated sensor sets.
+pub const MAX_COMPONENTS: usize = 8;
 
 /// One principal component in raw input units.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Component {
     /// Constant `c_j` (absorbs the inputs' means and scales).
     pub intercept: f64,
-    /// Weights `w_ji`, one per input of the owning [`PcrOutput`].
+    /// Weights `w_ji`, one per input of the owning [`Pcr`].
     pub weights: heapless::Vec<f64, MAX_CHANNELS>,
 }
 
-/// The PCR equation of one output.
+/// The regression of one output on the components.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PcrOutput {
     /// Index of the model output.
     pub output: u8,
-    /// Input channels, in the order of each component's weights.
-    pub inputs: heapless::Vec<u8, MAX_CHANNELS>,
-    /// Retained components.
-    pub components: heapless::Vec<Component, MAX_COMPONENTS>,
     /// `beta_0`.
     pub intercept: f64,
-    /// `beta_j`, one per component.
+    /// `beta_j`, one per component of the owning [`Pcr`] (0 for a component
+    /// this output does not use).
     pub beta: heapless::Vec<f64, MAX_COMPONENTS>,
     /// Positioning-error form, when the regression gives a slope.
     pub position: Option<PositionTerm>,
 }
 
-impl PcrOutput {
-    /// `beta_0 + sum_j beta_j C_j(x)`.
-    pub fn regression(&self, x: &[f64]) -> f64 {
-        let mut y = self.intercept;
-        for (comp, beta) in self.components.iter().zip(&self.beta) {
-            let c = comp
+/// Principal components shared by every output, and one regression per
+/// output on them. Sharing is how PCR is fitted (the components come from
+/// the inputs alone) and keeps the hub's copy small; a spec with different
+/// components per output is merged into this form exactly (each output's
+/// betas are zero on the others' components).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pcr {
+    /// Input channels, in the order of each component's weights.
+    pub inputs: heapless::Vec<u8, MAX_CHANNELS>,
+    /// The components.
+    pub components: heapless::Vec<Component, MAX_COMPONENTS>,
+    /// One regression per output.
+    pub outputs: heapless::Vec<PcrOutput, MAX_OUTPUTS>,
+}
+
+impl Pcr {
+    /// `C_j(x)` for every component.
+    fn scores(&self, x: &[f64]) -> [f64; MAX_COMPONENTS] {
+        let mut c = [0.0; MAX_COMPONENTS];
+        for (cj, comp) in c.iter_mut().zip(&self.components) {
+            *cj = comp
                 .weights
                 .iter()
                 .zip(&self.inputs)
                 .fold(comp.intercept, |acc, (w, ch)| {
                     acc + w * x.get(usize::from(*ch)).copied().unwrap_or(0.0)
                 });
-            y += beta * c;
         }
-        y
+        c
     }
 
-    /// The output for the (reference-adjusted) inputs `x`.
-    pub fn evaluate(&self, x: &[f64]) -> f64 {
-        let k = self.regression(x);
-        match &self.position {
-            Some(pos) => pos.error(k, x.get(usize::from(pos.channel)).copied().unwrap_or(0.0)),
-            None => k,
+    /// Runs every output on the (reference-adjusted) inputs `x`, calling
+    /// `emit(output, value)`.
+    pub fn evaluate(&self, x: &[f64], mut emit: impl FnMut(u8, f64)) {
+        let c = self.scores(x);
+        for eq in &self.outputs {
+            let k = eq
+                .beta
+                .iter()
+                .zip(&c)
+                .fold(eq.intercept, |acc, (b, cj)| acc + b * cj);
+            let y = match &eq.position {
+                Some(pos) => pos.error(k, x.get(usize::from(pos.channel)).copied().unwrap_or(0.0)),
+                None => k,
+            };
+            emit(eq.output, y);
         }
     }
 
-    /// The same map collapsed to `y = d0 + sum_i d_i x_i` (seed 003 Eq. 15
-    /// from Eq. 13 and 14): `d0 = beta_0 + sum_j beta_j c_j`,
+    /// Output `eq`'s regression collapsed to `d0 + sum_i d_i x_i` (seed 003
+    /// Eq. 15 from Eq. 13 and 14): `d0 = beta_0 + sum_j beta_j c_j`,
     /// `d_i = sum_j beta_j w_ji`. Coefficients follow `inputs`.
-    pub fn equivalent_linear(&self) -> (f64, heapless::Vec<f64, MAX_CHANNELS>) {
-        let mut d0 = self.intercept;
+    pub fn equivalent_linear(&self, eq: &PcrOutput) -> (f64, heapless::Vec<f64, MAX_CHANNELS>) {
+        let mut d0 = eq.intercept;
         let mut d: heapless::Vec<f64, MAX_CHANNELS> = heapless::Vec::new();
         for _ in &self.inputs {
             // Capacity equals MAX_CHANNELS, the bound of `inputs`.
             let _ = d.push(0.0);
         }
-        for (comp, beta) in self.components.iter().zip(&self.beta) {
+        for (comp, beta) in self.components.iter().zip(&eq.beta) {
             d0 += beta * comp.intercept;
             for (di, w) in d.iter_mut().zip(&comp.weights) {
                 *di += beta * w;
@@ -86,11 +106,4 @@ impl PcrOutput {
         }
         (d0, d)
     }
-}
-
-/// A set of PCR equations, one per output.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Pcr {
-    /// The equations.
-    pub outputs: heapless::Vec<PcrOutput, MAX_OUTPUTS>,
 }

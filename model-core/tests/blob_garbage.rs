@@ -29,7 +29,7 @@ use model_core::blob::{self, crc32, BlobError, FORMAT_VERSION, HEADER_LEN, MAGIC
 use model_core::bp::BpNet;
 use model_core::linear::LinearOutput;
 use model_core::model::{StepError, MAX_INPUT_MAGNITUDE};
-use model_core::pcr::PcrOutput;
+use model_core::pcr::Pcr;
 use model_core::position::PositionTerm;
 use model_core::tf::{RealisedTf, TfEntry, TfError};
 use model_core::{decode, Model, ModelError, ModelKind, ModelState, Params, Reference, ValidModel};
@@ -487,12 +487,12 @@ fn with_linear(f: impl FnOnce(&mut LinearOutput)) -> Model {
     m
 }
 
-fn with_pcr(f: impl FnOnce(&mut PcrOutput)) -> Model {
+fn with_pcr(f: impl FnOnce(&mut Pcr)) -> Model {
     let mut m = pcr_seed003(true);
     let Params::Pcr(pcr) = &mut m.params else {
         unreachable!()
     };
-    f(&mut pcr.outputs[0]);
+    f(pcr);
     m
 }
 
@@ -533,8 +533,8 @@ fn non_finite_coefficients_are_refused() {
                     })
                 }),
             ),
-            ("pcr beta", with_pcr(|o| o.beta[0] = bad)),
-            ("pcr intercept", with_pcr(|o| o.intercept = bad)),
+            ("pcr beta", with_pcr(|o| o.outputs[0].beta[0] = bad)),
+            ("pcr intercept", with_pcr(|o| o.outputs[0].intercept = bad)),
             ("pcr weight", with_pcr(|o| o.components[0].weights[4] = bad)),
             (
                 "pcr component intercept",
@@ -542,7 +542,7 @@ fn non_finite_coefficients_are_refused() {
             ),
             (
                 "pcr position k0",
-                with_pcr(|o| o.position.as_mut().unwrap().k0 = bad),
+                with_pcr(|o| o.outputs[0].position.as_mut().unwrap().k0 = bad),
             ),
             ("bp w1", with_bp(|n| n.w1[7] = bad)),
             ("bp b1", with_bp(|n| n.b1[0] = bad)),
@@ -704,7 +704,7 @@ fn decoder_applies_every_structural_check() {
         (
             "pcr beta count",
             with_pcr(|o| {
-                o.beta.push(0.5).unwrap();
+                o.outputs[0].beta.push(0.5).unwrap();
             }),
             ShapeMismatch,
         ),
@@ -717,7 +717,7 @@ fn decoder_applies_every_structural_check() {
         ),
         (
             "pcr position channel",
-            with_pcr(|o| o.position.as_mut().unwrap().channel = 6),
+            with_pcr(|o| o.outputs[0].position.as_mut().unwrap().channel = 6),
             IndexOutOfRange,
         ),
         (

@@ -80,7 +80,7 @@ fn seed003_eq13_and_eq14_give_eq15() {
     let model_core::Params::Pcr(pcr) = &model.model().params else {
         panic!("pcr model expected")
     };
-    let (d0, d) = pcr.outputs[0].equivalent_linear();
+    let (d0, d) = pcr.equivalent_linear(&pcr.outputs[0]);
     // Eq. 15: kp = 0.0065 T1 + 0.0194 T2 + 0.0099 T5 + 0.0262 T7 + 0.0462 T11 - 2.3283
     let eq15 = [0.0065, 0.0194, 0.0099, 0.0262, 0.0462];
     let w = [0.1631, 0.4902, 0.2512, 0.6614, 1.1666];

@@ -98,27 +98,34 @@ pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
         let (b0, beta) = linalg::least_squares(&score_rows, &yt)?;
         let eq = PcrOutput {
             output: u8::try_from(t)?,
-            inputs: (0..m).map(u8::try_from).collect::<Result<_, _>>()?,
-            components: components.clone(),
             intercept: b0,
             beta: heapless::Vec::from_slice(&beta).map_err(|_| anyhow!("too many components"))?,
             position: None,
         };
-        let (d0, d) = eq.equivalent_linear();
-        per_target.insert(
-            target.clone(),
-            json!({"intercept": b0, "beta": beta,
-                   "equivalent_linear": {"intercept": d0, "coef": d.as_slice()}}),
-        );
         equations
             .push(eq)
             .map_err(|_| anyhow!("too many targets"))?;
+        per_target.insert(target.clone(), json!({"intercept": b0, "beta": beta}));
+    }
+    let pcr = Pcr {
+        inputs: (0..m).map(u8::try_from).collect::<Result<_, _>>()?,
+        components,
+        outputs: equations,
+    };
+    for (eq, target) in pcr.outputs.iter().zip(&ds.targets) {
+        let (d0, d) = pcr.equivalent_linear(eq);
+        if let Some(Value::Object(o)) = per_target.get_mut(target) {
+            o.insert(
+                "equivalent_linear".into(),
+                json!({"intercept": d0, "coef": d.as_slice()}),
+            );
+        }
     }
     let model = Model {
         inputs: channels(ds)?,
         outputs: outputs(ds)?,
         dt_s: 0.0,
-        params: Params::Pcr(Pcr { outputs: equations }),
+        params: Params::Pcr(pcr),
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;

@@ -202,13 +202,13 @@ pub fn pcr_seed003(position: bool) -> Model {
         outputs: outputs(&["k"]),
         dt_s: 0.0,
         params: Params::Pcr(Pcr {
+            inputs: hv(&[0, 1, 2, 3, 4]),
+            components: hv(&[Component {
+                intercept: -50.6062,
+                weights: hv(&[0.1631, 0.4902, 0.2512, 0.6614, 1.1666]),
+            }]),
             outputs: hv(&[PcrOutput {
                 output: 0,
-                inputs: hv(&[0, 1, 2, 3, 4]),
-                components: hv(&[Component {
-                    intercept: -50.6062,
-                    weights: hv(&[0.1631, 0.4902, 0.2512, 0.6614, 1.1666]),
-                }]),
                 intercept: -0.3243,
                 beta: hv(&[0.0396]),
                 position,
