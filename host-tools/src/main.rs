@@ -5,7 +5,7 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
-use host_tools::{blobfile, eval, fit, predict, show, spec};
+use host_tools::{blobfile, eval, fit, predict, refit, select, show, spec};
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -36,6 +36,18 @@ enum Command {
     Eval(eval::EvalArgs),
     /// Train a model (mlr, pcr) on calibration rows, score it on held-out rows, write the blob.
     Fit(fit::FitArgs),
+    /// Test whether the temperature-to-displacement relation has changed on
+    /// new runs and, if it has, update the model (seed 002's self-adaptive
+    /// compensation; rule in docs/fit.md, "refit").
+    Refit(refit::RefitArgs),
+    /// Rank and pick temperature sensors (grey: seed 000; wgrey: seed 002; maxtree: seed 003).
+    ///
+    /// grey: grey clustering, grey correlation, best adjusted R^2 of the
+    /// typical variables' combinations. wgrey: weighted grey correlativity
+    /// (Eq. 1), top-k per target and their intersection. maxtree:
+    /// maximal-tree clustering, the level by R^2, F test and collinearity.
+    /// Formulas and rules: docs/select.md.
+    Select(select::SelectArgs),
 }
 
 #[derive(Subcommand)]
@@ -100,6 +112,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Predict(a) => predict::run(&a),
         Command::Eval(a) => eval::run(&a),
         Command::Fit(a) => fit::run(&a),
+        Command::Refit(a) => refit::run(&a),
+        Command::Select(a) => select::run(&a),
     }
 }
 

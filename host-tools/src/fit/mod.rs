@@ -6,9 +6,12 @@
 //! blob, and scores the model with the same runner `predict` and `eval` use
 //! (through the encoded blob, so the figures are those of what is flashed).
 
+pub mod arx;
+pub mod gain;
 pub mod linalg;
 pub mod mlr;
 pub mod pcr;
+pub mod tfbank;
 
 use crate::dataset::{Dataset, InputForm};
 use crate::runfile::{ReadOptions, RunFile};
@@ -27,6 +30,12 @@ pub enum FitKind {
     Mlr,
     /// Principal component regression (seed 003).
     Pcr,
+    /// MISO ARX, order search by simulation fit, exported as a TF bank.
+    Arx,
+    /// Seed 004's TF bank: one SISO TF per input, fitted for simulation (output error).
+    Tf,
+    /// An existing TF bank (--gain-from) with its spindle part scaled by one fitted gain (seed 004, Eq. 6).
+    Gain,
 }
 
 /// Arguments of `thermcomp fit`.
@@ -66,6 +75,9 @@ pub struct FitArgs {
     /// PCR options.
     #[command(flatten)]
     pub pcr: pcr::PcrArgs,
+    /// ARX, TF and gain options.
+    #[command(flatten)]
+    pub arx: arx::ArxArgs,
 }
 
 /// What a kind's trainer returns.
@@ -98,7 +110,9 @@ pub fn outputs(ds: &Dataset) -> Result<heapless::Vec<Name, MAX_OUTPUTS>> {
             Name::try_from(name.as_str())
                 .map_err(|_| anyhow!("target name \"{name}\" is too long"))?,
         )
-        .map_err(|_| anyhow!("more than {MAX_OUTPUTS} targets"))?;
+        .map_err(|_| {
+            anyhow!("{} targets: a model has at most {MAX_OUTPUTS} outputs (the hub sends dx, dy, dz and one more); fit the rest as another model", ds.targets.len())
+        })?;
     }
     Ok(out)
 }
@@ -189,6 +203,9 @@ pub fn run(a: &FitArgs) -> Result<()> {
     let fitted = match a.model {
         FitKind::Mlr => mlr::fit(&ds)?,
         FitKind::Pcr => pcr::fit(&ds, &a.pcr)?,
+        FitKind::Arx => arx::fit(&ds, &a.arx)?,
+        FitKind::Tf => tfbank::fit(&ds, &a.arx)?,
+        FitKind::Gain => gain::fit(&ds, &a.arx, &runs, &validate)?,
     };
     let bytes = crate::blobfile::write(&fitted.model, &a.out)?;
     // Score what was written, decoded back: the figures are the blob's.

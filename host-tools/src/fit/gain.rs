@@ -1,0 +1,162 @@
+//! Re-use of a TF-bank model on another machine or spindle unit by fitting
+//! one gain (seed 004, Sec. 3.2, Eq. 6: `dZ = g (dT_bearing eps_SP1) +
+//! dT_amb eps_amb`).
+//!
+//! The existing blob is run, exactly as the hub runs it, over the
+//! calibration rows, split into its scaled part `s` (entries whose input is
+//! in `--gain-inputs`; by default every input but `ambient_c`, seed 004's
+//! spindle part) and the rest `r`. The gain is the least-squares solution of
+//! `y - r = g s` over every output and calibration row,
+//! `g = sum s (y - r) / sum s^2`, and the scaled model multiplies the
+//! numerators of those entries by `g` (poles, hence time constants, stay).
+
+use super::arx::ArxArgs;
+use super::Fitted;
+use crate::dataset::Dataset;
+use crate::runfile::RunFile;
+use crate::runner::{self, ColumnMap};
+use crate::score::score;
+use anyhow::{anyhow, bail, Result};
+use model_core::{Model, Params, ValidModel};
+use serde_json::{json, Map, Value};
+
+/// The input `seed 004` does not scale.
+const AMBIENT: &str = "ambient_c";
+
+/// `model` with the numerators of entries where `keep(entry index)` is false
+/// set to zero (entries stay, so every output keeps an entry).
+fn part(model: &ValidModel, keep: &dyn Fn(usize) -> bool) -> Result<ValidModel> {
+    let mut m: Model = model.model().clone();
+    if let Params::Tf(entries) = &mut m.params {
+        for (e, en) in entries.iter_mut().enumerate() {
+            if !keep(e) {
+                en.a.iter_mut().for_each(|c| *c = 0.0);
+            }
+        }
+    }
+    m.validate().map_err(|e| anyhow!("part of the model: {e}"))
+}
+
+/// Fits `--model gain`.
+pub fn fit(ds: &Dataset, args: &ArxArgs, runs: &[RunFile], validate: &[RunFile]) -> Result<Fitted> {
+    let path = args
+        .gain_from
+        .as_ref()
+        .ok_or_else(|| anyhow!("--model gain needs --gain-from MODEL.bin"))?;
+    let (old, _) = crate::blobfile::read(path)?;
+    let Params::Tf(entries) = &old.model().params else {
+        bail!(
+            "{}: a {} model; --gain-from needs a TF bank (kind tf)",
+            path.display(),
+            old.kind().name()
+        );
+    };
+    let names: Vec<String> = old.inputs().iter().map(|c| c.name.to_string()).collect();
+    for n in &names {
+        if !ds.inputs.contains(n) {
+            bail!(
+                "{}: the model reads {n}; pass --inputs {} (the model's inputs)",
+                path.display(),
+                names.join(",")
+            );
+        }
+    }
+    for o in old.outputs() {
+        if !ds.targets.iter().any(|t| t == o.as_str()) {
+            bail!(
+                "{}: the model computes {o}; pass it in --target",
+                path.display()
+            );
+        }
+    }
+    let scaled_inputs: Vec<String> = if args.gain_inputs.is_empty() {
+        names.iter().filter(|n| *n != AMBIENT).cloned().collect()
+    } else {
+        for n in &args.gain_inputs {
+            if !names.contains(n) {
+                bail!(
+                    "--gain-inputs {n}: not an input of {} ({})",
+                    path.display(),
+                    names.join(", ")
+                );
+            }
+        }
+        args.gain_inputs.clone()
+    };
+    let scaled: Vec<bool> = entries
+        .iter()
+        .map(|e| scaled_inputs.contains(&names[usize::from(e.input)]))
+        .collect();
+    if !scaled.iter().any(|s| *s) {
+        bail!("--model gain: no entry of the model has an input in {scaled_inputs:?}");
+    }
+    let spindle = part(&old, &|e| scaled[e])?;
+    let rest = part(&old, &|e| !scaled[e])?;
+    let map = ColumnMap::default();
+    let (mut sxy, mut sxx, mut n) = (0.0, 0.0, 0usize);
+    for (run, data) in runs.iter().zip(&ds.runs) {
+        let s = runner::predict(&spindle, run, &map)?;
+        let r = runner::predict(&rest, run, &map)?;
+        for (k, name) in old.outputs().iter().enumerate() {
+            let y = run
+                .column(name)
+                .ok_or_else(|| anyhow!("{}: no column \"{name}\"", run.path.display()))?;
+            for row in 0..data.calib_end.min(y.len()) {
+                if let (Some(y), Some(s), Some(r)) = (y[row], s.values[k][row], r.values[k][row]) {
+                    sxy += s * (y - r);
+                    sxx += s * s;
+                    n += 1;
+                }
+            }
+        }
+    }
+    if n == 0 || sxx == 0.0 {
+        bail!("--model gain: the scaled part of the model is zero on every calibration row: no gain can be fitted");
+    }
+    let g = sxy / sxx;
+    let mut m = old.model().clone();
+    if let Params::Tf(entries) = &mut m.params {
+        for (en, s) in entries.iter_mut().zip(&scaled) {
+            if *s {
+                en.a.iter_mut().for_each(|c| *c *= g);
+            }
+        }
+    }
+    let model = m
+        .validate()
+        .map_err(|e| anyhow!("scaled model refused: {e}"))?;
+    let split: Vec<(&RunFile, usize)> = runs
+        .iter()
+        .zip(&ds.runs)
+        .map(|(r, d)| (r, d.calib_end))
+        .chain(validate.iter().map(|r| (r, 0)))
+        .collect();
+    let before: Map<String, Value> = score(&old, &split)?
+        .iter()
+        .map(|t| (t.output.clone(), t.json()))
+        .collect();
+    eprintln!(
+        "gain: g = {g:.6} on the entries of {} ({n} calibration samples)",
+        scaled_inputs.join(", ")
+    );
+    let entries_json: Vec<Value> = entries
+        .iter()
+        .zip(&scaled)
+        .map(|(e, s)| {
+            json!({"input": names[usize::from(e.input)],
+                   "output": old.outputs()[usize::from(e.output)].as_str(),
+                   "scaled": s})
+        })
+        .collect();
+    Ok(Fitted {
+        model,
+        details: json!({
+            "gain": g,
+            "from": path.display().to_string(),
+            "scaled_inputs": scaled_inputs,
+            "entries": entries_json,
+            "calibration_samples": n,
+            "before": before,
+        }),
+    })
+}

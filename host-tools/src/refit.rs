@@ -1,0 +1,871 @@
+//! `thermcomp refit`: self-adaptive compensation (seed 002, section 4: the
+//! NC re-builds its model "when the relationship between temperature and
+//! deformation changes, such as the working environment, and the
+//! re-installation of the machine tool").
+//!
+//! Three steps, each documented in `docs/fit.md` ("refit"):
+//!
+//! 1. **Test.** The old model's residual on the new runs is regressed on a
+//!    bias, a drift in time and a gain on its own prediction; a HAC Wald test
+//!    ([`stats`]) says whether that is more than autocorrelated noise, and the
+//!    fitted systematic error must reach `--min-effect-um` to matter. With
+//!    `--baseline` runs, a new-run rmse or dpk beyond `--tolerance` times the
+//!    baseline's also counts. A target that passes neither is unchanged.
+//! 2. **Update** (changed targets only), estimated on the first
+//!    `1 - --holdout-fraction` of each new run: linear and PCR models by
+//!    recursive least squares with forgetting from the old coefficients
+//!    ([`rls`]), PCR on its components (kept); TF banks by a least-squares
+//!    gain per entry (seed 004 Eq. 6: each numerator scaled, poles kept);
+//!    or, with `--method window`, a plain least-squares refit of the same
+//!    structure on the last `--window-h` hours of the update part.
+//! 3. **Keep or not.** Old and updated models are scored on the held-out
+//!    tail of every run (`crate::score::score`); an updated target is kept
+//!    only if its held-out rmse is lower. If no target is kept, or nothing
+//!    changed, `--out` gets the old blob byte for byte.
+
+mod rls;
+pub mod stats;
+
+use crate::eval::metrics_json;
+use crate::runfile::{ReadOptions, RunFile};
+use crate::runner::{self, ColumnMap};
+use crate::score::{score, TargetScore};
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, ValueEnum};
+use model_core::linear::LinearOutput;
+use model_core::pcr::{Pcr, PcrOutput};
+use model_core::{Model, Params, Reference, ValidModel};
+use nalgebra::{DMatrix, DVector};
+use rls::Coefs;
+use serde_json::{json, Map, Value};
+use stats::{drift_test, DriftTest, Sample};
+use std::path::PathBuf;
+
+/// How a changed model is updated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// Recursive least squares with forgetting from the old coefficients
+    /// (TF banks: least-squares entry gains over the whole update part).
+    Rls,
+    /// Plain least squares of the same structure on the last --window-h hours.
+    Window,
+}
+
+impl Method {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Rls => "rls",
+            Self::Window => "window",
+        }
+    }
+}
+
+/// Arguments of `thermcomp refit`.
+#[derive(Args)]
+pub struct RefitArgs {
+    /// The model in service (blob).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// A new run (CSV) with the model's inputs and measured outputs; repeatable.
+    #[arg(long, required = true)]
+    pub data: Vec<PathBuf>,
+    /// Where to write the model (the old blob, byte for byte, if nothing changed
+    /// or the update does not improve the held-out rmse).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A run the old model was validated on (repeatable): its rmse/dpk is the
+    /// expected level for the --tolerance rule.
+    #[arg(long)]
+    pub baseline: Vec<PathBuf>,
+    /// With --baseline: a new-run rmse or dpk above this multiple of the
+    /// baseline's (and at least --min-effect-um above it) flags a change.
+    #[arg(long, default_value_t = 1.5, value_name = "FACTOR")]
+    pub tolerance: f64,
+    /// Smallest systematic error (um, largest |bias + drift + gain error|
+    /// fitted to the residual) that counts as a change.
+    #[arg(long, default_value_t = 1.0, value_name = "UM")]
+    pub min_effect_um: f64,
+    /// Significance level of the HAC Wald test.
+    #[arg(long, default_value_t = 0.01)]
+    pub alpha: f64,
+    /// How to update a changed model.
+    #[arg(long, value_enum, default_value = "rls")]
+    pub method: Method,
+    /// RLS forgetting factor per sample (default: 1 - dt / memory, from the
+    /// runs' median sample time and --memory-h).
+    #[arg(long, value_name = "LAMBDA")]
+    pub forgetting: Option<f64>,
+    /// RLS memory, hours: the default forgetting factor's time constant.
+    #[arg(long, default_value_t = 4.0, value_name = "HOURS")]
+    pub memory_h: f64,
+    /// RLS prior: the old coefficients weigh as much as this many hours of
+    /// new samples (prior covariance I / n_prior on standardised regressors).
+    #[arg(long, default_value_t = 1.0, value_name = "HOURS")]
+    pub prior_h: f64,
+    /// --method window: refit on the last H hours of each run's update part.
+    #[arg(long, value_name = "H", default_value_t = 8.0)]
+    pub window_h: f64,
+    /// Fraction of each new run (by time, at its end) held out for scoring.
+    #[arg(long, default_value_t = 0.3, value_name = "FRACTION")]
+    pub holdout_fraction: f64,
+    /// Skip rows with unparsable cells instead of failing (they are counted and reported).
+    #[arg(long)]
+    pub skip_bad_rows: bool,
+    /// Print one JSON object instead of the text report.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn read(paths: &[PathBuf], opts: &ReadOptions) -> Result<Vec<RunFile>> {
+    paths
+        .iter()
+        .map(|p| {
+            let run = RunFile::read(p, opts)?;
+            if let Some(first) = run.skipped.first() {
+                eprintln!(
+                    "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
+                    p.display(),
+                    run.skipped.len(),
+                    first.reason
+                );
+            }
+            Ok(run)
+        })
+        .collect()
+}
+
+/// Per run, per row: one output's regressors (None where any is missing).
+type Regressors = Vec<Vec<Option<Vec<f64>>>>;
+
+/// Model-form inputs to one output's regressors.
+type RegressorFn = Box<dyn Fn(&[f64]) -> Vec<f64>>;
+
+/// The inputs as a static model sees them, per row (references applied as
+/// the runner applies them: `first` is the first row where every input has
+/// a value).
+fn model_inputs(model: &ValidModel, run: &RunFile) -> Result<Vec<Option<Vec<f64>>>> {
+    let cols: Vec<&[Option<f64>]> = model
+        .inputs()
+        .iter()
+        .map(|ch| {
+            run.column(&ch.name).ok_or_else(|| {
+                anyhow!(
+                    "{}: the model needs input \"{}\" but the run has no such column",
+                    run.path.display(),
+                    ch.name
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    let first = (0..run.len()).find(|&r| cols.iter().all(|c| c[r].is_some()));
+    Ok((0..run.len())
+        .map(|r| {
+            let raw: Option<Vec<f64>> = cols.iter().map(|c| c[r]).collect();
+            raw.map(|raw| {
+                raw.iter()
+                    .zip(model.inputs())
+                    .zip(&cols)
+                    .map(|((v, ch), col)| match ch.reference {
+                        Reference::Absolute => *v,
+                        Reference::Value(x) => v - x,
+                        Reference::First => v - first.and_then(|f| col[f]).unwrap_or(*v),
+                    })
+                    .collect()
+            })
+        })
+        .collect())
+}
+
+/// What one output's update works on: its regressors and the old coefficients.
+struct Structure {
+    /// `regs[run][row]`.
+    regs: Regressors,
+    /// Old `(intercept, slopes)`; for a TF bank `(0, [1; entries])` (gains).
+    old: Coefs,
+    /// TF banks: the indices of this output's entries; they have no intercept.
+    tf_entries: Option<Vec<usize>>,
+}
+
+fn linear_eq(model: &Model, k: usize) -> Option<&LinearOutput> {
+    match &model.params {
+        Params::Linear(l) => l.outputs.iter().find(|e| usize::from(e.output) == k),
+        _ => None,
+    }
+}
+
+fn pcr_eq(model: &Model, k: usize) -> Option<(&Pcr, &PcrOutput)> {
+    match &model.params {
+        Params::Pcr(p) => p
+            .outputs
+            .iter()
+            .find(|e| usize::from(e.output) == k)
+            .map(|e| (p, e)),
+        _ => None,
+    }
+}
+
+/// Builds every output's [`Structure`] over the new runs.
+fn structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Structure>> {
+    let model = old.model();
+    let n_out = old.outputs().len();
+    match &model.params {
+        Params::Linear(_) | Params::Pcr(_) => {
+            let xs: Vec<Vec<Option<Vec<f64>>>> = runs
+                .iter()
+                .map(|r| model_inputs(old, r))
+                .collect::<Result<_>>()?;
+            (0..n_out)
+                .map(|k| {
+                    let (phi, old_c): (RegressorFn, Coefs) = if let Some(eq) = linear_eq(model, k) {
+                        if eq.position.is_some() {
+                            bail!("refit does not update positional (slope) regressions");
+                        }
+                        let ch: Vec<usize> =
+                            eq.coef.iter().map(|c| usize::from(c.channel)).collect();
+                        (
+                            Box::new(move |x: &[f64]| ch.iter().map(|&c| x[c]).collect()),
+                            (eq.intercept, eq.coef.iter().map(|c| c.value).collect()),
+                        )
+                    } else if let Some((pcr, eq)) = pcr_eq(model, k) {
+                        if eq.position.is_some() {
+                            bail!("refit does not update positional (slope) regressions");
+                        }
+                        // The components stay; the regression on them is updated.
+                        let comps: Vec<_> =
+                            pcr.components.iter().take(eq.beta.len()).cloned().collect();
+                        let inputs: Vec<usize> =
+                            pcr.inputs.iter().map(|c| usize::from(*c)).collect();
+                        (
+                            Box::new(move |x: &[f64]| {
+                                comps
+                                    .iter()
+                                    .map(|c| {
+                                        c.weights
+                                            .iter()
+                                            .zip(&inputs)
+                                            .fold(c.intercept, |acc, (w, ch)| acc + w * x[*ch])
+                                    })
+                                    .collect()
+                            }),
+                            (eq.intercept, eq.beta.to_vec()),
+                        )
+                    } else {
+                        bail!("output #{k} has no equation");
+                    };
+                    let regs = xs
+                        .iter()
+                        .map(|run| run.iter().map(|x| x.as_deref().map(&phi)).collect())
+                        .collect();
+                    Ok(Structure {
+                        regs,
+                        old: old_c,
+                        tf_entries: None,
+                    })
+                })
+                .collect()
+        }
+        Params::Tf(entries) => {
+            // Each entry simulated alone, through the runner (resampling and
+            // state exactly as the whole model runs).
+            let map = ColumnMap::default();
+            let mut series: Vec<Vec<Vec<Option<f64>>>> = Vec::new(); // [entry][run][row]
+            for entry in entries {
+                let mut single = entry.clone();
+                single.output = 0;
+                let name = old
+                    .outputs()
+                    .get(usize::from(entry.output))
+                    .cloned()
+                    .ok_or_else(|| anyhow!("tf entry names a missing output"))?;
+                let mut ents = heapless::Vec::new();
+                let _ = ents.push(single);
+                let mut outputs = heapless::Vec::new();
+                let _ = outputs.push(name);
+                let m = Model {
+                    inputs: model.inputs.clone(),
+                    outputs,
+                    dt_s: model.dt_s,
+                    params: Params::Tf(ents),
+                }
+                .validate()
+                .map_err(|e| anyhow!("tf entry: {e}"))?;
+                series.push(
+                    runs.iter()
+                        .map(|r| Ok(runner::predict(&m, r, &map)?.values.swap_remove(0)))
+                        .collect::<Result<_>>()?,
+                );
+            }
+            Ok((0..n_out)
+                .map(|k| {
+                    let idx: Vec<usize> = entries
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, e)| usize::from(e.output) == k)
+                        .map(|(i, _)| i)
+                        .collect();
+                    let regs = runs
+                        .iter()
+                        .enumerate()
+                        .map(|(ri, run)| {
+                            (0..run.len())
+                                .map(|row| idx.iter().map(|&e| series[e][ri][row]).collect())
+                                .collect()
+                        })
+                        .collect();
+                    Structure {
+                        regs,
+                        old: (0.0, vec![1.0; idx.len()]),
+                        tf_entries: Some(idx),
+                    }
+                })
+                .collect())
+        }
+        _ => bail!(
+            "refit updates linear, pcr and tf models; this is a {} model",
+            old.kind().name()
+        ),
+    }
+}
+
+/// Least squares without intercept (TF gains): columns scaled to unit rms,
+/// SVD with singular values below 1e-10 of the largest treated as zero; a
+/// column that is identically zero keeps gain 1.
+fn gains_ls(rows: &[Vec<f64>], y: &[f64], m: usize) -> Result<Vec<f64>> {
+    let n = rows.len();
+    if n <= m {
+        bail!("{n} rows for {m} gains: not enough data");
+    }
+    let rms: Vec<f64> = (0..m)
+        .map(|j| (rows.iter().map(|r| r[j] * r[j]).sum::<f64>() / n as f64).sqrt())
+        .collect();
+    let a = DMatrix::from_fn(n, m, |i, j| {
+        if rms[j] > 0.0 {
+            rows[i][j] / rms[j]
+        } else {
+            0.0
+        }
+    });
+    let svd = a.svd(true, true);
+    let tol = 1e-10 * svd.singular_values.max();
+    let g = svd
+        .solve(&DVector::from_column_slice(y), tol)
+        .map_err(|e| anyhow!("SVD failed: {e}"))?;
+    Ok((0..m)
+        .map(|j| if rms[j] > 0.0 { g[j] / rms[j] } else { 1.0 })
+        .collect())
+}
+
+/// Update settings after defaults are resolved.
+struct UpdateSettings {
+    method: Method,
+    lambda: f64,
+    n_prior: f64,
+    window_s: f64,
+}
+
+/// The update rows of one output: `(regressors, y)`, in run and time order.
+fn update_rows(
+    st: &Structure,
+    runs: &[RunFile],
+    ys: &[&[Option<f64>]],
+    split: &[usize],
+    from_s: impl Fn(usize) -> f64,
+) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let (mut xs, mut yv) = (Vec::new(), Vec::new());
+    for (ri, run) in runs.iter().enumerate() {
+        let lo = from_s(ri);
+        let rows = run.t_s.iter().zip(&st.regs[ri]).zip(ys[ri]).take(split[ri]);
+        for ((t, x), y) in rows {
+            if let (true, Some(x), Some(y)) = (*t >= lo, x, y) {
+                xs.push(x.clone());
+                yv.push(*y);
+            }
+        }
+    }
+    (xs, yv)
+}
+
+/// New coefficients for one output (raw units; for TF `(0, gains)`).
+fn update_one(
+    st: &Structure,
+    runs: &[RunFile],
+    ys: &[&[Option<f64>]],
+    split: &[usize],
+    s: &UpdateSettings,
+) -> Result<Coefs> {
+    let m = st.old.1.len();
+    let from = |ri: usize| match s.method {
+        Method::Rls => f64::NEG_INFINITY,
+        Method::Window => runs[ri]
+            .t_s
+            .get(split[ri])
+            .or(runs[ri].t_s.last())
+            .map_or(f64::NEG_INFINITY, |t| t - s.window_s),
+    };
+    let (xs, yv) = update_rows(st, runs, ys, split, from);
+    if xs.len() <= m + 1 {
+        bail!(
+            "{} update rows for {} coefficients: not enough data",
+            xs.len(),
+            m + 1
+        );
+    }
+    if st.tf_entries.is_some() {
+        return Ok((0.0, gains_ls(&xs, &yv, m)?));
+    }
+    match s.method {
+        Method::Rls => Ok(rls::rls(&xs, &yv, &st.old, s.lambda, s.n_prior)),
+        Method::Window => crate::fit::linalg::least_squares(&xs, &yv),
+    }
+}
+
+/// The old model with the outputs in `new` (output index -> coefficients) replaced.
+fn with_updates(old: &ValidModel, sts: &[Structure], new: &[(usize, Coefs)]) -> Result<ValidModel> {
+    let mut model = old.model().clone();
+    for (k, (b0, b)) in new {
+        match &mut model.params {
+            Params::Linear(l) => {
+                for eq in l.outputs.iter_mut().filter(|e| usize::from(e.output) == *k) {
+                    eq.intercept = *b0;
+                    for (c, v) in eq.coef.iter_mut().zip(b) {
+                        c.value = *v;
+                    }
+                }
+            }
+            Params::Pcr(p) => {
+                for eq in p.outputs.iter_mut().filter(|e| usize::from(e.output) == *k) {
+                    eq.intercept = *b0;
+                    for (c, v) in eq.beta.iter_mut().zip(b) {
+                        *c = *v;
+                    }
+                }
+            }
+            Params::Tf(entries) => {
+                let idx = sts[*k].tf_entries.as_deref().unwrap_or(&[]);
+                for (&e, g) in idx.iter().zip(b) {
+                    if let Some(entry) = entries.get_mut(e) {
+                        for a in entry.a.iter_mut() {
+                            *a *= g;
+                        }
+                    }
+                }
+            }
+            _ => bail!("cannot update a {} model", old.kind().name()),
+        }
+    }
+    model
+        .validate()
+        .map_err(|e| anyhow!("the updated model is invalid ({e}); the old one is kept"))
+}
+
+fn parts_json(scores: &[TargetScore]) -> Value {
+    let m: Map<String, Value> = scores
+        .iter()
+        .map(|t| {
+            (
+                t.output.clone(),
+                json!({
+                    "update_part": t.calibration.as_ref().map(metrics_json),
+                    "holdout": t.holdout.as_ref().map(metrics_json),
+                }),
+            )
+        })
+        .collect();
+    Value::Object(m)
+}
+
+fn holdout_rmse(s: &TargetScore) -> Option<f64> {
+    s.holdout.as_ref().map(|m| m.rmse)
+}
+
+/// One target's test outcome.
+struct Verdict {
+    test: Option<DriftTest>,
+    significant: bool,
+    relevant: bool,
+    baseline: Option<Value>,
+    baseline_flag: bool,
+    changed: bool,
+}
+
+fn verdict_json(v: &Verdict) -> Value {
+    let t = v.test.as_ref();
+    json!({
+        "n": t.map(|t| t.n),
+        "c0_um": t.map(|t| t.c0_um),
+        "c1_um_per_h": t.map(|t| t.c1_um_per_h),
+        "c2_gain": t.map(|t| t.c2),
+        "wald": t.map(|t| t.wald),
+        "dof": t.map(|t| t.dof),
+        "p_value": t.map(|t| t.p_value),
+        "hac_lags": t.map(|t| t.lags),
+        "rho1": t.map(|t| t.rho1),
+        "n_eff": t.map(|t| t.n_eff),
+        "rmse_um": t.map(|t| t.rmse_um),
+        "effect_um": t.map(|t| t.effect_um),
+        "rmse_reduction_um": t.map(|t| t.rmse_reduction_um),
+        "significant": v.significant,
+        "relevant": v.relevant,
+        "baseline": v.baseline,
+        "baseline_flag": v.baseline_flag,
+        "changed": v.changed,
+    })
+}
+
+/// Runs `thermcomp refit`.
+pub fn run(a: &RefitArgs) -> Result<()> {
+    if !(a.holdout_fraction > 0.0 && a.holdout_fraction < 1.0) {
+        bail!(
+            "--holdout-fraction {} must be in (0, 1)",
+            a.holdout_fraction
+        );
+    }
+    if !(a.alpha > 0.0 && a.alpha < 1.0) {
+        bail!("--alpha {} must be in (0, 1)", a.alpha);
+    }
+    if !(a.min_effect_um >= 0.0 && a.min_effect_um.is_finite()) {
+        bail!("--min-effect-um must be a finite number >= 0");
+    }
+    if !(a.tolerance >= 1.0 && a.tolerance.is_finite()) {
+        bail!("--tolerance must be a finite factor >= 1");
+    }
+    if let Some(l) = a.forgetting {
+        if !(l > 0.0 && l <= 1.0) {
+            bail!("--forgetting {l} must be in (0, 1]");
+        }
+    }
+    for (name, v) in [
+        ("--memory-h", a.memory_h),
+        ("--prior-h", a.prior_h),
+        ("--window-h", a.window_h),
+    ] {
+        if !(v > 0.0 && v.is_finite()) {
+            bail!("{name} must be a positive number of hours");
+        }
+    }
+    let (old, old_bytes) = crate::blobfile::read(&a.model)?;
+    let map = ColumnMap::default();
+    let opts = ReadOptions {
+        skip_bad_rows: a.skip_bad_rows,
+        only: Some(map.model_columns(&old, true)),
+    };
+    let runs = read(&a.data, &opts)?;
+    let baseline = read(&a.baseline, &opts)?;
+    let outputs: Vec<String> = old.outputs().iter().map(|o| o.to_string()).collect();
+    let ys: Vec<Vec<&[Option<f64>]>> = runs
+        .iter()
+        .map(|r| {
+            outputs
+                .iter()
+                .map(|o| {
+                    r.column(o).ok_or_else(|| {
+                        anyhow!(
+                            "{}: no measured column \"{o}\" for the model's output",
+                            r.path.display()
+                        )
+                    })
+                })
+                .collect::<Result<_>>()
+        })
+        .collect::<Result<_>>()?;
+    // Hold out the last fraction of each run, by time.
+    let split: Vec<usize> = runs
+        .iter()
+        .map(|r| match (r.t_s.first(), r.t_s.last()) {
+            (Some(t0), Some(t1)) => {
+                let ts = t0 + (1.0 - a.holdout_fraction) * (t1 - t0);
+                r.t_s.partition_point(|t| *t < ts)
+            }
+            _ => 0,
+        })
+        .collect();
+
+    // 1. The test, on every row of the new runs.
+    let preds: Vec<runner::Prediction> = runs
+        .iter()
+        .map(|r| runner::predict(&old, r, &map))
+        .collect::<Result<_>>()?;
+    for (r, p) in runs.iter().zip(&preds) {
+        for note in &p.notes {
+            eprintln!("note: {}: {note}", r.path.display());
+        }
+    }
+    let whole = |rs: &[RunFile]| -> Result<Vec<TargetScore>> {
+        let pairs: Vec<(&RunFile, usize)> = rs.iter().map(|r| (r, r.len())).collect();
+        score(&old, &pairs)
+    };
+    let (base_scores, new_scores) = if baseline.is_empty() {
+        (None, None)
+    } else {
+        (Some(whole(&baseline)?), Some(whole(&runs)?))
+    };
+    let mut verdicts = Vec::new();
+    for k in 0..outputs.len() {
+        let samples: Vec<Vec<Sample>> = runs
+            .iter()
+            .zip(&preds)
+            .zip(&ys)
+            .map(|((run, p), y)| {
+                let t0 = run.t_s.first().copied().unwrap_or(0.0);
+                (0..run.len())
+                    .filter_map(|row| match (y[k][row], p.values[k][row]) {
+                        (Some(y), Some(yhat)) => Some(Sample {
+                            tau_h: (run.t_s[row] - t0) / 3600.0,
+                            yhat,
+                            r: y - yhat,
+                        }),
+                        _ => None,
+                    })
+                    .collect()
+            })
+            .collect();
+        let test = drift_test(&samples);
+        let significant = test.as_ref().is_some_and(|t| t.p_value < a.alpha);
+        let relevant = test
+            .as_ref()
+            .is_some_and(|t| t.effect_um >= a.min_effect_um);
+        let (mut baseline_json, mut baseline_flag) = (None, false);
+        if let (Some(b), Some(n)) = (&base_scores, &new_scores) {
+            if let (Some(bm), Some(nm)) = (&b[k].calibration, &n[k].calibration) {
+                let exceeds =
+                    |new: f64, base: f64| new > a.tolerance * base && new - base >= a.min_effect_um;
+                baseline_flag = exceeds(nm.rmse, bm.rmse) || exceeds(nm.dpk, bm.dpk);
+                baseline_json = Some(json!({
+                    "rmse_um": bm.rmse, "dpk_um": bm.dpk,
+                    "new_rmse_um": nm.rmse, "new_dpk_um": nm.dpk,
+                    "rmse_ratio": nm.rmse / bm.rmse, "dpk_ratio": nm.dpk / bm.dpk,
+                }));
+            }
+        }
+        verdicts.push(Verdict {
+            changed: (significant && relevant) || baseline_flag,
+            test,
+            significant,
+            relevant,
+            baseline: baseline_json,
+            baseline_flag,
+        });
+    }
+    let changed = verdicts.iter().any(|v| v.changed);
+    let pairs: Vec<(&RunFile, usize)> = runs.iter().zip(&split).map(|(r, s)| (r, *s)).collect();
+    let before = score(&old, &pairs)?;
+
+    // 2. The update, of the changed targets only.
+    let dt_s = {
+        let dts: Vec<f64> = runs
+            .iter()
+            .filter_map(|r| r.sampling().dt_median_s)
+            .collect();
+        if dts.is_empty() {
+            bail!("the new runs need at least two rows each");
+        }
+        dts.iter().sum::<f64>() / dts.len() as f64
+    };
+    let settings = UpdateSettings {
+        method: a.method,
+        lambda: a
+            .forgetting
+            .unwrap_or_else(|| (1.0 - dt_s / (a.memory_h * 3600.0)).max(0.5)),
+        n_prior: a.prior_h * 3600.0 / dt_s,
+        window_s: a.window_h * 3600.0,
+    };
+    let mut notes: Vec<String> = Vec::new();
+    let mut update_json = Map::new();
+    let mut after = before.clone();
+    let mut kept_targets: Vec<String> = Vec::new();
+    let mut final_model: Option<ValidModel> = None;
+    if changed {
+        let sts = structures(&old, &runs)?;
+        let ys_k = |k: usize| -> Vec<&[Option<f64>]> { ys.iter().map(|y| y[k]).collect() };
+        let mut candidates: Vec<(usize, Coefs)> = Vec::new();
+        for (k, v) in verdicts.iter().enumerate() {
+            if !v.changed {
+                continue;
+            }
+            match update_one(&sts[k], &runs, &ys_k(k), &split, &settings) {
+                Ok(c) => candidates.push((k, c)),
+                Err(e) => notes.push(format!("{}: no update: {e:#}", outputs[k])),
+            }
+        }
+        let cand_model = if candidates.is_empty() {
+            None
+        } else {
+            match with_updates(&old, &sts, &candidates) {
+                Ok(m) => Some(m),
+                Err(e) => {
+                    notes.push(format!("{e:#}"));
+                    None
+                }
+            }
+        };
+        if let Some(cand) = cand_model {
+            let cand_scores = score(&cand, &pairs)?;
+            let mut keep: Vec<(usize, Coefs)> = Vec::new();
+            for (k, c) in &candidates {
+                let (o, n) = (holdout_rmse(&before[*k]), holdout_rmse(&cand_scores[*k]));
+                let better = matches!((o, n), (Some(o), Some(n)) if n < o);
+                let (old_b0, old_b) = &sts[*k].old;
+                let (old_j, new_j) = match &sts[*k].tf_entries {
+                    Some(idx) => (
+                        json!({"tf_entries": idx, "gains": old_b}),
+                        json!({"tf_entries": idx, "gains": c.1}),
+                    ),
+                    None => (
+                        json!({"intercept": old_b0, "coef": old_b}),
+                        json!({"intercept": c.0, "coef": c.1}),
+                    ),
+                };
+                let entry = json!({
+                    "old": old_j,
+                    "new": new_j,
+                    "holdout_rmse_old_um": o,
+                    "holdout_rmse_new_um": n,
+                    "kept": if better { "new" } else { "old" },
+                });
+                update_json.insert(outputs[*k].clone(), entry);
+                if better {
+                    keep.push((*k, c.clone()));
+                    kept_targets.push(outputs[*k].clone());
+                } else {
+                    notes.push(format!(
+                        "{}: the update does not lower the held-out rmse; the old equation is kept",
+                        outputs[*k]
+                    ));
+                }
+            }
+            if !keep.is_empty() {
+                let m = with_updates(&old, &sts, &keep)?;
+                after = score(&m, &pairs)?;
+                final_model = Some(m);
+            }
+        }
+    }
+    let out_bytes = match &final_model {
+        Some(m) => crate::blobfile::write(m, &a.out)?,
+        None => {
+            std::fs::write(&a.out, &old_bytes)
+                .with_context(|| format!("cannot write {}", a.out.display()))?;
+            old_bytes.clone()
+        }
+    };
+    let kept = if final_model.is_some() { "new" } else { "old" };
+    for n in &notes {
+        eprintln!("note: {n}");
+    }
+    let decision = if changed { "changed" } else { "unchanged" };
+    if a.json {
+        let targets: Map<String, Value> = outputs
+            .iter()
+            .zip(&verdicts)
+            .map(|(o, v)| (o.clone(), verdict_json(v)))
+            .collect();
+        println!(
+            "{}",
+            json!({
+                "changed": changed,
+                "test": {
+                    "rule": "per target: changed if (HAC Wald p < alpha on r ~ c0 + c1 tau_h + c2 yhat, and max|fitted| >= min_effect_um) or (baseline given and new rmse or dpk > tolerance x baseline and >= min_effect_um above it)",
+                    "alpha": a.alpha,
+                    "min_effect_um": a.min_effect_um,
+                    "tolerance": a.tolerance,
+                    "baseline_runs": a.baseline.len(),
+                    "targets": targets,
+                    "decision": decision,
+                },
+                "method": a.method.name(),
+                "settings": {
+                    "dt_s": dt_s,
+                    "forgetting": settings.lambda,
+                    "memory_h": dt_s / (1.0 - settings.lambda).max(f64::MIN_POSITIVE) / 3600.0,
+                    "prior_h": a.prior_h,
+                    "window_h": (a.method == Method::Window).then_some(a.window_h),
+                    "holdout_fraction": a.holdout_fraction,
+                },
+                "update": update_json,
+                "before": parts_json(&before),
+                "after": parts_json(&after),
+                "kept": kept,
+                "targets_updated": kept_targets,
+                "notes": notes,
+                "out": a.out.display().to_string(),
+                "bytes": out_bytes.len(),
+            })
+        );
+    } else {
+        print!(
+            "{}",
+            text_report(
+                &outputs,
+                &verdicts,
+                decision,
+                &before,
+                &after,
+                kept,
+                &kept_targets
+            )
+        );
+        eprintln!(
+            "wrote {} ({} bytes, {} model)",
+            a.out.display(),
+            out_bytes.len(),
+            if kept == "new" {
+                "updated"
+            } else {
+                "unchanged"
+            }
+        );
+    }
+    Ok(())
+}
+
+fn text_report(
+    outputs: &[String],
+    verdicts: &[Verdict],
+    decision: &str,
+    before: &[TargetScore],
+    after: &[TargetScore],
+    kept: &str,
+    kept_targets: &[String],
+) -> String {
+    let mut s = format!("refit: {decision}\n");
+    s.push_str(&format!(
+        "{:<10} {:>9} {:>10} {:>8} {:>9} {:>10} {:>6} {:>10} {:>9}\n",
+        "target", "bias_um", "drift_um/h", "gain", "wald", "p", "n_eff", "effect_um", "decision"
+    ));
+    for (o, v) in outputs.iter().zip(verdicts) {
+        let d = if v.changed { "changed" } else { "unchanged" };
+        match &v.test {
+            Some(t) => s.push_str(&format!(
+                "{:<10} {:>9.3} {:>10.4} {:>8.4} {:>9.2} {:>10.2e} {:>6.0} {:>10.3} {:>9}\n",
+                o, t.c0_um, t.c1_um_per_h, t.c2, t.wald, t.p_value, t.n_eff, t.effect_um, d
+            )),
+            None => s.push_str(&format!("{o:<10} (too few samples to test) {d}\n")),
+        }
+    }
+    s.push_str(&format!(
+        "{:<10} {:<12} {:>12} {:>12}\n",
+        "target", "part", "rmse_old_um", "rmse_new_um"
+    ));
+    for (b, n) in before.iter().zip(after) {
+        for (part, mb, mn) in [
+            ("update", &b.calibration, &n.calibration),
+            ("held-out", &b.holdout, &n.holdout),
+        ] {
+            if let (Some(mb), Some(mn)) = (mb, mn) {
+                s.push_str(&format!(
+                    "{:<10} {:<12} {:>12.3} {:>12.3}\n",
+                    b.output, part, mb.rmse, mn.rmse
+                ));
+            }
+        }
+    }
+    if kept == "new" {
+        s.push_str(&format!(
+            "kept: new ({} updated)\n",
+            kept_targets.join(", ")
+        ));
+    } else {
+        s.push_str("kept: old (written unchanged)\n");
+    }
+    s
+}

@@ -1,0 +1,383 @@
+//! The change test of `refit`: is the old model's residual on new data
+//! systematic, beyond what autocorrelated noise explains?
+//!
+//! The residual `r = y - yhat` of the old model is regressed on
+//! `c0 + c1 tau + c2 yhat` by least squares (`tau` = hours since the start of
+//! the run): `c0` is a bias (re-installation, new zero), `c1` a slow drift,
+//! `c2` a gain error (the relation between temperature and displacement has
+//! scaled). `H0: c0 = c1 = c2 = 0` is tested with a Wald statistic whose
+//! covariance is Newey-West (Bartlett kernel, HAC), because thermal
+//! residuals are strongly autocorrelated: a plain OLS covariance on 10,000
+//! samples that carry the information of a few dozen would reject every
+//! time. The bandwidth is Andrews' (1991, Econometrica 59, eq. 6.2 and 6.4)
+//! AR(1) plug-in for the Bartlett kernel, `1.1447 (alpha n)^(1/3)` with
+//! `alpha = 4 rho^2 / ((1 - rho)^2 (1 + rho)^2)`, `rho` the lag-1
+//! autocorrelation of the auxiliary regression's residual; lags never cross
+//! from one run into the next. Under `H0`, `W ~ chi^2(dof)`.
+
+use nalgebra::{DMatrix, DVector};
+
+/// One residual sample: hours since the run's start, the old prediction,
+/// and the residual `y - yhat`.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample {
+    /// Hours since the start of the run.
+    pub tau_h: f64,
+    /// The old model's prediction, um.
+    pub yhat: f64,
+    /// `y - yhat`, um.
+    pub r: f64,
+}
+
+/// What the test found on one target.
+#[derive(Clone, Debug)]
+pub struct DriftTest {
+    /// Samples used.
+    pub n: usize,
+    /// Bias `c0`, um.
+    pub c0_um: f64,
+    /// Drift `c1`, um per hour.
+    pub c1_um_per_h: f64,
+    /// Gain error `c2` (residual um per predicted um).
+    pub c2: f64,
+    /// Wald statistic with HAC covariance.
+    pub wald: f64,
+    /// Degrees of freedom (rank of the covariance).
+    pub dof: usize,
+    /// `P(chi^2(dof) > wald)`.
+    pub p_value: f64,
+    /// Bartlett lags used.
+    pub lags: usize,
+    /// Lag-1 autocorrelation of the auxiliary residual.
+    pub rho1: f64,
+    /// Effective sample size `n (1 - rho) / (1 + rho)` (reported, for scale).
+    pub n_eff: f64,
+    /// Largest `|c0 + c1 tau + c2 yhat|` over the samples, um: the biggest
+    /// systematic error the test attributes to a change.
+    pub effect_um: f64,
+    /// `rmse(r) - rmse(r - fitted)`, um: what removing it gains in rmse.
+    pub rmse_reduction_um: f64,
+    /// `rmse(r)`, um.
+    pub rmse_um: f64,
+}
+
+fn mean_std(v: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
+    let n = v.clone().count().max(1) as f64;
+    let m = v.clone().sum::<f64>() / n;
+    let var = v.map(|x| (x - m) * (x - m)).sum::<f64>() / n;
+    (m, var.sqrt())
+}
+
+/// Moore-Penrose inverse of a symmetric matrix, with eigenvalues below
+/// `1e-10` of the largest treated as zero; also returns the rank.
+fn pinv_sym(a: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
+    let sym = (a + a.transpose()) * 0.5;
+    let eig = sym.symmetric_eigen();
+    let top = eig.eigenvalues.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let n = a.nrows();
+    let mut inv = DMatrix::zeros(n, n);
+    let mut rank = 0;
+    for (j, lam) in eig.eigenvalues.iter().enumerate() {
+        if top > 0.0 && lam.abs() > 1e-10 * top {
+            rank += 1;
+            let v = eig.eigenvectors.column(j);
+            inv += (v * v.transpose()) / *lam;
+        }
+    }
+    (inv, rank)
+}
+
+/// Runs the test over `runs` (each run's samples in time order).
+pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
+    let all = || runs.iter().flatten();
+    let n = all().count();
+    if n < 10 {
+        return None;
+    }
+    let (m_tau, s_tau) = mean_std(all().map(|s| s.tau_h));
+    let (m_yh, s_yh) = mean_std(all().map(|s| s.yhat));
+    // Centred, scaled columns (the Wald test of "all zero" is invariant to
+    // this reparametrisation); a constant column is dropped.
+    let use_tau = s_tau > 1e-12 * m_tau.abs().max(1.0);
+    let use_yh = s_yh > 1e-12 * m_yh.abs().max(1.0);
+    let p = 1 + usize::from(use_tau) + usize::from(use_yh);
+    let row = |s: &Sample| -> Vec<f64> {
+        let mut v = vec![1.0];
+        if use_tau {
+            v.push((s.tau_h - m_tau) / s_tau);
+        }
+        if use_yh {
+            v.push((s.yhat - m_yh) / s_yh);
+        }
+        v
+    };
+    let mut x = DMatrix::<f64>::zeros(n, p);
+    let mut r = DVector::zeros(n);
+    for (i, s) in all().enumerate() {
+        for (j, v) in row(s).into_iter().enumerate() {
+            x[(i, j)] = v;
+        }
+        r[i] = s.r;
+    }
+    let nf = n as f64;
+    let q = x.transpose() * &x / nf;
+    let (q_inv, _) = pinv_sym(&q);
+    let c = &q_inv * (x.transpose() * &r / nf);
+    let fitted = &x * &c;
+    let u = &r - &fitted;
+    // Lag-1 autocorrelation within runs.
+    let (mut num, mut den) = (0.0, 0.0);
+    let mut start = 0;
+    let bounds: Vec<(usize, usize)> = runs
+        .iter()
+        .map(|run| {
+            let b = (start, start + run.len());
+            start += run.len();
+            b
+        })
+        .collect();
+    for &(a, b) in &bounds {
+        for k in a..b {
+            den += u[k] * u[k];
+            if k > a {
+                num += u[k] * u[k - 1];
+            }
+        }
+    }
+    let rho = if den > 0.0 { num / den } else { 0.0 }.clamp(-0.999, 0.999);
+    let alpha = 4.0 * rho * rho / ((1.0 - rho).powi(2) * (1.0 + rho).powi(2));
+    let lags = ((1.1447 * (alpha * nf).cbrt()).floor() as usize).min(n / 2);
+    // Scores g_k = x_k u_k; Omega = Gamma_0 + sum_j w_j (Gamma_j + Gamma_j').
+    let g: Vec<f64> = (0..n)
+        .flat_map(|i| (0..p).map(move |j| (i, j)))
+        .map(|(i, j)| x[(i, j)] * u[i])
+        .collect();
+    let mut omega = DMatrix::<f64>::zeros(p, p);
+    for j in 0..=lags {
+        let w = if j == 0 {
+            0.5
+        } else {
+            1.0 - j as f64 / (lags as f64 + 1.0)
+        };
+        let mut gamma = [[0.0; 3]; 3];
+        for &(a, b) in &bounds {
+            for k in (a + j)..b {
+                let (lead, lag) = (&g[k * p..k * p + p], &g[(k - j) * p..(k - j) * p + p]);
+                for (row, gl) in gamma.iter_mut().zip(lead) {
+                    for (cell, gg) in row.iter_mut().zip(lag) {
+                        *cell += gl * gg;
+                    }
+                }
+            }
+        }
+        // Gamma_0 enters once: half of (Gamma_0 + Gamma_0').
+        for r in 0..p {
+            for c in 0..p {
+                omega[(r, c)] += w * (gamma[r][c] + gamma[c][r]);
+            }
+        }
+    }
+    omega /= nf;
+    let v = &q_inv * omega * &q_inv / nf;
+    let (v_inv, dof) = pinv_sym(&v);
+    let wald = (c.transpose() * v_inv * &c)[(0, 0)].max(0.0);
+    let p_value = chi2_sf(wald, dof);
+    // Back to raw units.
+    let mut it = c.iter().skip(1);
+    let c1 = if use_tau {
+        it.next().copied().unwrap_or(0.0) / s_tau
+    } else {
+        0.0
+    };
+    let c2 = if use_yh {
+        it.next().copied().unwrap_or(0.0) / s_yh
+    } else {
+        0.0
+    };
+    let c0 = c[0] - c1 * if use_tau { m_tau } else { 0.0 } - c2 * if use_yh { m_yh } else { 0.0 };
+    let rmse = |v: &DVector<f64>| (v.norm_squared() / nf).sqrt();
+    Some(DriftTest {
+        n,
+        c0_um: c0,
+        c1_um_per_h: c1,
+        c2,
+        wald,
+        dof,
+        p_value,
+        lags,
+        rho1: rho,
+        n_eff: nf * (1.0 - rho) / (1.0 + rho),
+        effect_um: fitted.iter().fold(0.0_f64, |m, v| m.max(v.abs())),
+        rmse_reduction_um: rmse(&r) - rmse(&u),
+        rmse_um: rmse(&r),
+    })
+}
+
+/// `ln Gamma(x)`, x > 0 (Lanczos, g = 7, 9 terms: about 1e-15 relative).
+fn ln_gamma(x: f64) -> f64 {
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    if x < 0.5 {
+        // Reflection.
+        let pi = core::f64::consts::PI;
+        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
+    }
+    let x = x - 1.0;
+    let mut a = C[0];
+    let t = x + 7.5;
+    for (i, c) in C.iter().enumerate().skip(1) {
+        a += c / (x + i as f64);
+    }
+    0.5 * (2.0 * core::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+}
+
+/// Regularised upper incomplete gamma `Q(a, x)` (series below `a + 1`,
+/// Lentz continued fraction above; Numerical Recipes 6.2).
+fn gamma_q(a: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 1.0;
+    }
+    let gln = ln_gamma(a);
+    if x < a + 1.0 {
+        let (mut ap, mut sum) = (a, 1.0 / a);
+        let mut del = sum;
+        for _ in 0..1000 {
+            ap += 1.0;
+            del *= x / ap;
+            sum += del;
+            if del.abs() < sum.abs() * 1e-16 {
+                break;
+            }
+        }
+        (1.0 - sum * (-x + a * x.ln() - gln).exp()).clamp(0.0, 1.0)
+    } else {
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..1000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-16 {
+                break;
+            }
+        }
+        ((-x + a * x.ln() - gln).exp() * h).clamp(0.0, 1.0)
+    }
+}
+
+/// Survival function of the chi-square distribution with `dof` degrees of freedom.
+pub fn chi2_sf(x: f64, dof: usize) -> f64 {
+    if dof == 0 {
+        return 1.0;
+    }
+    gamma_q(dof as f64 / 2.0, x / 2.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_matches_closed_forms() {
+        // dof 2: exp(-x/2); dof 1 at 3.841458820694124: 0.05 (scipy.stats.chi2.sf).
+        for x in [0.1, 1.0, 5.0, 30.0] {
+            assert!((chi2_sf(x, 2) - (-x / 2.0f64).exp()).abs() < 1e-13);
+        }
+        assert!((chi2_sf(3.841_458_820_694_124, 1) - 0.05).abs() < 1e-12);
+        // dof 3 at 7.814727903251178: 0.05.
+        assert!((chi2_sf(7.814_727_903_251_178, 3) - 0.05).abs() < 1e-12);
+    }
+
+    /// Deterministic AR(1) noise (xorshift + Box-Muller).
+    fn ar1(n: usize, phi: f64, sd: f64, seed: u64) -> Vec<f64> {
+        let mut s = seed;
+        let mut uni = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut e = 0.0;
+        (0..n)
+            .map(|_| {
+                let z = (-2.0 * uni().ln()).sqrt() * (2.0 * core::f64::consts::PI * uni()).cos();
+                e = phi * e + sd * (1.0 - phi * phi).sqrt() * z;
+                e
+            })
+            .collect()
+    }
+
+    #[test]
+    fn hac_keeps_its_level_where_ols_would_not() {
+        // AR(1) phi 0.99 noise, 5760 samples, no change: over 12 seeds the
+        // 1 % test should reject rarely (HAC with ~29 effective samples is
+        // oversized; allow 3 of 12), whereas OLS standard errors would reject
+        // nearly always. The effect never reaches 1 um.
+        let mut rejections = 0;
+        for seed in 1..=12u64 {
+            let e = ar1(5760, 0.99, 0.3, seed * 7919);
+            let run: Vec<Sample> = e
+                .iter()
+                .enumerate()
+                .map(|(k, r)| Sample {
+                    tau_h: k as f64 * 15.0 / 3600.0,
+                    yhat: 10.0 * (k as f64 / 900.0).sin(),
+                    r: *r,
+                })
+                .collect();
+            let t = drift_test(&[run]).unwrap();
+            assert!(t.lags > 50, "{}", t.lags);
+            assert!(t.effect_um < 1.0, "{}", t.effect_um);
+            if t.p_value < 0.01 {
+                rejections += 1;
+            }
+        }
+        eprintln!("{rejections} of 12 rejected at 1 %");
+        assert!(rejections <= 3, "{rejections} of 12");
+    }
+
+    #[test]
+    fn drift_and_gain_are_found() {
+        let e = ar1(5760, 0.99, 0.3, 42);
+        let run: Vec<Sample> = e
+            .iter()
+            .enumerate()
+            .map(|(k, n)| {
+                let tau = k as f64 * 15.0 / 3600.0;
+                let yhat = 10.0 * (k as f64 / 900.0).sin();
+                Sample {
+                    tau_h: tau,
+                    yhat,
+                    r: 0.2 * tau + 0.3 * yhat + n,
+                }
+            })
+            .collect();
+        let t = drift_test(&[run]).unwrap();
+        assert!(t.p_value < 1e-6, "{}", t.p_value);
+        assert!((t.c1_um_per_h - 0.2).abs() < 0.05, "{}", t.c1_um_per_h);
+        assert!((t.c2 - 0.3).abs() < 0.03, "{}", t.c2);
+        assert!(t.effect_um > 4.0);
+    }
+}
