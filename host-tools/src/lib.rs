@@ -3,6 +3,7 @@
 
 pub mod blobfile;
 pub mod dataset;
+pub mod distributions;
 pub mod eval;
 pub mod fit;
 pub mod predict;

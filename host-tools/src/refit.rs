@@ -116,24 +116,6 @@ pub struct RefitArgs {
     pub json: bool,
 }
 
-fn read(paths: &[PathBuf], opts: &ReadOptions) -> Result<Vec<RunFile>> {
-    paths
-        .iter()
-        .map(|p| {
-            let run = RunFile::read(p, opts)?;
-            if let Some(first) = run.skipped.first() {
-                eprintln!(
-                    "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
-                    p.display(),
-                    run.skipped.len(),
-                    first.reason
-                );
-            }
-            Ok(run)
-        })
-        .collect()
-}
-
 /// Per run, per row: one output's regressors (None where any is missing).
 type Regressors = Vec<Vec<Option<Vec<f64>>>>;
 
@@ -549,8 +531,8 @@ pub fn run(a: &RefitArgs) -> Result<()> {
         skip_bad_rows: a.skip_bad_rows,
         only: Some(map.model_columns(&old, true)),
     };
-    let runs = read(&a.data, &opts)?;
-    let baseline = read(&a.baseline, &opts)?;
+    let runs = crate::source::read_runs(&a.data, &opts)?;
+    let baseline = crate::source::read_runs(&a.baseline, &opts)?;
     let outputs: Vec<String> = old.outputs().iter().map(|o| o.to_string()).collect();
     let ys: Vec<Vec<&[Option<f64>]>> = runs
         .iter()

@@ -28,6 +28,13 @@ use std::path::{Path, PathBuf};
 /// can never have missing values: every sample must say when it was taken.
 pub const TIME_COLUMN: &str = "t_s";
 
+/// Whether a column is a temperature sensor by the contract's naming
+/// (`T1`, `T2`, ...): the default candidates of `select` and `fit`.
+pub fn is_temperature_column(name: &str) -> bool {
+    name.strip_prefix('T')
+        .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+}
+
 /// Largest grid [`uniform_grid`] will build.
 ///
 /// 10 million points is far beyond any real run on a model's grid (115 days

@@ -55,20 +55,26 @@ impl RunSource {
             skip_bad_rows: self.skip_bad_rows,
             only: Some(needed),
         };
-        self.data
-            .iter()
-            .map(|p| {
-                let run = RunFile::read(p, &opts)?;
-                if let Some(first) = run.skipped.first() {
-                    eprintln!(
-                        "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
-                        p.display(),
-                        run.skipped.len(),
-                        first.reason
-                    );
-                }
-                Ok(run)
-            })
-            .collect()
+        read_runs(&self.data, &opts)
     }
+}
+
+/// Reads run files with `opts`, telling stderr how many bad rows each
+/// skipped (with `--skip-bad-rows`), so nothing is dropped silently.
+pub fn read_runs(paths: &[PathBuf], opts: &ReadOptions) -> Result<Vec<RunFile>> {
+    paths
+        .iter()
+        .map(|p| {
+            let run = RunFile::read(p, opts)?;
+            if let Some(first) = run.skipped.first() {
+                eprintln!(
+                    "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
+                    p.display(),
+                    run.skipped.len(),
+                    first.reason
+                );
+            }
+            Ok(run)
+        })
+        .collect()
 }

@@ -117,32 +117,11 @@ pub fn outputs(ds: &Dataset) -> Result<heapless::Vec<Name, MAX_OUTPUTS>> {
     Ok(out)
 }
 
-fn read(paths: &[PathBuf], opts: &ReadOptions) -> Result<Vec<RunFile>> {
-    paths
-        .iter()
-        .map(|p| {
-            let run = RunFile::read(p, opts)?;
-            if let Some(first) = run.skipped.first() {
-                eprintln!(
-                    "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
-                    p.display(),
-                    run.skipped.len(),
-                    first.reason
-                );
-            }
-            Ok(run)
-        })
-        .collect()
-}
-
 /// Every column named `T<number>`, in file order: the default inputs.
 fn temperature_columns(run: &RunFile) -> Vec<String> {
     run.columns
         .iter()
-        .filter(|c| {
-            c.strip_prefix('T')
-                .is_some_and(|n| !n.is_empty() && n.chars().all(|ch| ch.is_ascii_digit()))
-        })
+        .filter(|c| crate::runfile::is_temperature_column(c))
         .cloned()
         .collect()
 }
@@ -190,8 +169,8 @@ pub fn run(a: &FitArgs) -> Result<()> {
         skip_bad_rows: a.skip_bad_rows,
         only: Some(needed),
     };
-    let runs = read(&a.data, &opts)?;
-    let validate = read(&a.validate, &opts)?;
+    let runs = crate::source::read_runs(&a.data, &opts)?;
+    let validate = crate::source::read_runs(&a.validate, &opts)?;
     let ds = Dataset::new(
         &runs,
         &validate,

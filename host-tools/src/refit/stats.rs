@@ -15,6 +15,7 @@
 //! autocorrelation of the auxiliary regression's residual; lags never cross
 //! from one run into the next. Under `H0`, `W ~ chi^2(dof)`.
 
+use crate::distributions::chi2_sf;
 use nalgebra::{DMatrix, DVector};
 
 /// One residual sample: hours since the run's start, the old prediction,
@@ -213,102 +214,9 @@ pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
     })
 }
 
-/// `ln Gamma(x)`, x > 0 (Lanczos, g = 7, 9 terms: about 1e-15 relative).
-fn ln_gamma(x: f64) -> f64 {
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        // Reflection.
-        let pi = core::f64::consts::PI;
-        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = C[0];
-    let t = x + 7.5;
-    for (i, c) in C.iter().enumerate().skip(1) {
-        a += c / (x + i as f64);
-    }
-    0.5 * (2.0 * core::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// Regularised upper incomplete gamma `Q(a, x)` (series below `a + 1`,
-/// Lentz continued fraction above; Numerical Recipes 6.2).
-fn gamma_q(a: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let gln = ln_gamma(a);
-    if x < a + 1.0 {
-        let (mut ap, mut sum) = (a, 1.0 / a);
-        let mut del = sum;
-        for _ in 0..1000 {
-            ap += 1.0;
-            del *= x / ap;
-            sum += del;
-            if del.abs() < sum.abs() * 1e-16 {
-                break;
-            }
-        }
-        (1.0 - sum * (-x + a * x.ln() - gln).exp()).clamp(0.0, 1.0)
-    } else {
-        let tiny = 1e-300;
-        let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..1000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let del = d * c;
-            h *= del;
-            if (del - 1.0).abs() < 1e-16 {
-                break;
-            }
-        }
-        ((-x + a * x.ln() - gln).exp() * h).clamp(0.0, 1.0)
-    }
-}
-
-/// Survival function of the chi-square distribution with `dof` degrees of freedom.
-pub fn chi2_sf(x: f64, dof: usize) -> f64 {
-    if dof == 0 {
-        return 1.0;
-    }
-    gamma_q(dof as f64 / 2.0, x / 2.0)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn chi2_matches_closed_forms() {
-        // dof 2: exp(-x/2); dof 1 at 3.841458820694124: 0.05 (scipy.stats.chi2.sf).
-        for x in [0.1, 1.0, 5.0, 30.0] {
-            assert!((chi2_sf(x, 2) - (-x / 2.0f64).exp()).abs() < 1e-13);
-        }
-        assert!((chi2_sf(3.841_458_820_694_124, 1) - 0.05).abs() < 1e-12);
-        // dof 3 at 7.814727903251178: 0.05.
-        assert!((chi2_sf(7.814_727_903_251_178, 3) - 0.05).abs() < 1e-12);
-    }
 
     /// Deterministic AR(1) noise (xorshift + Box-Muller).
     fn ar1(n: usize, phi: f64, sd: f64, seed: u64) -> Vec<f64> {

@@ -201,12 +201,6 @@ impl SelectArgs {
     }
 }
 
-/// Whether `name` is `T` followed by digits.
-fn is_temperature(name: &str) -> bool {
-    name.strip_prefix('T')
-        .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
-}
-
 /// The rows of the runs where every one of some columns has a value.
 struct Table {
     /// One vector per column, the runs' kept rows concatenated.
@@ -292,7 +286,7 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
         inputs = head
             .columns
             .iter()
-            .filter(|c| is_temperature(c) && !a.target.contains(c))
+            .filter(|c| crate::runfile::is_temperature_column(c) && !a.target.contains(c))
             .cloned()
             .collect();
         if inputs.len() < 2 {
@@ -323,17 +317,8 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
         skip_bad_rows: a.skip_bad_rows,
         only: Some(needed.clone()),
     };
-    let mut files = Vec::with_capacity(a.data.len());
-    for p in &a.data {
-        let run = RunFile::read(p, &opts)?;
-        if let Some(first) = run.skipped.first() {
-            eprintln!(
-                "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
-                p.display(),
-                run.skipped.len(),
-                first.reason
-            );
-        }
+    let files = crate::source::read_runs(&a.data, &opts)?;
+    for (p, run) in a.data.iter().zip(&files) {
         for n in &needed {
             if !run.has_column(n) {
                 bail!(
@@ -343,7 +328,6 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
                 );
             }
         }
-        files.push(run);
     }
     Ok((files, inputs))
 }
@@ -927,9 +911,16 @@ mod tests {
 
     #[test]
     fn temperature_names() {
-        assert!(is_temperature("T1") && is_temperature("T16"));
-        assert!(!is_temperature("T") && !is_temperature("Tx") && !is_temperature("t1"));
-        assert!(!is_temperature("T1_c"));
+        assert!(
+            crate::runfile::is_temperature_column("T1")
+                && crate::runfile::is_temperature_column("T16")
+        );
+        assert!(
+            !crate::runfile::is_temperature_column("T")
+                && !crate::runfile::is_temperature_column("Tx")
+                && !crate::runfile::is_temperature_column("t1")
+        );
+        assert!(!crate::runfile::is_temperature_column("T1_c"));
     }
 
     #[test]
