@@ -24,17 +24,22 @@
 //! the simulation fit on the search-validation part (the last
 //! `--search-holdout` of each run's calibration samples, simulated from the
 //! run's start with parameters fitted on the samples before it).
+//!
+//! `--select-inputs forward` (shared with `arx`) scores each trial set with
+//! every input at the smallest structure of the ranges (the per-input order
+//! search, a whole-bank fit per trial, runs only on the selected set).
 
 use super::arx::{
-    bank, candidates, check_holdout, entry, fit_pct, grid_runs, progress, sample_time,
-    search_split, step_info, ArxArgs, OrderRange, Orders, Tsqr,
+    bank, candidates, check_holdout, entry, fit_pct, forward_select, grid_runs, max_selected,
+    progress, sample_time, search_split, step_info, sub_grid, subset, ArxArgs, OrderRange, Orders,
+    Selection, Tsqr,
 };
 use super::Fitted;
 use crate::dataset::{Dataset, GridRun};
 use anyhow::{bail, Result};
 use model_core::tf::{RealisedTf, MAX_TF_ENTRIES};
 use nalgebra::{DMatrix, DVector};
-use serde_json::{json, Map};
+use serde_json::{json, Map, Value};
 
 /// Default order ranges of `--model tf` (per input; modest, since the
 /// greedy search fits the whole bank for every trial).
@@ -362,6 +367,40 @@ fn validation_fit(grid: &[GridRun], t: usize, models: &[Siso], h: f64) -> Option
 /// Fits `--model tf`.
 pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
     check_holdout(args.search_holdout)?;
+    if args.select_inputs == Selection::Off {
+        return fit_inputs(ds, args, Value::Null);
+    }
+    let dt = sample_time(ds, args.dt_s)?;
+    let k_max = max_selected(args, ds)?;
+    let grid = grid_runs(ds, dt, "tf")?;
+    let [dna, dnb, dnk] = TF_DEFAULTS;
+    let cands = candidates(
+        args.na.unwrap_or(dna),
+        args.nb.unwrap_or(dnb),
+        args.nk.unwrap_or(dnk),
+    );
+    let Some(&start) = cands.first() else {
+        bail!("tf: no order candidate within the model core's limits");
+    };
+    let h = args.search_holdout;
+    let est_end = |g: &GridRun| search_split(g.calib_end, h);
+    let (idx, mut selection) =
+        forward_select(ds, k_max, args.min_gain_pct, "tf input selection", |idx| {
+            let g = sub_grid(&grid, idx);
+            let orders = vec![start; idx.len()];
+            let mut sum = 0.0;
+            for t in 0..ds.targets.len() {
+                let (models, _) = fit_target(&g, t, &orders, est_end, args).ok()?;
+                sum += validation_fit(&g, t, &models, h)?;
+            }
+            Some((sum / ds.targets.len() as f64, start.json()))
+        })?;
+    selection["orders_during_selection"] = start.json();
+    fit_inputs(&subset(ds, &idx), args, selection)
+}
+
+/// The per-input order search and the final fit on `ds`'s inputs.
+fn fit_inputs(ds: &Dataset, args: &ArxArgs, selection: Value) -> Result<Fitted> {
     let dt = sample_time(ds, args.dt_s)?;
     let (n_in, n_t) = (ds.inputs.len(), ds.targets.len());
     if n_in * n_t > MAX_TF_ENTRIES {
@@ -450,6 +489,7 @@ pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
         model,
         details: json!({
             "dt_s": dt,
+            "selection": selection,
             "method": "per-input SISO TFs, SISO ARX backfitting then Levenberg-Marquardt on the simulation error",
             "search": {
                 "score": "simulation fit % from each run's start, scored on the last search_holdout of its calibration samples",
