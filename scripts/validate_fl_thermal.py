@@ -26,12 +26,14 @@ SPLIT = 86400
 TARGETS = [f"ch{i}_um" for i in range(1, 6)]
 ALL = [f"T{i}" for i in range(1, 17)]
 METHODS = ["grey", "wgrey", "maxtree"]
-# (label, kind, extra fit arguments)
+# (label, kind, extra fit arguments, only with all 16 candidates)
 KINDS = [
-    ("mlr", "mlr", []),
-    ("pcr", "pcr", []),
-    ("arx", "arx", []),
-    ("tf", "tf", []),
+    ("mlr", "mlr", [], False),
+    ("pcr", "pcr", [], False),
+    ("arx", "arx", [], False),
+    ("arx ridge", "arx", ["--ridge", "auto"], False),
+    ("tf", "tf", [], False),
+    ("arx forward", "arx", ["--select-inputs", "forward"], True),
 ]
 REFERENCE = {"mlr16": {"ch1_um": 73.5, "ch3_um": 73.2, "ch5_um": 30.9},
              "pcr2": {"ch1_um": 43.2, "ch3_um": 59.9, "ch5_um": 64.8}}
@@ -63,7 +65,9 @@ def main():
     for target in TARGETS:
         for sel in ["all"] + METHODS:
             inputs = selections[(target, sel)]
-            for label, kind, extra in KINDS:
+            for label, kind, extra, only_all in KINDS:
+                if only_all and sel != "all":
+                    continue
                 if not inputs:
                     rows.append((target, sel, label, None, "selection failed"))
                     continue
