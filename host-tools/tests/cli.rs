@@ -2,41 +2,15 @@
 //! discipline, one-line errors, the contract's JSON keys, several runs,
 //! irregular sampling.
 
+mod common;
+
+use common::{fails_one_line as fails, ok, ok_json, p};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 const SP2_AMB: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../examples/seed004_sp2_ambient.toml"
 );
-
-fn thermcomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args(args)
-        .output()
-        .expect("thermcomp runs")
-}
-
-fn ok(args: &[&str]) -> (String, String) {
-    let out = thermcomp(args);
-    let (so, se) = (
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    );
-    assert!(out.status.success(), "thermcomp {args:?} failed: {se}");
-    (so, se)
-}
-
-/// Fails, with exactly one line on stderr and no panic.
-fn fails(args: &[&str]) -> String {
-    let out = thermcomp(args);
-    let se = String::from_utf8(out.stderr).unwrap();
-    assert!(!out.status.success(), "thermcomp {args:?} should fail");
-    assert!(!se.contains("panicked"), "panic: {se}");
-    assert_eq!(se.trim_end().lines().count(), 1, "one line: {se}");
-    assert!(out.stdout.is_empty(), "nothing on stdout: {:?}", out.stdout);
-    se
-}
 
 /// A spindle-like run: T1 steps up by 5 K after 10 min, ambient drifts 1 K
 /// over the run; dz_um is what the SP2 + ambient model itself predicts plus a
@@ -53,10 +27,6 @@ fn write_run(dir: &Path, name: &str, times: &[f64]) -> PathBuf {
     path
 }
 
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
 #[test]
 fn build_show_predict_eval_seed004() {
     let dir = tempfile::tempdir().unwrap();
@@ -70,8 +40,7 @@ fn build_show_predict_eval_seed004() {
         text.contains("cancelled"),
         "ambient's pole/zero at 1: {text}"
     );
-    let (json, _) = ok(&["model", "show", "--model", p(&blob), "--json"]);
-    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let v = ok_json(&["model", "show", "--model", p(&blob), "--json"]);
     assert_eq!(v["kind"], "tf");
     assert_eq!(v["format_version"], 1);
     assert_eq!(v["outputs"][0], "dz_um");
@@ -99,8 +68,7 @@ fn build_show_predict_eval_seed004() {
     let first: Vec<&str> = lines.next().unwrap().split(',').collect();
     assert_eq!(first, ["0", "0"], "no change yet, no displacement");
 
-    let (json, _) = ok(&["eval", "--model", p(&blob), "--data", p(&run), "--json"]);
-    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let v = ok_json(&["eval", "--model", p(&blob), "--data", p(&run), "--json"]);
     let m = &v["dz_um"];
     for key in [
         "n",
@@ -125,17 +93,13 @@ fn several_runs_restart_the_state_and_are_scored_together_and_apart() {
     let times: Vec<f64> = (0..3600).map(f64::from).collect();
     let a = write_run(dir.path(), "a.csv", &times);
     let b = write_run(dir.path(), "b.csv", &times);
-    let (json, _) = ok(&[
-        "eval",
-        "--spec",
-        SP2_AMB,
-        "--data",
-        p(&a),
-        "--data",
-        p(&b),
-        "--json",
-    ]);
-    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    // The seed 004 model over both runs, then `tail`.
+    let both = |command: &str, tail: &[&str]| {
+        let mut args = vec![command, "--spec", SP2_AMB, "--data", p(&a), "--data", p(&b)];
+        args.extend_from_slice(tail);
+        ok(&args).0
+    };
+    let v: serde_json::Value = serde_json::from_str(&both("eval", &["--json"])).unwrap();
     let m = &v["dz_um"];
     assert_eq!(m["n"], 7200);
     let runs = m["per_run"].as_array().unwrap();
@@ -145,17 +109,7 @@ fn several_runs_restart_the_state_and_are_scored_together_and_apart() {
     assert_eq!(runs[0]["rmse_um"], m["rmse_um"]);
 
     let pred = dir.path().join("pred.csv");
-    ok(&[
-        "predict",
-        "--spec",
-        SP2_AMB,
-        "--data",
-        p(&a),
-        "--data",
-        p(&b),
-        "--out",
-        p(&pred),
-    ]);
+    both("predict", &["--out", p(&pred)]);
     let text = std::fs::read_to_string(&pred).unwrap();
     assert!(text.starts_with("run,t_s,dz_um_pred\n"), "{}", &text[..40]);
     assert_eq!(text.lines().count(), 1 + 7200);

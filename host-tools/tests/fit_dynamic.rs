@@ -2,15 +2,14 @@
 //! by a known TF bank (seed 004's form: a spindle temperature and ambient),
 //! and the ARX fit on the real FL_THERMAL spindle run.
 
+mod common;
+
+use common::{
+    ok as thermcomp, ok_json as json, run, write, FL_THERMAL as REAL_RUN,
+    SYNTHETIC_SPINDLE as SYNTHETIC_RUN,
+};
 use serde_json::Value;
 use std::fmt::Write as _;
-use std::path::Path;
-use std::process::Command;
-
-const REAL_RUN: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../shared/data/fl_thermal/run.csv"
-);
 
 /// Sample time of the synthetic runs (s).
 const DT: f64 = 10.0;
@@ -19,23 +18,6 @@ const K_SP: f64 = 12.0;
 const TAU_SP: f64 = 3000.0;
 const K_AMB: f64 = -8.0;
 const TAU_AMB: f64 = 6000.0;
-
-fn thermcomp(args: &[&str]) -> (String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args(args)
-        .output()
-        .expect("thermcomp runs");
-    let (so, se) = (
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    );
-    assert!(out.status.success(), "thermcomp {args:?} failed: {se}");
-    (so, se)
-}
-
-fn json(args: &[&str]) -> Value {
-    serde_json::from_str(&thermcomp(args).0).expect("one JSON object on stdout")
-}
 
 /// Exact (zero-order-hold) discretisation of `K / (tau s + 1)`: `(a, b)`
 /// with `y(k) = p y(k-1) + K (1 - p) u(k-1)`.
@@ -85,12 +67,6 @@ fn synthetic(spindle_gain: f64, noise_um: f64) -> String {
     csv
 }
 
-fn write(dir: &Path, name: &str, text: &str) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p.display().to_string()
-}
-
 fn step_gain(eq: &Value, input: &str) -> f64 {
     eq["inputs"][input]["step"]["gain_per_unit"]
         .as_f64()
@@ -101,16 +77,24 @@ fn step_tau(eq: &Value, input: &str) -> f64 {
     eq["inputs"][input]["step"]["tau_s"].as_f64().unwrap()
 }
 
-fn fit_synthetic(kind: &str, noise_um: f64) -> Value {
-    let dir = tempfile::tempdir().unwrap();
-    let data = write(dir.path(), "run.csv", &synthetic(1.0, noise_um));
-    let out = dir.path().join("m.bin").display().to_string();
-    json(&[
-        "fit",
-        "--model",
-        kind,
+/// Asserts `got` is within `rel` of `want`, relatively; `what` names it.
+fn assert_close(got: f64, want: f64, rel: f64, what: &str) {
+    assert!((got - want).abs() < rel * want.abs(), "{what} {got}");
+}
+
+/// The held-out `key` of `dz_um` in a fit report.
+fn holdout(j: &Value, key: &str) -> f64 {
+    j["targets"]["dz_um"]["holdout"][key].as_f64().unwrap()
+}
+
+/// `fit <model_args>` of `dz_um` from T1 and ambient on the synthetic run
+/// `data`, holding out from 16 h, writing `out`.
+fn fit_bank(model_args: &[&str], data: &str, out: &str) -> Value {
+    let mut args = vec!["fit"];
+    args.extend_from_slice(model_args);
+    args.extend([
         "--data",
-        &data,
+        data,
         "--target",
         "dz_um",
         "--inputs",
@@ -118,9 +102,17 @@ fn fit_synthetic(kind: &str, noise_um: f64) -> Value {
         "--holdout-from-s",
         "57600",
         "--out",
-        &out,
+        out,
         "--json",
-    ])
+    ]);
+    json(&args)
+}
+
+fn fit_synthetic(kind: &str, noise_um: f64) -> Value {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "run.csv", &synthetic(1.0, noise_um));
+    let out = dir.path().join("m.bin").display().to_string();
+    fit_bank(&["--model", kind], &data, &out)
 }
 
 #[test]
@@ -140,13 +132,10 @@ fn arx_identifies_a_known_bank() {
     }
     let eq = &j["details"]["equations"]["dz_um"];
     for (input, k, tau) in [("T1", K_SP, TAU_SP), ("ambient_c", K_AMB, TAU_AMB)] {
-        let (g, t) = (step_gain(eq, input), step_tau(eq, input));
-        assert!((g - k).abs() < 5e-3 * k.abs(), "{input} gain {g}");
-        assert!((t - tau).abs() < 5e-3 * tau, "{input} tau {t}");
+        assert_close(step_gain(eq, input), k, 5e-3, &format!("{input} gain"));
+        assert_close(step_tau(eq, input), tau, 5e-3, &format!("{input} tau"));
     }
-    let fit = j["targets"]["dz_um"]["holdout"]["fit_pct"]
-        .as_f64()
-        .unwrap();
+    let fit = holdout(&j, "fit_pct");
     assert!(fit > 99.0, "held-out fit {fit}");
 }
 
@@ -159,12 +148,9 @@ fn arx_under_output_noise_is_biased_but_close() {
     // 20 %, 80 %. This is why `--model tf` (output error) exists.
     let j = fit_synthetic("arx", 0.05);
     let eq = &j["details"]["equations"]["dz_um"];
-    let (g1, g2) = (step_gain(eq, "T1"), step_gain(eq, "ambient_c"));
-    assert!((g1 - K_SP).abs() < 0.03 * K_SP.abs(), "T1 gain {g1}");
-    assert!((g2 - K_AMB).abs() < 0.2 * K_AMB.abs(), "ambient gain {g2}");
-    let fit = j["targets"]["dz_um"]["holdout"]["fit_pct"]
-        .as_f64()
-        .unwrap();
+    assert_close(step_gain(eq, "T1"), K_SP, 0.03, "T1 gain");
+    assert_close(step_gain(eq, "ambient_c"), K_AMB, 0.2, "ambient gain");
+    let fit = holdout(&j, "fit_pct");
     assert!(fit > 80.0, "held-out fit {fit}");
 }
 
@@ -175,15 +161,11 @@ fn tf_identifies_a_known_bank() {
     assert!(!eq["search"]["table"].as_array().unwrap().is_empty());
     // Output error is unbiased under white output noise: gains within 2 %,
     // time constants within 5 %.
-    let (g1, g2) = (step_gain(eq, "T1"), step_gain(eq, "ambient_c"));
-    assert!((g1 - K_SP).abs() < 0.02 * K_SP.abs(), "T1 gain {g1}");
-    assert!((g2 - K_AMB).abs() < 0.02 * K_AMB.abs(), "ambient gain {g2}");
-    let (t1, t2) = (step_tau(eq, "T1"), step_tau(eq, "ambient_c"));
-    assert!((t1 - TAU_SP).abs() < 0.05 * TAU_SP, "T1 tau {t1}");
-    assert!((t2 - TAU_AMB).abs() < 0.05 * TAU_AMB, "ambient tau {t2}");
-    let fit = j["targets"]["dz_um"]["holdout"]["fit_pct"]
-        .as_f64()
-        .unwrap();
+    assert_close(step_gain(eq, "T1"), K_SP, 0.02, "T1 gain");
+    assert_close(step_gain(eq, "ambient_c"), K_AMB, 0.02, "ambient gain");
+    assert_close(step_tau(eq, "T1"), TAU_SP, 0.05, "T1 tau");
+    assert_close(step_tau(eq, "ambient_c"), TAU_AMB, 0.05, "ambient tau");
+    let fit = holdout(&j, "fit_pct");
     assert!(fit > 97.0, "held-out fit {fit}");
 }
 
@@ -201,37 +183,16 @@ fn gain_recovers_a_scaled_spindle_part() {
     // Another spindle unit: the same machine, its spindle part 1.37 times larger.
     let data = write(dir.path(), "sp2.csv", &synthetic(1.37, 0.0));
     let out = dir.path().join("sp2.bin").display().to_string();
-    let j = json(&[
-        "fit",
-        "--model",
-        "gain",
-        "--gain-from",
-        &base,
-        "--data",
-        &data,
-        "--target",
-        "dz_um",
-        "--inputs",
-        "T1,ambient_c",
-        "--holdout-from-s",
-        "57600",
-        "--out",
-        &out,
-        "--json",
-    ]);
+    let j = fit_bank(&["--model", "gain", "--gain-from", &base], &data, &out);
     // Noise-free, the same structure: g to 1e-3 (the CSV's 6 decimals limit it).
     let g = j["details"]["gain"].as_f64().unwrap();
     assert!((g - 1.37).abs() < 1e-3, "g = {g}");
     let before = j["details"]["before"]["dz_um"]["holdout"]["rmse_um"]
         .as_f64()
         .unwrap();
-    let after = j["targets"]["dz_um"]["holdout"]["rmse_um"]
-        .as_f64()
-        .unwrap();
+    let after = holdout(&j, "rmse_um");
     assert!(after < 0.1 * before, "held-out rmse {before} -> {after}");
-    let red = j["targets"]["dz_um"]["holdout"]["reduction_pct"]
-        .as_f64()
-        .unwrap();
+    let red = holdout(&j, "reduction_pct");
     assert!(red > 99.0, "held-out reduction {red}");
 }
 
@@ -239,22 +200,19 @@ fn gain_recovers_a_scaled_spindle_part() {
 fn gain_needs_the_models_inputs() {
     let dir = tempfile::tempdir().unwrap();
     let data = write(dir.path(), "run.csv", &synthetic(1.0, 0.0));
-    let out = Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args([
-            "fit",
-            "--model",
-            "gain",
-            "--data",
-            &data,
-            "--target",
-            "dz_um",
-            "--inputs",
-            "T1",
-            "--out",
-            "/dev/null",
-        ])
-        .output()
-        .unwrap();
+    let out = run(&[
+        "fit",
+        "--model",
+        "gain",
+        "--data",
+        &data,
+        "--target",
+        "dz_um",
+        "--inputs",
+        "T1",
+        "--out",
+        "/dev/null",
+    ]);
     let se = String::from_utf8(out.stderr).unwrap();
     assert!(!out.status.success() && se.contains("--gain-from"), "{se}");
 }
@@ -293,11 +251,6 @@ fn arx_on_the_real_spindle_run() {
     // Measured 67.7 % (release); a floor well under it catches a broken fit.
     assert!(red > 55.0, "held-out reduction {red}");
 }
-
-const SYNTHETIC_RUN: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../examples/synthetic_spindle.csv"
-);
 
 fn fit_dz(extra: &[&str]) -> Value {
     let dir = tempfile::tempdir().unwrap();
@@ -341,11 +294,7 @@ fn forward_selection_on_the_synthetic_spindle() {
     assert!(!picked.contains(&"T8"), "{s}");
     let path = s["path"].as_array().unwrap();
     assert!(path[0]["search_fit_pct"].as_f64().unwrap() > 90.0, "{s}");
-    let held = |j: &Value| {
-        j["targets"]["dz_um"]["holdout"]["fit_pct"]
-            .as_f64()
-            .unwrap()
-    };
+    let held = |j: &Value| holdout(j, "fit_pct");
     let mlr = held(&fit_dz(&["--model", "mlr"]));
     let all = held(&fit_dz(&["--model", "arx"]));
     eprintln!(

@@ -2,25 +2,18 @@
 //! synthetic run of known structure, the held-out split honoured, and the
 //! naive references of the real FL_THERMAL run reproduced.
 
+mod common;
+
+use common::{ok_json, run, write, FL_THERMAL as REAL};
 use serde_json::Value;
 use std::path::Path;
-use std::process::Command;
 
-const REAL: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../shared/data/fl_thermal/run.csv"
-);
-
+/// `thermcomp fit <args> --json`, parsed.
 fn fit_json(args: &[&str]) -> Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .arg("fit")
-        .args(args)
-        .arg("--json")
-        .output()
-        .expect("thermcomp runs");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "fit {args:?}: {stderr}");
-    serde_json::from_slice(&out.stdout).expect("one JSON object on stdout")
+    let mut a = vec!["fit"];
+    a.extend_from_slice(args);
+    a.push("--json");
+    ok_json(&a)
 }
 
 fn held_out(v: &Value, target: &str, key: &str) -> f64 {
@@ -40,9 +33,7 @@ fn synthetic(dir: &Path) -> String {
         let y = 0.5 + 3.0 * (t1 - 20.0) - 2.0 * (t3 - 21.2);
         s.push_str(&format!("{t},{t1},{t2},{t3},op {k},{y}\n"));
     }
-    let path = dir.join("synthetic.csv");
-    std::fs::write(&path, s).unwrap();
-    path.to_str().unwrap().to_string()
+    write(dir, "synthetic.csv", &s)
 }
 
 #[test]
@@ -136,39 +127,33 @@ fn real_run_naive_references_are_reproduced() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.bin");
     let o = out.to_str().unwrap();
-    let v = fit_json(&[
-        "--data",
-        REAL,
-        "--target",
-        "ch1_um,ch3_um,ch5_um",
-        "--model",
-        "mlr",
-        "--holdout-from-s",
-        "86400",
-        "--out",
-        o,
-    ]);
-    for (t, want) in [("ch1_um", 73.5), ("ch3_um", 73.2), ("ch5_um", 30.9)] {
-        let got = held_out(&v, t, "reduction_pct");
-        assert!((got - want).abs() < 0.06, "mlr {t}: {got} vs {want}");
-    }
-    let v = fit_json(&[
-        "--data",
-        REAL,
-        "--target",
-        "ch1_um,ch3_um,ch5_um",
-        "--model",
-        "pcr",
-        "--components",
-        "2",
-        "--holdout-from-s",
-        "86400",
-        "--out",
-        o,
-    ]);
-    for (t, want) in [("ch1_um", 43.2), ("ch3_um", 59.9), ("ch5_um", 64.8)] {
-        let got = held_out(&v, t, "reduction_pct");
-        assert!((got - want).abs() < 0.06, "pcr {t}: {got} vs {want}");
+    for (model, extra, wants) in [
+        (
+            "mlr",
+            &[][..],
+            [("ch1_um", 73.5), ("ch3_um", 73.2), ("ch5_um", 30.9)],
+        ),
+        (
+            "pcr",
+            &["--components", "2"][..],
+            [("ch1_um", 43.2), ("ch3_um", 59.9), ("ch5_um", 64.8)],
+        ),
+    ] {
+        let mut args = vec![
+            "--data",
+            REAL,
+            "--target",
+            "ch1_um,ch3_um,ch5_um",
+            "--model",
+            model,
+        ];
+        args.extend_from_slice(extra);
+        args.extend(["--holdout-from-s", "86400", "--out", o]);
+        let v = fit_json(&args);
+        for (t, want) in wants {
+            let got = held_out(&v, t, "reduction_pct");
+            assert!((got - want).abs() < 0.06, "{model} {t}: {got} vs {want}");
+        }
     }
 }
 
@@ -198,13 +183,12 @@ fn fit_errors_are_one_line() {
             "5",
         ],
     ] {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_thermcomp"));
-        cmd.args(["fit", "--data", &data, "--out", out.to_str().unwrap()])
-            .args(&args);
+        let mut all = vec!["fit", "--data", &data, "--out", out.to_str().unwrap()];
+        all.extend_from_slice(&args);
         if !args.contains(&"--model") {
-            cmd.args(["--model", "mlr"]);
+            all.extend(["--model", "mlr"]);
         }
-        let o = cmd.output().unwrap();
+        let o = run(&all);
         let e = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{args:?} should fail");
         assert_eq!(e.trim_end().lines().count(), 1, "{args:?}: {e}");

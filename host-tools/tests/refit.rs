@@ -2,61 +2,15 @@
 //! or a drift -> an update that lowers the held-out error; a TF bank's entry
 //! gain recovered; the real spindle run's later operating range.
 
+mod common;
+
+use common::{ar1, ok as thermcomp, ok_json as json, p, rows_from, run, FL_THERMAL as REAL_RUN};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-const REAL_RUN: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../shared/data/fl_thermal/run.csv"
-);
 
 /// 24 h at 15 s, as the hub logs.
 const DT_S: f64 = 15.0;
 const N: usize = 5760;
-
-fn thermcomp(args: &[&str]) -> (String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args(args)
-        .output()
-        .expect("thermcomp runs");
-    let (so, se) = (
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    );
-    assert!(out.status.success(), "thermcomp {args:?} failed: {se}");
-    (so, se)
-}
-
-fn json(args: &[&str]) -> Value {
-    let (so, _) = thermcomp(args);
-    serde_json::from_str(&so).unwrap_or_else(|e| panic!("not JSON ({e}): {so}"))
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
-/// AR(1) noise, phi 0.99, stationary sd `sd` (xorshift64 + Box-Muller):
-/// the slow, correlated wander of real thermal residuals.
-fn ar1(n: usize, sd: f64, seed: u64) -> Vec<f64> {
-    let phi: f64 = 0.99;
-    let mut s = seed;
-    let mut uni = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
-    let mut e = 0.0;
-    (0..n)
-        .map(|_| {
-            let z = (-2.0 * uni().ln()).sqrt() * (2.0 * std::f64::consts::PI * uni()).cos();
-            e = phi * e + sd * (1.0 - phi * phi).sqrt() * z;
-            e
-        })
-        .collect()
-}
 
 /// Temperatures at row `k`: T1 a spindle cycling over 6 h and 2.3 h, T2
 /// ambient over the day, T3 a structure in between.
@@ -99,28 +53,59 @@ fn build(dir: &Path, name: &str, spec: &str) -> PathBuf {
     blob
 }
 
-fn rmse(report: &Value, when: &str, part: &str) -> f64 {
-    report[when]["dz_um"][part]["rmse_um"].as_f64().unwrap()
+/// A refit case on the LINEAR model: its blob `old`, a new run `data` of
+/// `y(k, temperatures)` plus AR(1) noise (0.3 um sd, `seed`), and `out`.
+struct LinearCase {
+    _dir: tempfile::TempDir,
+    old: PathBuf,
+    data: PathBuf,
+    out: PathBuf,
+}
+
+fn linear_case(seed: u64, y: impl Fn(usize, &[f64; 3]) -> f64) -> LinearCase {
+    let dir = tempfile::tempdir().unwrap();
+    let old = build(dir.path(), "old", LINEAR);
+    let noise = ar1(N, 0.3, seed);
+    let data = dir.path().join("new.csv");
+    write_run(&data, |k, t| y(k, t) + noise[k]);
+    let out = dir.path().join("out.bin");
+    LinearCase {
+        _dir: dir,
+        old,
+        data,
+        out,
+    }
+}
+
+/// `refit --json` of the blob `old` on the run `data`, writing `out`.
+fn refit(old: &Path, data: &Path, out: &Path) -> Value {
+    json(&[
+        "refit",
+        "--model",
+        p(old),
+        "--data",
+        p(data),
+        "--out",
+        p(out),
+        "--json",
+    ])
+}
+
+/// Held-out rmse of `target` before and after a refit.
+fn holdout_rmse(report: &Value, target: &str) -> (f64, f64) {
+    let rmse = |when: &str| report[when][target]["holdout"]["rmse_um"].as_f64().unwrap();
+    (rmse("before"), rmse("after"))
 }
 
 #[test]
 fn no_change_leaves_the_blob_byte_identical() {
-    let dir = tempfile::tempdir().unwrap();
-    let old = build(dir.path(), "old", LINEAR);
-    let noise = ar1(N, 0.3, 11);
-    let data = dir.path().join("new.csv");
-    write_run(&data, |k, t| linear_truth(t, 1.0) + noise[k]);
-    let out = dir.path().join("out.bin");
-    let r = json(&[
-        "refit",
-        "--model",
-        p(&old),
-        "--data",
-        p(&data),
-        "--out",
-        p(&out),
-        "--json",
-    ]);
+    let LinearCase {
+        _dir,
+        old,
+        data,
+        out,
+    } = linear_case(11, |_, t| linear_truth(t, 1.0));
+    let r = refit(&old, &data, &out);
     eprintln!("no change: {}", r["test"]["targets"]["dz_um"]);
     assert_eq!(r["changed"], false, "{r}");
     assert_eq!(r["test"]["decision"], "unchanged");
@@ -143,24 +128,15 @@ fn no_change_leaves_the_blob_byte_identical() {
 
 #[test]
 fn a_changed_sensor_gain_is_found_and_corrected() {
-    let dir = tempfile::tempdir().unwrap();
-    let old = build(dir.path(), "old", LINEAR);
-    let noise = ar1(N, 0.3, 22);
-    let data = dir.path().join("new.csv");
     // T1 re-installed: its gain is 30 % higher.
-    write_run(&data, |k, t| linear_truth(t, 1.3) + noise[k]);
-    let out = dir.path().join("out.bin");
-    let r = json(&[
-        "refit",
-        "--model",
-        p(&old),
-        "--data",
-        p(&data),
-        "--out",
-        p(&out),
-        "--json",
-    ]);
-    let (before, after) = (rmse(&r, "before", "holdout"), rmse(&r, "after", "holdout"));
+    let LinearCase {
+        _dir,
+        old,
+        data,
+        out,
+    } = linear_case(22, |_, t| linear_truth(t, 1.3));
+    let r = refit(&old, &data, &out);
+    let (before, after) = holdout_rmse(&r, "dz_um");
     eprintln!(
         "gain +30 %: held-out rmse {before:.3} -> {after:.3} um; update {}",
         r["update"]
@@ -178,26 +154,15 @@ fn a_changed_sensor_gain_is_found_and_corrected() {
 
 #[test]
 fn a_slow_drift_is_found_and_tracked() {
-    let dir = tempfile::tempdir().unwrap();
-    let old = build(dir.path(), "old", LINEAR);
-    let noise = ar1(N, 0.3, 33);
-    let data = dir.path().join("new.csv");
     // 5 um over the day (e.g. a foundation settling).
-    write_run(&data, |k, t| {
-        linear_truth(t, 1.0) + 5.0 * k as f64 / N as f64 + noise[k]
-    });
-    let out = dir.path().join("out.bin");
-    let r = json(&[
-        "refit",
-        "--model",
-        p(&old),
-        "--data",
-        p(&data),
-        "--out",
-        p(&out),
-        "--json",
-    ]);
-    let (before, after) = (rmse(&r, "before", "holdout"), rmse(&r, "after", "holdout"));
+    let LinearCase {
+        _dir,
+        old,
+        data,
+        out,
+    } = linear_case(33, |k, t| linear_truth(t, 1.0) + 5.0 * k as f64 / N as f64);
+    let r = refit(&old, &data, &out);
+    let (before, after) = holdout_rmse(&r, "dz_um");
     let drift = r["test"]["targets"]["dz_um"]["c1_um_per_h"]
         .as_f64()
         .unwrap();
@@ -248,23 +213,14 @@ fn a_tf_banks_spindle_gain_is_recovered() {
     let data = dir.path().join("new.csv");
     write_run(&data, |k, _| y[k] + noise[k]);
     let out = dir.path().join("out.bin");
-    let r = json(&[
-        "refit",
-        "--model",
-        p(&old),
-        "--data",
-        p(&data),
-        "--out",
-        p(&out),
-        "--json",
-    ]);
+    let r = refit(&old, &data, &out);
     let g: Vec<f64> = r["update"]["dz_um"]["new"]["gains"]
         .as_array()
         .unwrap_or_else(|| panic!("{r}"))
         .iter()
         .map(|v| v.as_f64().unwrap())
         .collect();
-    let (before, after) = (rmse(&r, "before", "holdout"), rmse(&r, "after", "holdout"));
+    let (before, after) = holdout_rmse(&r, "dz_um");
     eprintln!("tf spindle x1.4: gains {g:?}; held-out rmse {before:.3} -> {after:.3} um");
     assert_eq!(r["changed"], true, "{r}");
     assert_eq!(r["kept"], "new");
@@ -299,36 +255,14 @@ fn the_real_runs_later_operating_range_is_a_change() {
         p(&old),
     ]);
     // The rows after 24 h as a run of their own (5000 rpm, 3500 rpm, staircase).
-    let text = std::fs::read_to_string(REAL_RUN).unwrap();
-    let mut lines = text.lines();
-    let mut later = format!("{}\n", lines.next().unwrap());
-    for l in lines {
-        let t: f64 = l.split(',').next().unwrap().parse().unwrap();
-        if t >= 86400.0 {
-            later.push_str(l);
-            later.push('\n');
-        }
-    }
+    let (header, rows) = rows_from(REAL_RUN, 86400.0);
+    let later = format!("{header}\n{}\n", rows.join("\n"));
     let data = dir.path().join("later.csv");
     std::fs::write(&data, later).unwrap();
     let out = dir.path().join("out.bin");
-    let r = json(&[
-        "refit",
-        "--model",
-        p(&old),
-        "--data",
-        p(&data),
-        "--out",
-        p(&out),
-        "--json",
-    ]);
+    let r = refit(&old, &data, &out);
     let t = &r["test"]["targets"]["ch1_um"];
-    let (before, after) = (
-        r["before"]["ch1_um"]["holdout"]["rmse_um"]
-            .as_f64()
-            .unwrap(),
-        r["after"]["ch1_um"]["holdout"]["rmse_um"].as_f64().unwrap(),
-    );
+    let (before, after) = holdout_rmse(&r, "ch1_um");
     eprintln!(
         "real run after 24 h: p {} effect {} um c0 {} c1 {} c2 {}; kept {}; held-out rmse {before:.3} -> {after:.3} um",
         t["p_value"], t["effect_um"], t["c0_um"], t["c1_um_per_h"], t["c2_gain"], r["kept"]
@@ -342,20 +276,17 @@ fn the_real_runs_later_operating_range_is_a_change() {
 
 #[test]
 fn bad_options_fail_with_one_line() {
-    let out = Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args([
-            "refit",
-            "--model",
-            "x.bin",
-            "--data",
-            "x.csv",
-            "--out",
-            "y.bin",
-            "--holdout-fraction",
-            "1.5",
-        ])
-        .output()
-        .unwrap();
+    let out = run(&[
+        "refit",
+        "--model",
+        "x.bin",
+        "--data",
+        "x.csv",
+        "--out",
+        "y.bin",
+        "--holdout-fraction",
+        "1.5",
+    ]);
     let se = String::from_utf8(out.stderr).unwrap();
     assert!(!out.status.success());
     assert!(

@@ -3,48 +3,24 @@
 //! independent numpy computation on the paper's own Figure 3 rows, and the
 //! command line's errors and notes.
 
+mod common;
+
+use common::{fails_one_line as fails, ok, write, FL_THERMAL};
 use serde_json::Value;
 use std::collections::BTreeSet;
-use std::path::Path;
-use std::process::{Command, Output};
 
-const FL_THERMAL: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../shared/data/fl_thermal/run.csv"
-);
 const SEED002_FIG3: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../tests/data/seed002_fig3.csv"
 );
 
-fn thermcomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args(args)
-        .output()
-        .expect("thermcomp runs")
-}
-
 /// Runs with `--json`; returns the parsed object and stderr.
 fn json(args: &[&str]) -> (Value, String) {
     let mut a = args.to_vec();
     a.push("--json");
-    let out = thermcomp(&a);
-    let se = String::from_utf8(out.stderr).unwrap();
-    assert!(out.status.success(), "thermcomp {args:?} failed: {se}");
-    let so = String::from_utf8(out.stdout).unwrap();
+    let (so, se) = ok(&a);
     assert_eq!(so.trim_end().lines().count(), 1, "one JSON object: {so}");
     (serde_json::from_str(&so).expect("JSON on stdout"), se)
-}
-
-/// Fails with exactly one line on stderr, nothing on stdout, no panic.
-fn fails(args: &[&str]) -> String {
-    let out = thermcomp(args);
-    let se = String::from_utf8(out.stderr).unwrap();
-    assert!(!out.status.success(), "thermcomp {args:?} should fail");
-    assert!(!se.contains("panicked"), "panic: {se}");
-    assert_eq!(se.trim_end().lines().count(), 1, "one line: {se}");
-    assert!(out.stdout.is_empty());
-    se
 }
 
 fn strings(v: &Value) -> Vec<String> {
@@ -414,12 +390,6 @@ fn runs_repeated_give_the_same_weighted_correlativity() {
     assert_eq!(two["per_target"]["S2"]["rows"], 52);
 }
 
-fn write(dir: &Path, name: &str, body: &str) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, body).unwrap();
-    p.to_str().unwrap().to_string()
-}
-
 #[test]
 fn missing_cells_are_left_out_and_counted() {
     let dir = tempfile::tempdir().unwrap();
@@ -458,50 +428,37 @@ fn missing_cells_are_left_out_and_counted() {
 
 #[test]
 fn text_output_and_errors() {
-    let out = thermcomp(&[
+    let (so, _) = ok(&[
         "select", "--data", FL_THERMAL, "--target", "ch5_um", "--method", "maxtree",
     ]);
-    assert!(out.status.success());
-    let so = String::from_utf8(out.stdout).unwrap();
     assert!(so.contains("selected: T") && so.contains("lambda"), "{so}");
 
-    let e = fails(&[
-        "select",
-        "--data",
-        FL_THERMAL,
-        "--target",
-        "ch1_um,ch2_um",
-        "--method",
-        "grey",
-    ]);
-    assert!(e.contains("one --target"), "{e}");
-    let e = fails(&[
-        "select", "--data", FL_THERMAL, "--target", "ch9_um", "--method", "wgrey",
-    ]);
-    assert!(
-        e.contains("run.csv") && e.contains("no column \"ch9_um\""),
-        "{e}"
-    );
-    let e = fails(&[
-        "select",
-        "--data",
-        FL_THERMAL,
-        "--target",
-        "ch1_um",
-        "--inputs",
-        "T1,ch1_um",
-        "--method",
-        "maxtree",
-    ]);
-    assert!(e.contains("both a --target and an input"), "{e}");
-    let e = fails(&[
-        "select", "--data", FL_THERMAL, "--target", "ch1_um", "--method", "grey", "--level", "1.5",
-    ]);
-    assert!(e.contains("--level"), "{e}");
-    // Grey clustering at a level no pair reaches: 16 typical variables, too
-    // many combinations.
-    let e = fails(&[
-        "select", "--data", FL_THERMAL, "--target", "ch1_um", "--method", "grey", "--level", "1",
-    ]);
-    assert!(e.contains("more than 12 typical variables"), "{e}");
+    // (arguments after `--data FL_THERMAL --target`, what the error says)
+    let cases: [(&[&str], &[&str]); 5] = [
+        (&["ch1_um,ch2_um", "--method", "grey"], &["one --target"]),
+        (
+            &["ch9_um", "--method", "wgrey"],
+            &["run.csv", "no column \"ch9_um\""],
+        ),
+        (
+            &["ch1_um", "--inputs", "T1,ch1_um", "--method", "maxtree"],
+            &["both a --target and an input"],
+        ),
+        (
+            &["ch1_um", "--method", "grey", "--level", "1.5"],
+            &["--level"],
+        ),
+        // Grey clustering at a level no pair reaches: 16 typical variables,
+        // too many combinations.
+        (
+            &["ch1_um", "--method", "grey", "--level", "1"],
+            &["more than 12 typical variables"],
+        ),
+    ];
+    for (tail, wants) in cases {
+        let mut args = vec!["select", "--data", FL_THERMAL, "--target"];
+        args.extend_from_slice(tail);
+        let e = fails(&args);
+        assert!(wants.iter().all(|w| e.contains(w)), "{e}");
+    }
 }

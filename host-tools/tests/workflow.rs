@@ -5,54 +5,20 @@
 //! accept and that `eval` agrees with `fit`'s held-out figures, then refit
 //! on a changed run.
 
-use serde_json::Value;
+mod common;
+
+use common::{ok, ok_json, p, rows_from, write, SYNTHETIC_SPINDLE as RUN};
 use std::path::Path;
-use std::process::Command;
-
-const RUN: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../examples/synthetic_spindle.csv"
-);
-
-fn thermcomp(args: &[&str]) -> Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args(args)
-        .output()
-        .expect("thermcomp runs");
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    if args.contains(&"--json") {
-        serde_json::from_slice(&out.stdout).expect("JSON")
-    } else {
-        Value::Null
-    }
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
 
 /// The held-out part of the run only, so `eval` scores what `fit` held out
 /// (inputs as changes: the excerpt must keep the run's first row, which
 /// carries the references, so the excerpt is the first row plus t >= 24 h).
 fn holdout_excerpt(dir: &Path) -> String {
+    let (header, later) = rows_from(RUN, 86400.0);
     let text = std::fs::read_to_string(RUN).unwrap();
-    let mut lines = text.lines();
-    let mut out = format!("{}\n", lines.next().unwrap());
-    out.push_str(&format!("{}\n", lines.next().unwrap()));
-    for l in lines {
-        let t: f64 = l.split(',').next().unwrap().parse().unwrap();
-        if t >= 86400.0 {
-            out.push_str(l);
-            out.push('\n');
-        }
-    }
-    let path = dir.join("holdout.csv");
-    std::fs::write(&path, out).unwrap();
-    path.to_str().unwrap().to_string()
+    let first = text.lines().nth(1).unwrap();
+    let out = format!("{header}\n{first}\n{}\n", later.join("\n"));
+    write(dir, "holdout.csv", &out)
 }
 
 #[test]
@@ -61,7 +27,7 @@ fn select_fit_show_predict_eval_refit() {
     // Select: the known physics drives dz_um by T1 (bearing), T4 (housing),
     // T5 (column) and T6 (ambient); T8 is an unrelated sensor and must not
     // be the sole pick of a method that ranks by relation to the target.
-    let sel = thermcomp(&[
+    let sel = ok_json(&[
         "select", "--data", RUN, "--target", "dz_um", "--method", "maxtree", "--json",
     ]);
     let chosen: Vec<String> = sel["selected"]
@@ -78,7 +44,7 @@ fn select_fit_show_predict_eval_refit() {
     // eight inputs takes minutes in a debug build.)
     for kind in ["mlr", "pcr", "arx"] {
         let out = dir.path().join(format!("{kind}.bin"));
-        let v = thermcomp(&[
+        let v = ok_json(&[
             "fit",
             "--data",
             RUN,
@@ -95,9 +61,9 @@ fn select_fit_show_predict_eval_refit() {
         let h = v["targets"]["dz_um"]["holdout"].clone();
         held.insert(kind, h["reduction_pct"].as_f64().unwrap());
         // The blob is accepted by show, predict and eval.
-        thermcomp(&["model", "show", "--model", p(&out), "--json"]);
+        ok_json(&["model", "show", "--model", p(&out), "--json"]);
         let pred = dir.path().join(format!("{kind}.csv"));
-        thermcomp(&[
+        ok(&[
             "predict",
             "--model",
             p(&out),
@@ -110,7 +76,7 @@ fn select_fit_show_predict_eval_refit() {
         assert_eq!(rows, 1 + 4321, "{kind}: row for row");
         // eval on the whole run agrees with fit's figures over all rows:
         // the same runner scores both (n = calibration + held-out rows).
-        let e = thermcomp(&["eval", "--model", p(&out), "--data", RUN, "--json"]);
+        let e = ok_json(&["eval", "--model", p(&out), "--data", RUN, "--json"]);
         let n_fit =
             v["targets"]["dz_um"]["calibration"]["n"].as_u64().unwrap() + h["n"].as_u64().unwrap();
         assert_eq!(e["dz_um"]["n"].as_u64().unwrap(), n_fit, "{kind}");
@@ -125,7 +91,7 @@ fn select_fit_show_predict_eval_refit() {
     // The excerpt scored by eval matches fit's held-out figure for MLR
     // (static, so the excerpt needs only the first row for the references).
     let excerpt = holdout_excerpt(dir.path());
-    let e = thermcomp(&[
+    let e = ok_json(&[
         "eval",
         "--model",
         p(&dir.path().join("mlr.bin")),
@@ -145,7 +111,7 @@ fn select_fit_show_predict_eval_refit() {
     // Refit: the same run is not a change; the model is kept byte for byte.
     let old = dir.path().join("mlr.bin");
     let same = dir.path().join("same.bin");
-    let v = thermcomp(&[
+    let v = ok_json(&[
         "refit",
         "--model",
         p(&old),
