@@ -18,30 +18,12 @@ use model_core::blob::{HEADER_LEN, MAX_BLOB_LEN, TRAILER_LEN};
 use model_core::model::StepError;
 use model_core::{BlobError, ModelState, ValidModel};
 
-/// Most inputs a model can have (length of a full readings array).
-pub const MAX_INPUTS: usize = model_core::model::MAX_CHANNELS;
-/// Most outputs a model can have (length of [`Offsets::values`]).
-pub const MAX_OUTPUTS: usize = model_core::model::MAX_OUTPUTS;
+pub use crate::offsets::{Offsets, MAX_INPUTS, MAX_OUTPUTS};
 
-/// The offsets the hub reports after a sample.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Offsets {
-    /// One value per model output, in the model's output order (the output
-    /// unit, e.g. um). Entries past the model's output count, and all of
-    /// them without a model, are zero. Always finite.
-    pub values: [f64; MAX_OUTPUTS],
-    /// Whether `values` were computed from this sample; `false` when they
-    /// were held from an earlier sample or there is no model.
-    pub fresh: bool,
-}
-
-impl Offsets {
-    /// All zero: no compensation.
-    pub const ZERO: Self = Self {
-        values: [0.0; MAX_OUTPUTS],
-        fresh: false,
-    };
-}
+// The hub's buffers are sized by the offsets module; they must hold what
+// model-core can produce.
+const _: () = assert!(MAX_INPUTS == model_core::model::MAX_CHANNELS);
+const _: () = assert!(MAX_OUTPUTS == model_core::model::MAX_OUTPUTS);
 
 /// Samples the model refused, by cause (saturating counters).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

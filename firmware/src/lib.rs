@@ -7,6 +7,7 @@
 //!
 //! * [`board`]: clocks, pinout, bus speeds, task periods.
 //! * [`layout`]: the flash/RAM map of `memory.x`, including the model slots.
+//! * [`offsets`]: what the hub reports per sample.
 //! * [`hub`]: loads the model blob from a slot and turns each sample into
 //!   axis offsets, holding the last good offsets when a sample is bad. With
 //!   the `model` feature off (`--no-default-features`) it is a stand-in that
@@ -16,6 +17,7 @@
 
 pub mod board;
 pub mod layout;
+pub mod offsets;
 
 #[cfg(feature = "model")]
 pub mod hub;

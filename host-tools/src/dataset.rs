@@ -154,7 +154,7 @@ impl Dataset {
             form,
             runs: out,
         };
-        if ds.calibration_rows().0.is_empty() {
+        if ds.calibration_len() == 0 {
             bail!("no calibration rows: every row is held out or lacks a value (check --holdout-from-s and the columns)");
         }
         Ok(ds)
@@ -175,6 +175,19 @@ impl Dataset {
             }
         }
         (xs, ys)
+    }
+
+    /// How many calibration rows have every input and target (what
+    /// [`Dataset::calibration_rows`] returns), counted without copying them.
+    pub fn calibration_len(&self) -> usize {
+        self.runs
+            .iter()
+            .map(|run| {
+                (0..run.calib_end)
+                    .filter(|&r| run.x.iter().chain(&run.y).all(|c| c[r].is_some()))
+                    .count()
+            })
+            .sum()
     }
 
     /// Rows held out from calibration (in held-out tails and validation runs).

@@ -5,6 +5,7 @@
 mod common;
 
 use common::{ar1, ok as thermcomp, ok_json as json, p, rows_from, run, FL_THERMAL as REAL_RUN};
+use host_tools::refit::stats::{drift_test, Sample};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -293,4 +294,58 @@ fn bad_options_fail_with_one_line() {
         se.contains("--holdout-fraction") && se.trim_end().lines().count() == 1,
         "{se}"
     );
+}
+
+// The drift test itself (host_tools::refit::stats) on AR(1) residuals.
+
+#[test]
+fn hac_keeps_its_level_where_ols_would_not() {
+    // AR(1) phi 0.99 noise, 5760 samples, no change: over 12 seeds the
+    // 1 % test should reject rarely (HAC with ~29 effective samples is
+    // oversized; allow 3 of 12), whereas OLS standard errors would reject
+    // nearly always. The effect never reaches 1 um.
+    let mut rejections = 0;
+    for seed in 1..=12u64 {
+        let e = ar1(5760, 0.3, seed * 7919);
+        let run: Vec<Sample> = e
+            .iter()
+            .enumerate()
+            .map(|(k, r)| Sample {
+                tau_h: k as f64 * 15.0 / 3600.0,
+                yhat: 10.0 * (k as f64 / 900.0).sin(),
+                r: *r,
+            })
+            .collect();
+        let t = drift_test(&[run]).unwrap();
+        assert!(t.lags > 50, "{}", t.lags);
+        assert!(t.effect_um < 1.0, "{}", t.effect_um);
+        if t.p_value < 0.01 {
+            rejections += 1;
+        }
+    }
+    eprintln!("{rejections} of 12 rejected at 1 %");
+    assert!(rejections <= 3, "{rejections} of 12");
+}
+
+#[test]
+fn drift_and_gain_are_found() {
+    let e = ar1(5760, 0.3, 42);
+    let run: Vec<Sample> = e
+        .iter()
+        .enumerate()
+        .map(|(k, n)| {
+            let tau = k as f64 * 15.0 / 3600.0;
+            let yhat = 10.0 * (k as f64 / 900.0).sin();
+            Sample {
+                tau_h: tau,
+                yhat,
+                r: 0.2 * tau + 0.3 * yhat + n,
+            }
+        })
+        .collect();
+    let t = drift_test(&[run]).unwrap();
+    assert!(t.p_value < 1e-6, "{}", t.p_value);
+    assert!((t.c1_um_per_h - 0.2).abs() < 0.05, "{}", t.c1_um_per_h);
+    assert!((t.c2 - 0.3).abs() < 0.03, "{}", t.c2);
+    assert!(t.effect_um > 4.0);
 }

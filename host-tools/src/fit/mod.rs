@@ -196,7 +196,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         .chain(validate.iter().map(|r| (r, 0)))
         .collect();
     let scores = score(&flashed, &split)?;
-    let (n_calib, _) = ds.calibration_rows();
+    let n_calib = ds.calibration_len();
     if a.json {
         let targets: Map<String, Value> = scores
             .iter()
@@ -211,7 +211,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
                 "inputs": ds.inputs,
                 "reference": ds.form.name(),
                 "holdout_from_s": a.holdout_from_s,
-                "calibration_rows": n_calib.len(),
+                "calibration_rows": n_calib,
                 "holdout_rows": ds.holdout_len(),
                 "targets": targets,
                 "details": fitted.details,
@@ -225,7 +225,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
             bytes.len(),
             flashed.kind().name(),
             ds.inputs.len(),
-            n_calib.len()
+            n_calib
         );
     }
     Ok(())

@@ -364,15 +364,9 @@ fn validation_fit(grid: &[GridRun], t: usize, models: &[Siso], h: f64) -> Option
     f.is_finite().then_some(f)
 }
 
-/// Fits `--model tf`.
-pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
-    check_holdout(args.search_holdout)?;
-    if args.select_inputs == Selection::Off {
-        return fit_inputs(ds, args, Value::Null);
-    }
-    let dt = sample_time(ds, args.dt_s)?;
-    let k_max = max_selected(args, ds)?;
-    let grid = grid_runs(ds, dt, "tf")?;
+/// The order candidates of `args` (tf defaults where unset) and the first,
+/// the orders used while inputs are being selected.
+fn order_candidates(args: &ArxArgs) -> Result<(Vec<Orders>, Orders)> {
     let [dna, dnb, dnk] = TF_DEFAULTS;
     let cands = candidates(
         args.na.unwrap_or(dna),
@@ -382,6 +376,19 @@ pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
     let Some(&start) = cands.first() else {
         bail!("tf: no order candidate within the model core's limits");
     };
+    Ok((cands, start))
+}
+
+/// Fits `--model tf`.
+pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
+    check_holdout(args.search_holdout)?;
+    if args.select_inputs == Selection::Off {
+        return fit_inputs(ds, args, Value::Null);
+    }
+    let dt = sample_time(ds, args.dt_s)?;
+    let k_max = max_selected(args, ds)?;
+    let grid = grid_runs(ds, dt, "tf")?;
+    let (_, start) = order_candidates(args)?;
     let h = args.search_holdout;
     let est_end = |g: &GridRun| search_split(g.calib_end, h);
     let (idx, mut selection) =
@@ -410,15 +417,7 @@ fn fit_inputs(ds: &Dataset, args: &ArxArgs, selection: Value) -> Result<Fitted> 
         );
     }
     let grid = grid_runs(ds, dt, "tf")?;
-    let [dna, dnb, dnk] = TF_DEFAULTS;
-    let cands = candidates(
-        args.na.unwrap_or(dna),
-        args.nb.unwrap_or(dnb),
-        args.nk.unwrap_or(dnk),
-    );
-    let Some(&start) = cands.first() else {
-        bail!("tf: no order candidate within the model core's limits");
-    };
+    let (cands, start) = order_candidates(args)?;
     let h = args.search_holdout;
     let est_end = |g: &GridRun| search_split(g.calib_end, h);
     let pb = progress(n_t * (1 + n_in * (cands.len() - 1)), "tf order search");
