@@ -12,25 +12,32 @@
 //! blocks (`R` of each block is stacked onto the next), then by SVD of the
 //! small column-scaled `R`: never the normal equations.
 //!
-//! Orders are chosen by **simulation** fit: each candidate is estimated on
-//! the first `1 - h` of every run's calibration samples and free-run (the
-//! model's own past outputs, never the measured ones) from the run's start,
-//! and scored on the last `h` only. The reason is that this is how the hub
-//! runs the model: from the start of a run, never seeing a measured output.
-//! (Starting the free run at the validation segment from measured outputs
-//! instead was measured on the synthetic bank of the tests: mean search fits
-//! moved by ~0.2 points, so the choice is not about accuracy.) One-step
-//! prediction would flatter every candidate: a slow thermal output is almost
-//! perfectly predicted by its last sample. Candidates the model core
-//! refuses (a pole on or outside the unit circle) are discarded; the best
-//! stable one is re-estimated on all calibration samples.
+//! Orders and the ridge penalty are chosen together by **simulation** fit
+//! under blocked cross-validation: each run's calibration samples are cut
+//! into K contiguous folds (`--search-folds`, default 4); for each fold the
+//! candidate is estimated on the other calibration samples (rows whose lags
+//! reach into the fold excluded too), free-run from the run's start (the
+//! model's own past outputs, never the measured ones) and scored on the fold;
+//! the fit is pooled over all folds. Free run from the start is how the hub
+//! runs the model. One-step prediction would flatter every candidate: a slow
+//! thermal output is almost perfectly predicted by its last sample. Folds
+//! rather than one tail segment because a tail (the old default, still
+//! `--search-folds 1`) judges a candidate on one operating regime only: on
+//! the real run it chose ARX models whose opposing gains on collinear
+//! sensors cancelled inside the calibration range and diverged outside it
+//! (ch1: -417 % held-out reduction); every fold is a different regime, and
+//! such a model fails at least one. Candidates the model core refuses (a
+//! pole on or outside the unit circle, in any fold) are discarded; the best
+//! is re-estimated on all calibration samples. `na = 0` (a FIR /
+//! distributed-lag regression) is a candidate: it is the safe choice when
+//! the output's own dynamics cannot be identified from the folds.
 //!
 //! `--select-inputs forward` chooses the inputs among `--inputs` greedily:
 //! each step adds the candidate whose model (full order search, stable only)
 //! has the best mean search fit, until `--max-inputs` or a gain below
-//! `--min-gain-pct` points. `--ridge` adds a penalty on the column-scaled
-//! coefficients (`auto`: chosen on the search part for the best orders);
-//! default 0, as it helped on the synthetic run but was mixed on the real one.
+//! `--min-gain-pct` points. `--ridge` (default `auto`) penalises the
+//! column-scaled coefficients; each reduced QR is solved once per penalty,
+//! so the joint search costs one pass over the rows per (orders, fold).
 //!
 //! Export: one TF entry per (input, target), `a = [0; nk] ++ B_i` and
 //! `b = A` (the common denominator), so the bank sums to the ARX model.
@@ -43,6 +50,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use model_core::tf::{RealisedTf, TfEntry, TfHistory, MAX_ORDER, MAX_TF_ENTRIES};
 use model_core::{Model, Params, ValidModel};
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 use std::path::PathBuf;
 use std::str::FromStr;
@@ -98,7 +106,10 @@ pub struct ArxArgs {
     /// arx, tf: input delays tried in samples, MIN..MAX (default arx 0..2, tf 0..1; arx: same for every input).
     #[arg(long, value_name = "MIN..MAX")]
     pub nk: Option<OrderRange>,
-    /// arx, tf: order search scores simulation fit on the last FRACTION of each run's calibration samples.
+    /// arx: order search scores simulation fit by blocked cross-validation over K contiguous folds of each run's calibration samples (1: on the last --search-holdout only, as tf does).
+    #[arg(long, default_value_t = 4, value_name = "K")]
+    pub search_folds: usize,
+    /// arx with --search-folds 1, tf: the search scores simulation fit on the last FRACTION of each run's calibration samples.
     #[arg(long, default_value_t = 0.25, value_name = "FRACTION")]
     pub search_holdout: f64,
     /// arx, tf: model sample time (default: the median sampling step of the first run).
@@ -125,8 +136,8 @@ pub struct ArxArgs {
     /// arx, tf: with --select-inputs forward, stop when the best addition raises the search fit by less than this (percentage points).
     #[arg(long, default_value_t = 1.0, value_name = "POINTS")]
     pub min_gain_pct: f64,
-    /// arx: ridge penalty of the least squares: 0 = none (default), a number, or "auto" (picked by search fit).
-    #[arg(long, default_value = "0", value_name = "auto|LAMBDA")]
+    /// arx: ridge penalty of the least squares: "auto" (default: searched with the orders, by search fit), 0 = none, or a number.
+    #[arg(long, default_value = "auto", value_name = "auto|LAMBDA")]
     pub ridge: Ridge,
 }
 
@@ -167,7 +178,7 @@ pub const RIDGE_GRID: [f64; 7] = [0.0, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2];
 
 /// Default order ranges of `--model arx`.
 const ARX_DEFAULTS: [OrderRange; 3] = [
-    OrderRange::new(1, 3),
+    OrderRange::new(0, 3),
     OrderRange::new(1, 3),
     OrderRange::new(0, 2),
 ];
@@ -264,6 +275,74 @@ pub fn search_split(calib_end: usize, h: f64) -> usize {
     calib_end - n_val.min(calib_end)
 }
 
+/// Most folds `--search-folds` takes (one bit each in a row's exclusion mask).
+pub const MAX_FOLDS: usize = 64;
+
+/// How the order search scores a candidate, on calibration samples only.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SearchScheme {
+    /// Blocked cross-validation: each run's calibration samples cut into
+    /// this many contiguous folds; fold `j` of every run is held out at once.
+    Folds(usize),
+    /// One held-out segment: the last fraction of each run's calibration samples.
+    Tail(f64),
+}
+
+impl SearchScheme {
+    /// From `--search-folds` and `--search-holdout`.
+    pub fn from_args(args: &ArxArgs) -> Result<Self> {
+        match args.search_folds {
+            0 => bail!("--search-folds 0: at least 1"),
+            1 => {
+                check_holdout(args.search_holdout)?;
+                Ok(Self::Tail(args.search_holdout))
+            }
+            k if k > MAX_FOLDS => bail!("--search-folds {k}: at most {MAX_FOLDS}"),
+            k => Ok(Self::Folds(k)),
+        }
+    }
+
+    /// Number of held-out segments per run.
+    pub fn count(self) -> usize {
+        match self {
+            Self::Folds(k) => k,
+            Self::Tail(_) => 1,
+        }
+    }
+
+    /// Held-out samples `[from, to)` of segment `j` of a run with
+    /// `calib_end` calibration samples.
+    pub fn segment(self, calib_end: usize, j: usize) -> (usize, usize) {
+        match self {
+            Self::Folds(k) => (calib_end * j / k, calib_end * (j + 1) / k),
+            Self::Tail(h) => (search_split(calib_end, h), calib_end),
+        }
+    }
+
+    /// Bit `j` set when segment `j` excludes sample `k` from estimation: `k`
+    /// is in the segment or its regressors (`lag` samples back) reach into it.
+    pub fn excluded_by(self, calib_end: usize, k: usize, lag: usize) -> u64 {
+        (0..self.count()).fold(0, |mask, j| {
+            let (from, to) = self.segment(calib_end, j);
+            if (from..to + lag).contains(&k) {
+                mask | 1 << j
+            } else {
+                mask
+            }
+        })
+    }
+
+    /// For the JSON.
+    pub fn json(self) -> Value {
+        match self {
+            Self::Folds(k) => json!({"scheme": "blocked cross-validation", "folds": k,
+                "score": "simulation fit % (free run from each run's start) pooled over the held-out folds; each fold's model estimated on the other calibration samples (regression rows whose lags reach into the fold excluded too)"}),
+            Self::Tail(h) => json!({"scheme": "tail", "search_holdout": h,
+                "score": "simulation fit % (free run from each run's start) on the last search_holdout of each run's calibration samples"}),
+        }
+    }
+}
+
 /// Checks `--search-holdout`.
 pub fn check_holdout(h: f64) -> Result<()> {
     if !(h > 0.0 && h < 1.0) {
@@ -330,6 +409,27 @@ impl Tsqr {
         self.rows = 0;
     }
 
+    /// Adds every row `other` has seen, through its `R` (the same
+    /// least-squares problem): combines row sets without another pass.
+    pub fn absorb(&mut self, other: &Tsqr) {
+        let mut rows = other
+            .buf
+            .chunks_exact(other.p + 1)
+            .map(<[f64]>::to_vec)
+            .collect::<Vec<_>>();
+        if let Some(r) = &other.r {
+            rows.extend(r.row_iter().map(|row| row.iter().copied().collect()));
+        }
+        for row in rows {
+            self.buf.extend_from_slice(&row);
+            self.rows += 1;
+            if self.rows == BLOCK {
+                self.flush();
+            }
+        }
+        self.total += other.total;
+    }
+
     /// Rows pushed so far.
     pub fn len(&self) -> usize {
         self.total
@@ -364,7 +464,12 @@ impl Tsqr {
     /// with `S` the column norms of `X` (ridge on the column-scaled
     /// coefficients; `lambda = 0` is plain least squares). The residual
     /// sum of squares returned excludes the penalty.
-    pub fn solve_ridge(mut self, lambda: f64) -> Result<(Vec<f64>, f64)> {
+    pub fn solve_ridge(self, lambda: f64) -> Result<(Vec<f64>, f64)> {
+        self.finish()?.solve(lambda)
+    }
+
+    /// The reduced problem, to be solved for several penalties.
+    pub fn finish(mut self) -> Result<Triangle> {
         self.flush();
         let p = self.p;
         if self.total <= p {
@@ -382,6 +487,24 @@ impl Tsqr {
         } else {
             0.0
         };
+        Ok(Triangle { r11, z, rss_tail })
+    }
+}
+
+/// A least-squares problem reduced by QR: `R` of the regressors, `Q^T y`
+/// and the residual outside the column space. Solving it again for another
+/// ridge penalty costs `O(p^3)`, not another pass over the rows.
+pub struct Triangle {
+    r11: DMatrix<f64>,
+    z: DVector<f64>,
+    rss_tail: f64,
+}
+
+impl Triangle {
+    /// See [`Tsqr::solve_ridge`].
+    pub fn solve(&self, lambda: f64) -> Result<(Vec<f64>, f64)> {
+        let (r11, z) = (&self.r11, &self.z);
+        let (k, p) = r11.shape();
         let scale: Vec<f64> = (0..p)
             .map(|j| {
                 let n = r11.column(j).norm();
@@ -415,8 +538,8 @@ impl Tsqr {
         let theta: Vec<f64> = beta.iter().zip(&scale).map(|(b, s)| b / s).collect();
         // Residual: the part of y outside the column space (R's last
         // diagonal) plus what dropped singular values leave of z.
-        let fitted = &r11 * DVector::from_column_slice(&theta);
-        let rss = rss_tail + (z - fitted).norm_squared();
+        let fitted = r11 * DVector::from_column_slice(&theta);
+        let rss = self.rss_tail + (z - fitted).norm_squared();
         Ok((theta, rss))
     }
 }
@@ -459,13 +582,69 @@ pub fn estimate_ridge(
     end: impl Fn(&GridRun) -> usize,
     ridge: f64,
 ) -> Result<ArxPoly> {
-    let n_in = grid.first().map_or(0, |g| g.x.len());
-    let p = o.na + n_in * o.nb;
+    let tri = regression(grid, t, o, |g, k| k < end(g))?;
+    ArxPoly::solve(&tri, o, n_inputs(grid), ridge)
+}
+
+fn n_inputs(grid: &[GridRun]) -> usize {
+    grid.first().map_or(0, |g| g.x.len())
+}
+
+/// The ARX regression of target `t` over the calibration samples of every
+/// run, split by [`SearchScheme::excluded_by`]: one accumulator per set of
+/// folds that exclude a row, so that each fold's estimate (every piece not
+/// excluded by it) costs no further pass over the rows.
+fn regression_pieces(
+    grid: &[GridRun],
+    t: usize,
+    o: Orders,
+    scheme: SearchScheme,
+) -> Vec<(u64, Tsqr)> {
+    let p = o.na + n_inputs(grid) * o.nb;
+    let mut pieces: Vec<(u64, Tsqr)> = Vec::new();
+    let mut row = vec![0.0; p];
+    for g in grid {
+        let y = &g.y[t];
+        for k in o.max_lag()..g.calib_end {
+            let mask = scheme.excluded_by(g.calib_end, k, o.max_lag());
+            let at = match pieces.iter().position(|(m, _)| *m == mask) {
+                Some(i) => i,
+                None => {
+                    pieces.push((mask, Tsqr::new(p)));
+                    pieces.len() - 1
+                }
+            };
+            for j in 1..=o.na {
+                row[j - 1] = -y[k - j];
+            }
+            for (i, u) in g.x.iter().enumerate() {
+                for l in 0..o.nb {
+                    row[o.na + i * o.nb + l] = u[k - o.nk - l];
+                }
+            }
+            pieces[at].1.push(&row, y[k]);
+        }
+    }
+    for (_, piece) in &mut pieces {
+        piece.flush();
+    }
+    pieces
+}
+
+/// The ARX regression of target `t` over the samples `k` of every run
+/// with `keep(run, k)`, reduced by QR.
+pub fn regression(
+    grid: &[GridRun],
+    t: usize,
+    o: Orders,
+    keep: impl Fn(&GridRun, usize) -> bool,
+) -> Result<Triangle> {
+    let p = o.na + n_inputs(grid) * o.nb;
     let mut ls = Tsqr::new(p);
     let mut row = vec![0.0; p];
     for g in grid {
         let y = &g.y[t];
-        for k in o.max_lag()..end(g) {
+        for k in (o.max_lag()..g.calib_end).filter(|&k| keep(g, k)) {
             for j in 1..=o.na {
                 row[j - 1] = -y[k - j];
             }
@@ -477,17 +656,24 @@ pub fn estimate_ridge(
             ls.push(&row, y[k]);
         }
     }
-    let (theta, _) = ls.solve_ridge(ridge)?;
-    let mut den = vec![1.0];
-    den.extend_from_slice(&theta[..o.na]);
-    let num = (0..n_in)
-        .map(|i| theta[o.na + i * o.nb..o.na + (i + 1) * o.nb].to_vec())
-        .collect();
-    Ok(ArxPoly {
-        orders: o,
-        den,
-        num,
-    })
+    ls.finish()
+}
+
+impl ArxPoly {
+    /// The model of a reduced regression of [`regression`] with penalty `ridge`.
+    pub fn solve(tri: &Triangle, o: Orders, n_in: usize, ridge: f64) -> Result<Self> {
+        let (theta, _) = tri.solve(ridge)?;
+        let mut den = vec![1.0];
+        den.extend_from_slice(&theta[..o.na]);
+        let num = (0..n_in)
+            .map(|i| theta[o.na + i * o.nb..o.na + (i + 1) * o.nb].to_vec())
+            .collect();
+        Ok(Self {
+            orders: o,
+            den,
+            num,
+        })
+    }
 }
 
 /// Free-run simulation of a MISO ARX over samples `..to` of `g`, from the
@@ -636,6 +822,7 @@ fn poles(den: &[f64]) -> Vec<[f64; 2]> {
 /// One row of an order-search table.
 struct SearchRow {
     orders: Orders,
+    ridge: f64,
     fit: Vec<Option<f64>>,
     stable: bool,
     note: Option<String>,
@@ -792,59 +979,103 @@ pub fn forward_select(
     ))
 }
 
-/// Estimates every target with orders `o` and penalty `ridge` on the first
-/// `1 - h` of each run's calibration samples, checks the bank with `check`
-/// and scores the free-run simulation on the last `h`.
+/// Scores orders `o` with every penalty of `lambdas` (one row each): per
+/// held-out segment of `scheme`, every target is estimated on the other
+/// calibration samples, the bank checked with `check`, free-run from each
+/// run's start and its fit pooled over the held-out samples of all segments.
 fn eval_orders(
     grid: &[GridRun],
     n_t: usize,
     o: Orders,
-    h: f64,
-    ridge: f64,
+    scheme: SearchScheme,
+    lambdas: &[f64],
     check: &impl Fn(&[ArxPoly]) -> Result<()>,
-) -> SearchRow {
-    let est_end = |g: &GridRun| search_split(g.calib_end, h);
-    let refused = |note: String| SearchRow {
-        orders: o,
-        fit: vec![None; n_t],
-        stable: false,
-        note: Some(note),
-    };
-    let polys: Result<Vec<ArxPoly>> = (0..n_t)
-        .map(|t| estimate_ridge(grid, t, o, est_end, ridge))
+) -> Vec<SearchRow> {
+    let n_in = n_inputs(grid);
+    let p = o.na + n_in * o.nb;
+    let mut pairs = vec![vec![Vec::new(); n_t]; lambdas.len()];
+    let mut notes: Vec<Option<String>> = vec![None; lambdas.len()];
+    let pieces: Vec<Vec<(u64, Tsqr)>> = (0..n_t)
+        .map(|t| regression_pieces(grid, t, o, scheme))
         .collect();
-    let polys = match polys {
-        Ok(p) => p,
-        Err(e) => return refused(e.to_string()),
-    };
-    if let Err(e) = check(&polys) {
-        return refused(e.to_string());
-    }
-    let fit = polys
-        .iter()
-        .enumerate()
-        .map(|(t, p)| {
-            let mut pairs = Vec::new();
-            for g in grid {
-                let from = est_end(g);
-                let ys = simulate_arx(p, g, g.calib_end);
-                pairs.extend(
-                    g.y[t][from..g.calib_end]
-                        .iter()
-                        .copied()
-                        .zip(ys[from..].iter().copied()),
-                );
+    for j in 0..scheme.count() {
+        let seg = |g: &GridRun| scheme.segment(g.calib_end, j);
+        // Every piece segment j does not exclude (rows whose regressors
+        // reach into the segment stay out too).
+        let tri: Result<Vec<Triangle>> = pieces
+            .iter()
+            .map(|ps| {
+                let mut ls = Tsqr::new(p);
+                for (_, piece) in ps.iter().filter(|(m, _)| m & (1 << j) == 0) {
+                    ls.absorb(piece);
+                }
+                ls.finish()
+            })
+            .collect();
+        let tri = match tri {
+            Ok(t) => t,
+            Err(e) => {
+                for n in notes.iter_mut().filter(|n| n.is_none()) {
+                    *n = Some(format!("fold {}: {e}", j + 1));
+                }
+                break;
             }
-            let f = fit_pct(&pairs);
-            f.is_finite().then_some(f)
-        })
-        .collect();
-    SearchRow {
-        orders: o,
-        fit,
-        stable: true,
-        note: None,
+        };
+        for (l, &lambda) in lambdas.iter().enumerate() {
+            if notes[l].is_some() {
+                continue;
+            }
+            let polys = tri
+                .iter()
+                .map(|tr| ArxPoly::solve(tr, o, n_in, lambda))
+                .collect::<Result<Vec<_>>>()
+                .and_then(|p| check(&p).map(|()| p));
+            let polys = match polys {
+                Ok(p) => p,
+                Err(e) => {
+                    notes[l] = Some(format!("fold {}: {e}", j + 1));
+                    continue;
+                }
+            };
+            for (t, p) in polys.iter().enumerate() {
+                for g in grid {
+                    let (from, to) = seg(g);
+                    if from >= to {
+                        continue;
+                    }
+                    let ys = simulate_arx(p, g, to);
+                    pairs[l][t].extend(
+                        g.y[t][from..to]
+                            .iter()
+                            .copied()
+                            .zip(ys[from..].iter().copied()),
+                    );
+                }
+            }
+        }
     }
+    lambdas
+        .iter()
+        .zip(pairs)
+        .zip(notes)
+        .map(|((&ridge, pairs), note)| {
+            let stable = note.is_none();
+            let fit = pairs
+                .iter()
+                .map(|pr| {
+                    let f = fit_pct(pr);
+                    (stable && f.is_finite()).then_some(f)
+                })
+                .collect();
+            SearchRow {
+                orders: o,
+                ridge,
+                fit,
+                stable,
+                note,
+            }
+        })
+        .collect()
 }
 
 /// The best stable row of an order search and its mean fit.
@@ -858,7 +1089,7 @@ fn best_row(table: &[SearchRow]) -> Option<(&SearchRow, f64)> {
 
 /// Fits `--model arx`.
 pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
-    check_holdout(args.search_holdout)?;
+    let scheme = SearchScheme::from_args(args)?;
     let dt = sample_time(ds, args.dt_s)?;
     let [dna, dnb, dnk] = ARX_DEFAULTS;
     let cands = candidates(
@@ -870,11 +1101,10 @@ pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
         bail!("arx: no order candidate within the model core's limits");
     }
     if args.select_inputs == Selection::Off {
-        return fit_inputs(ds, args, dt, &cands, Value::Null);
+        return fit_inputs(ds, args, scheme, dt, &cands, Value::Null);
     }
     let k_max = max_selected(args, ds)?;
     let grid = grid_runs(ds, dt, "arx")?;
-    let h = args.search_holdout;
     let n_t = ds.targets.len();
     let (idx, mut selection) =
         forward_select(ds, k_max, args.min_gain_pct, "arx input selection", |idx| {
@@ -883,19 +1113,21 @@ pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
             let check = |p: &[ArxPoly]| bank(&names, dt, export(p)?).map(|_| ());
             let table: Vec<SearchRow> = cands
                 .iter()
-                .map(|&o| eval_orders(&g, n_t, o, h, 0.0, &check))
+                .flat_map(|&o| eval_orders(&g, n_t, o, scheme, &[0.0], &check))
                 .collect();
             best_row(&table).map(|(r, m)| (m, r.orders.json()))
         })?;
     selection["orders_during_selection"] = json!("the full order search at every trial");
     selection["ridge_during_selection"] = json!(0.0);
-    fit_inputs(&subset(ds, &idx), args, dt, &cands, selection)
+    fit_inputs(&subset(ds, &idx), args, scheme, dt, &cands, selection)
 }
 
-/// The order search, the ridge choice and the final estimate on `ds`'s inputs.
+/// The joint search over orders and ridge penalties, then the final
+/// estimate on `ds`'s inputs.
 fn fit_inputs(
     ds: &Dataset,
     args: &ArxArgs,
+    scheme: SearchScheme,
     dt: f64,
     cands: &[Orders],
     selection: Value,
@@ -908,69 +1140,49 @@ fn fit_inputs(
         );
     }
     let grid = grid_runs(ds, dt, "arx")?;
-    let h = args.search_holdout;
+    let lambdas = match args.ridge {
+        Ridge::Auto => RIDGE_GRID.to_vec(),
+        Ridge::Fixed(v) => vec![v],
+    };
     let check = |p: &[ArxPoly]| bank(ds, dt, export(p)?).map(|_| ());
     let pb = progress(cands.len(), "arx order search");
+    // Candidates are independent: one per core (rayon keeps their order).
     let table: Vec<SearchRow> = cands
-        .iter()
+        .par_iter()
         .map(|&o| {
+            let rows = eval_orders(&grid, n_t, o, scheme, &lambdas, &check);
             pb.inc(1);
-            eval_orders(&grid, n_t, o, h, 0.0, &check)
+            rows
         })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .flatten()
         .collect();
     pb.finish_and_clear();
+    // Best first; on a tie the smaller penalty (rows are in grid order).
     let mut ranked: Vec<(&SearchRow, f64)> = table
         .iter()
         .filter(|r| r.stable)
         .filter_map(|r| r.mean().map(|m| (r, m)))
         .collect();
     ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
-    // The ridge penalty for the best orders, by the same score.
-    let (lambdas, ridge_auto) = match args.ridge {
-        Ridge::Auto => (RIDGE_GRID.to_vec(), true),
-        Ridge::Fixed(v) => (vec![v], false),
-    };
-    let mut ridge_table = Vec::new();
-    let mut ridge = lambdas[0];
-    if let Some((row, _)) = ranked.first() {
-        if ridge_auto || ridge > 0.0 {
-            let mut best: Option<f64> = None;
-            for &l in &lambdas {
-                let r = eval_orders(&grid, n_t, row.orders, h, l, &check);
-                let m = r.mean().filter(|_| r.stable);
-                ridge_table.push(json!({"ridge": l, "mean_sim_fit_pct": m, "note": r.note}));
-                if let Some(m) = m {
-                    if best.is_none_or(|b| m > b + 1e-9) {
-                        best = Some(m);
-                        ridge = l;
-                    }
-                }
-            }
-        }
-    }
     // Re-estimate the best on every calibration sample; should that one come
-    // out unstable, fall back to the next (and, with a penalty, to none).
+    // out unstable, fall back to the next.
     let mut chosen = None;
     let mut refused = Vec::new();
-    'rank: for (i, (row, score)) in ranked.iter().enumerate() {
-        let penalties = if i == 0 && ridge > 0.0 {
-            vec![ridge, 0.0]
-        } else {
-            vec![0.0]
-        };
-        for l in penalties {
-            let polys: Result<Vec<ArxPoly>> = (0..n_t)
-                .map(|t| estimate_ridge(&grid, t, row.orders, |g| g.calib_end, l))
-                .collect();
-            let polys = polys?;
-            match bank(ds, dt, export(&polys)?) {
-                Ok(model) => {
-                    chosen = Some((row.orders, *score, l, polys, model));
-                    break 'rank;
-                }
-                Err(e) => refused
-                    .push(json!({"orders": row.orders.json(), "ridge": l, "error": e.to_string()})),
+    for (row, score) in &ranked {
+        let polys: Result<Vec<ArxPoly>> = (0..n_t)
+            .map(|t| estimate_ridge(&grid, t, row.orders, |g| g.calib_end, row.ridge))
+            .collect();
+        let polys = polys?;
+        match bank(ds, dt, export(&polys)?) {
+            Ok(model) => {
+                chosen = Some((row.orders, *score, row.ridge, polys, model));
+                break;
             }
+            Err(e) => refused.push(
+                json!({"orders": row.orders.json(), "ridge": row.ridge, "error": e.to_string()}),
+            ),
         }
     }
     let Some((orders, score, ridge, polys, model)) = chosen else {
@@ -985,7 +1197,7 @@ fn fit_inputs(
                 .zip(&r.fit)
                 .map(|(n, f)| (n.clone(), json!(f)))
                 .collect();
-            json!({"na": r.orders.na, "nb": r.orders.nb, "nk": r.orders.nk,
+            json!({"na": r.orders.na, "nb": r.orders.nb, "nk": r.orders.nk, "ridge": r.ridge,
                    "sim_fit_pct": fits, "mean_sim_fit_pct": r.mean(), "stable": r.stable,
                    "note": r.note})
         })
@@ -1009,14 +1221,12 @@ fn fit_inputs(
         "dt_s": dt,
         "selection": selection,
         "search": {
-            "score": "simulation fit % (free run from each run's start) on the last search_holdout of each run's calibration samples",
-            "search_holdout": args.search_holdout,
+            "validation": scheme.json(),
             "table": table_json,
         },
         "ridge": {
             "setting": match args.ridge { Ridge::Auto => json!("auto"), Ridge::Fixed(v) => json!(v) },
             "chosen": ridge,
-            "table": ridge_table,
             "basis": "penalty on the column-scaled coefficients (unit-norm regressor columns)",
         },
         "chosen": {"na": orders.na, "nb": orders.nb, "nk": orders.nk, "mean_sim_fit_pct": score,
@@ -1043,6 +1253,66 @@ fn export(polys: &[ArxPoly]) -> Result<Vec<TfEntry>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn folds_partition_the_calibration_samples() {
+        // Every calibration sample is held out exactly once, in contiguous
+        // folds of near-equal length (uneven counts included).
+        for (n, k) in [(5760, 4), (10, 3), (7, 7), (3, 4)] {
+            let s = SearchScheme::Folds(k);
+            let segs: Vec<(usize, usize)> = (0..s.count()).map(|j| s.segment(n, j)).collect();
+            assert_eq!(segs[0].0, 0);
+            assert_eq!(segs[k - 1].1, n);
+            for w in segs.windows(2) {
+                assert_eq!(w[0].1, w[1].0);
+            }
+            for (a, b) in &segs {
+                assert!(b - a <= n.div_ceil(k), "{n} {k}: fold {a}..{b}");
+            }
+        }
+        let tail = SearchScheme::Tail(0.25);
+        assert_eq!(tail.count(), 1);
+        assert_eq!(tail.segment(100, 0), (75, 100));
+    }
+
+    #[test]
+    fn fold_estimate_never_sees_the_held_out_fold() {
+        // A target that is pure garbage inside fold 2 and a clean FIR of the
+        // input elsewhere: the fold-2 model (which must not see the garbage,
+        // nor rows whose lags reach into it) recovers the FIR exactly.
+        let n = 400;
+        let u: Vec<f64> = (0..n).map(|k| ((k * 7919) % 101) as f64 / 10.0).collect();
+        let mut y: Vec<f64> = (0..n)
+            .map(|k| 2.0 * u[k] - 0.5 * if k > 0 { u[k - 1] } else { u[0] })
+            .collect();
+        let s = SearchScheme::Folds(4);
+        let (from, to) = s.segment(n, 1);
+        for (k, v) in y.iter_mut().enumerate().take(to).skip(from) {
+            *v = 1e3 * ((k * 31) % 17) as f64;
+        }
+        let g = GridRun {
+            name: "r".into(),
+            t_s: Vec::new(),
+            x: vec![u],
+            y: vec![y],
+            calib_end: n,
+        };
+        let o = Orders {
+            na: 1,
+            nb: 2,
+            nk: 0,
+        };
+        let mut ls = Tsqr::new(3);
+        for (_, piece) in regression_pieces(std::slice::from_ref(&g), 0, o, s)
+            .iter()
+            .filter(|(m, _)| m & 0b10 == 0)
+        {
+            ls.absorb(piece);
+        }
+        let p = ArxPoly::solve(&ls.finish().unwrap(), o, 1, 0.0).unwrap();
+        assert!(p.den[1].abs() < 1e-9, "{:?}", p.den);
+        assert!((p.num[0][0] - 2.0).abs() < 1e-9 && (p.num[0][1] + 0.5).abs() < 1e-9);
+    }
 
     #[test]
     fn order_ranges_parse() {
