@@ -35,7 +35,7 @@ enum Command {
     /// (1 - mean|r| / mean|y|) * 100.
     Eval(eval::EvalArgs),
     /// Train a model (mlr, pcr, arx, tf, gain) on calibration rows, score it on held-out rows, write the blob.
-    Fit(fit::FitArgs),
+    Fit(Box<fit::FitArgs>),
     /// Test whether the temperature-to-displacement relation has changed on
     /// new runs and, if it has, update the model (seed 002's self-adaptive
     /// compensation; rule in docs/fit.md, "refit").

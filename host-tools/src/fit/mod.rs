@@ -6,7 +6,9 @@
 //! blob, and scores the model with the same runner `predict` and `eval` use
 //! (through the encoded blob, so the figures are those of what is flashed).
 
+pub mod arma;
 pub mod arx;
+pub mod bp;
 pub mod gain;
 pub mod linalg;
 pub mod mlr;
@@ -36,6 +38,12 @@ pub enum FitKind {
     Tf,
     /// An existing TF bank (--gain-from) with its spindle part scaled by one fitted gain (seed 004, Eq. 6).
     Gain,
+    /// One-hidden-layer BP network trained by Levenberg-Marquardt (seeds 000, 003).
+    Bp,
+    /// BP network whose hidden size and initial weights a genetic algorithm chooses (seed 000).
+    Gabp,
+    /// ARMA forecaster of the target series itself (seed 001): ADF, differencing, AIC order.
+    Arma,
 }
 
 /// Arguments of `thermcomp fit`.
@@ -78,6 +86,12 @@ pub struct FitArgs {
     /// ARX, TF and gain options.
     #[command(flatten)]
     pub arx: arx::ArxArgs,
+    /// BP and GA-BP options.
+    #[command(flatten)]
+    pub bp: bp::BpArgs,
+    /// ARMA options.
+    #[command(flatten)]
+    pub arma: arma::ArmaArgs,
 }
 
 /// What a kind's trainer returns.
@@ -152,7 +166,19 @@ pub fn run(a: &FitArgs) -> Result<()> {
         only: Some(Vec::new()),
     };
     let first = a.data.first().ok_or_else(|| anyhow!("no --data"))?;
-    let inputs = if a.inputs.is_empty() {
+    // An ARMA forecaster reads the very series it forecasts, as logged.
+    let arma = a.model == FitKind::Arma;
+    if arma && (a.target.len() != 1 || !a.inputs.is_empty()) {
+        bail!("arma: give one --target (the series it forecasts) and no --inputs");
+    }
+    let form = if arma {
+        InputForm::Absolute
+    } else {
+        a.reference
+    };
+    let inputs = if arma {
+        a.target.clone()
+    } else if a.inputs.is_empty() {
         let cols = temperature_columns(&RunFile::read(first, &header_only)?);
         if cols.is_empty() {
             bail!(
@@ -171,20 +197,16 @@ pub fn run(a: &FitArgs) -> Result<()> {
     };
     let runs = crate::source::read_runs(&a.data, &opts)?;
     let validate = crate::source::read_runs(&a.validate, &opts)?;
-    let ds = Dataset::new(
-        &runs,
-        &validate,
-        &inputs,
-        &a.target,
-        a.reference,
-        a.holdout_from_s,
-    )?;
+    let ds = Dataset::new(&runs, &validate, &inputs, &a.target, form, a.holdout_from_s)?;
     let fitted = match a.model {
         FitKind::Mlr => mlr::fit(&ds)?,
         FitKind::Pcr => pcr::fit(&ds, &a.pcr)?,
         FitKind::Arx => arx::fit(&ds, &a.arx)?,
         FitKind::Tf => tfbank::fit(&ds, &a.arx)?,
         FitKind::Gain => gain::fit(&ds, &a.arx, &runs, &validate)?,
+        FitKind::Bp => bp::fit(&ds, &a.bp, false)?,
+        FitKind::Gabp => bp::fit(&ds, &a.bp, true)?,
+        FitKind::Arma => arma::fit(&ds, &a.arma)?,
     };
     let bytes = crate::blobfile::write(&fitted.model, &a.out)?;
     // Score what was written, decoded back: the figures are the blob's.
