@@ -16,12 +16,7 @@ equivalent solvers).
 
 usage: scripts/compare_fit.py [path/to/thermcomp]
 """
-import csv
-import json
-import pathlib
-import subprocess
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -31,48 +26,23 @@ from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-RUN = ROOT.parent / "shared" / "data" / "fl_thermal" / "run.csv"
-SPLIT_S = 86400.0
-TARGETS = [f"ch{i}_um" for i in range(1, 6)]
-TEMPS = [f"T{i}" for i in range(1, 17)]
+from realrun import TARGETS, load, reduction, thermcomp_exe, thermcomp_held_out
 
 
-def reduction(y, yhat):
-    return (1.0 - np.mean(np.abs(y - yhat)) / np.mean(np.abs(y))) * 100.0
-
-
-def thermcomp_held_out(exe, extra):
-    """Held-out reduction % per target from `thermcomp fit`, one model per
-    target (a model has at most 4 outputs), and the wall time of all of them."""
-    t0 = time.perf_counter()
-    out = {}
-    for target in TARGETS:
-        args = [exe, "fit", "--data", str(RUN), "--target", target,
-                "--holdout-from-s", str(SPLIT_S), "--json"] + extra
-        with tempfile.TemporaryDirectory() as tmp:
-            one = json.loads(subprocess.run(args + ["--out", f"{tmp}/m.bin"], check=True,
-                                            capture_output=True, text=True).stdout)
-        out[target] = one["targets"][target]["holdout"]["reduction_pct"]
-    return out, time.perf_counter() - t0
+def held_out_reduction(exe, extra):
+    """Held-out reduction % per target from `thermcomp fit ... extra` and the wall time."""
+    out, seconds = thermcomp_held_out(exe, extra)
+    return {t: h["reduction_pct"] for t, h in out.items()}, seconds
 
 
 def main():
-    exe = sys.argv[1] if len(sys.argv) > 1 else str(ROOT / "target" / "release" / "thermcomp")
-    with open(RUN, newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader)
-        data = np.array(list(reader), dtype=float)
-    col = {n: i for i, n in enumerate(header)}
-    t = data[:, col["t_s"]]
-    x = data[:, [col[c] for c in TEMPS]]
-    x = x - x[0]
-    cal, hold = t < SPLIT_S, t >= SPLIT_S
+    exe = thermcomp_exe()
+    data, col, cal, hold, x = load()
     failures = []
     print(f"{'model':5} {'target':7} {'thermcomp %':>12} {'sklearn %':>10} {'diff':>9}")
     timing = {}
     for kind, make in [("mlr", LinearRegression), ("pcr", lambda: make_pipeline(StandardScaler(), PCA(2), LinearRegression()))]:
-        ours, t_ours = thermcomp_held_out(exe, ["--model", kind] + (["--components", "2"] if kind == "pcr" else []))
+        ours, t_ours = held_out_reduction(exe, ["--model", kind] + (["--components", "2"] if kind == "pcr" else []))
         t0 = time.perf_counter()
         theirs = {}
         for target in TARGETS:
@@ -94,7 +64,7 @@ def main():
     na, nb = 2, 2
     u = data[:, [col[c] for c in arx_inputs]]
     u = u - u[0]
-    ours, t_ours = thermcomp_held_out(exe, ["--inputs", ",".join(arx_inputs), "--model", "arx", "--na", f"{na}..{na}",
+    ours, t_ours = held_out_reduction(exe, ["--inputs", ",".join(arx_inputs), "--model", "arx", "--na", f"{na}..{na}",
                                             "--nb", f"{nb}..{nb}", "--nk", "0..0", "--ridge", "0"])
     t0 = time.perf_counter()
     theirs = {}

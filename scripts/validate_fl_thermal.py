@@ -34,6 +34,8 @@ KINDS = [
     ("arx tail", "arx", ["--search-folds", "1", "--ridge", "0", "--na", "1..3"], False),
     ("tf", "tf", [], False),
     ("arx forward", "arx", ["--select-inputs", "forward"], True),
+    ("bp", "bp", [], False),
+    ("gabp", "gabp", [], False),
 ]
 CAVEAT = ['',
     'The method to judge is `arx` on all 16 temperatures with the default settings (orders and',

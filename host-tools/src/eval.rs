@@ -44,6 +44,9 @@ pub fn metrics_json(m: &Metrics) -> Value {
 /// Runs `thermcomp eval`.
 pub fn run(a: &EvalArgs) -> Result<()> {
     let model = a.model.load()?;
+    if model.kind() == model_core::ModelKind::Arma {
+        eprintln!("note: an arma model forecasts one step ahead from the measured series itself: these figures hold only where the error is measured every dt_s on the machine (docs/arma.md)");
+    }
     let map = a.runs.column_map()?;
     let runs = a.runs.read(map.model_columns(&model, true))?;
     let n_out = model.outputs().len();

@@ -34,7 +34,7 @@ enum Command {
     /// mean_abs_um of |r|; dpk_um = |max r| + |min r|; reduction_pct =
     /// (1 - mean|r| / mean|y|) * 100.
     Eval(eval::EvalArgs),
-    /// Train a model (mlr, pcr, arx, tf, gain) on calibration rows, score it on held-out rows, write the blob.
+    /// Train a model (mlr, pcr, arx, tf, gain, bp, gabp, arma) on calibration rows, score it on held-out rows, write the blob.
     Fit(Box<fit::FitArgs>),
     /// Test whether the temperature-to-displacement relation has changed on
     /// new runs and, if it has, update the model (seed 002's self-adaptive

@@ -112,7 +112,7 @@ pub struct ArxArgs {
     /// arx with --search-folds 1, tf: the search scores simulation fit on the last FRACTION of each run's calibration samples.
     #[arg(long, default_value_t = 0.25, value_name = "FRACTION")]
     pub search_holdout: f64,
-    /// arx, tf: model sample time (default: the median sampling step of the first run).
+    /// arx, tf, arma: model sample time (default: the median sampling step of the first run).
     #[arg(long, value_name = "SECONDS")]
     pub dt_s: Option<f64>,
     /// tf: rounds of SISO ARX backfitting on partial residuals before the joint refinement.

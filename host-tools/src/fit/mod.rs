@@ -206,7 +206,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
         FitKind::Gain => gain::fit(&ds, &a.arx, &runs, &validate)?,
         FitKind::Bp => bp::fit(&ds, &a.bp, false)?,
         FitKind::Gabp => bp::fit(&ds, &a.bp, true)?,
-        FitKind::Arma => arma::fit(&ds, &a.arma)?,
+        FitKind::Arma => arma::fit(&ds, &a.arma, a.arx.dt_s)?,
     };
     let bytes = crate::blobfile::write(&fitted.model, &a.out)?;
     // Score what was written, decoded back: the figures are the blob's.

@@ -1,0 +1,343 @@
+//! `thermcomp fit --model arma`: an ARMA forecaster of one thermal-error
+//! series (seed 001, Yang et al. 2014, section 3 and 5.1).
+//!
+//! The pipeline, on the calibration part of the run resampled to `dt`:
+//!
+//! 1. Gaussian standardisation (seed 001 Eq. 8-9, lost in extraction):
+//!    `z = (y - mean) / std`, `std` the sample standard deviation.
+//! 2. [`adf`]: the ADF test with AIC lag choice; while it does not reject a
+//!    unit root at `--adf-alpha`, difference once more (`w = nabla^d z`,
+//!    `d <= --max-diff <= 2`). Seed 001 found its standardised series
+//!    stationary (d = 0); a thermal drift over a day usually is not.
+//! 3. [`acf`]: ACF and PACF of `w` (Eq. 14-16), reported for model
+//!    identification; [`yule_walker`]: the AR estimates of Eq. 17-20.
+//! 4. [`order`] + [`estimate`] + [`likelihood`]: every ARMA(p, q) up to
+//!    `--max-p`, `--max-q` by exact Gaussian maximum likelihood, and the
+//!    smallest AIC (Eq. 29) wins.
+//! 5. The blob: `model_core::arma::Arma` with `c = mu (1 - sum phi)`.
+//!
+//! What the model is for, and what it is not, is in docs/arma.md: it
+//! forecasts the error one step ahead from the *measured* error.
+
+pub mod acf;
+pub mod adf;
+pub mod estimate;
+pub mod likelihood;
+pub mod mackinnon;
+pub mod ols;
+pub mod optimise;
+pub mod order;
+pub mod transform;
+pub mod yule_walker;
+
+use super::{channels, outputs, Fitted};
+use crate::dataset::Dataset;
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+use estimate::Estimate;
+use model_core::arma::{Arma, ArmaState, MAX_ARMA_ORDER, MAX_DIFF};
+use model_core::{Model, Params};
+use serde_json::{json, Value};
+
+/// ACF/PACF lags reported in the JSON.
+const REPORTED_LAGS: usize = 10;
+
+/// ARMA options of `thermcomp fit`.
+#[derive(Args, Clone, Debug)]
+pub struct ArmaArgs {
+    /// arma: largest AR order tried (at most 10).
+    #[arg(long, default_value_t = 4, value_name = "P")]
+    pub max_p: usize,
+    /// arma: largest MA order tried (at most 10).
+    #[arg(long, default_value_t = 4, value_name = "Q")]
+    pub max_q: usize,
+    /// arma: most differences taken while the ADF test keeps a unit root (at most 2).
+    #[arg(long, default_value_t = 2, value_name = "D")]
+    pub max_diff: usize,
+    /// arma: ADF level: difference while the p-value is above it.
+    #[arg(long, default_value_t = 0.05, value_name = "ALPHA")]
+    pub adf_alpha: f64,
+    /// arma: largest ADF lag tried (default statsmodels' ceil(12 (n/100)^(1/4))).
+    #[arg(long, value_name = "L")]
+    pub adf_maxlag: Option<usize>,
+    /// arma: Yule-Walker autocovariance divisor for the reported AR estimate.
+    #[arg(long, value_enum, default_value = "adjusted")]
+    pub yw_method: yule_walker::Method,
+}
+
+/// Everything the trainer decided, in the units the blob uses.
+#[derive(Clone, Debug)]
+pub struct ArmaFit {
+    /// Standardisation mean (series units).
+    pub mean: f64,
+    /// Standardisation standard deviation (series units).
+    pub std: f64,
+    /// Differences taken.
+    pub d: usize,
+    /// The chosen ARMA of `w`.
+    pub est: Estimate,
+}
+
+impl ArmaFit {
+    /// The blob's coefficients (channel 0, output 0).
+    pub fn to_blob(&self) -> Result<Arma> {
+        Ok(Arma {
+            channel: 0,
+            output: 0,
+            mean: self.mean,
+            std: self.std,
+            diff: u8::try_from(self.d)?,
+            constant: self.est.constant(),
+            phi: heapless::Vec::from_slice(&self.est.phi)
+                .map_err(|_| anyhow!("arma: more than {MAX_ARMA_ORDER} AR terms"))?,
+            theta: heapless::Vec::from_slice(&self.est.theta)
+                .map_err(|_| anyhow!("arma: more than {MAX_ARMA_ORDER} MA terms"))?,
+        })
+    }
+
+    /// The trainer's own one-step forecasts of `y` (series units), by the
+    /// exact Kalman filter of [`likelihood`] with the fitted coefficients
+    /// and mean, started from the stationary distribution at `y[0]`. The
+    /// first `d` entries are NaN (no difference exists yet). After a
+    /// burn-in they equal the blob's recursive forecasts (the filter's
+    /// gain converges to the recursion's), which the tests check.
+    pub fn one_step_forecasts(&self, y: &[f64]) -> Vec<f64> {
+        let z: Vec<f64> = y.iter().map(|v| (v - self.mean) / self.std).collect();
+        let w = difference(&z, self.d);
+        let Some(f) =
+            likelihood::filter(&w, &self.est.phi, &self.est.theta, Some(self.est.mu), true)
+        else {
+            return vec![f64::NAN; y.len()];
+        };
+        let mut out = vec![f64::NAN; self.d.min(y.len())];
+        for (i, wp) in f.predictions.iter().enumerate() {
+            let t = i + self.d;
+            // z_t = w_t + (z_t - nabla^d z_t): the undifferenced part is known at t - 1.
+            let zt = wp + (z[t] - w[i]);
+            out.push(self.mean + self.std * zt);
+        }
+        out
+    }
+}
+
+/// `nabla^d x` (length `n - d`).
+pub fn difference(x: &[f64], d: usize) -> Vec<f64> {
+    let mut w = x.to_vec();
+    for _ in 0..d {
+        w = w.windows(2).map(|p| p[1] - p[0]).collect();
+    }
+    w
+}
+
+fn median_step(t: &[f64]) -> Option<f64> {
+    let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    if steps.is_empty() {
+        return None;
+    }
+    steps.sort_by(f64::total_cmp);
+    Some(steps[steps.len() / 2])
+}
+
+fn rmse(a: impl Iterator<Item = (f64, f64)>) -> Option<f64> {
+    let (mut s, mut n) = (0.0, 0usize);
+    for (x, y) in a {
+        if x.is_finite() && y.is_finite() {
+            s += (x - y) * (x - y);
+            n += 1;
+        }
+    }
+    (n > 0).then(|| (s / n as f64).sqrt())
+}
+
+/// The blob run over `y` as the hub runs it: one-step forecasts, and free
+/// runs (forecasts fed back, no more measurements) from `from`.
+fn blob_forecasts(arma: &Arma, y: &[f64], from: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut st = ArmaState::default();
+    let mut one = Vec::with_capacity(y.len());
+    let mut free = Vec::new();
+    for (k, &v) in y.iter().enumerate() {
+        if k == from {
+            let mut s = st;
+            for _ in from..y.len() {
+                let f = arma.forecast(&s);
+                free.push(f);
+                arma.observe(&mut s, f, f);
+            }
+        }
+        let f = arma.forecast(&st);
+        one.push(f);
+        arma.observe(&mut st, v, f);
+    }
+    (one, free)
+}
+
+/// Fits `--model arma`.
+/// `dt_s` is `--dt-s` (shared with arx and tf); default the run's median step.
+pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
+    if args.max_p > MAX_ARMA_ORDER || args.max_q > MAX_ARMA_ORDER {
+        bail!("arma: --max-p and --max-q are at most {MAX_ARMA_ORDER}");
+    }
+    if args.max_diff > MAX_DIFF {
+        bail!("arma: --max-diff is at most {MAX_DIFF}");
+    }
+    if !(args.adf_alpha > 0.0 && args.adf_alpha < 1.0) {
+        bail!("arma: --adf-alpha must lie in (0, 1)");
+    }
+    let target = ds
+        .targets
+        .first()
+        .ok_or_else(|| anyhow!("arma: no target"))?
+        .clone();
+    let calib_runs: Vec<_> = ds.runs.iter().filter(|r| r.calib_end > 0).collect();
+    let [run] = calib_runs.as_slice() else {
+        bail!(
+            "arma: fits one calibration run, got {}; give one --data (more runs can be --validate)",
+            calib_runs.len()
+        );
+    };
+    let native = median_step(&run.t_s[..run.calib_end.max(2).min(run.t_s.len())]);
+    let dt = match (dt_s, native) {
+        (Some(dt), _) if dt.is_finite() && dt > 0.0 => dt,
+        (Some(dt), _) => bail!("arma: --dt-s {dt} must be a positive number"),
+        (None, Some(dt)) if dt > 0.0 => dt,
+        _ => bail!("arma: {}: too few rows to tell the sample time", run.name),
+    };
+    let grids = ds.on_grid(dt)?;
+    let grid = grids
+        .iter()
+        .find(|g| g.name == run.name)
+        .ok_or_else(|| anyhow!("arma: {}: no span where the series has values", run.name))?;
+    let y_all = grid
+        .y
+        .first()
+        .ok_or_else(|| anyhow!("arma: no target column"))?;
+    let y = &y_all[..grid.calib_end];
+    let n = y.len();
+    if y.iter().any(|v| !v.is_finite()) {
+        bail!("arma: {target} has a non-finite value");
+    }
+    if n < 20 {
+        bail!("arma: {n} calibration samples at dt {dt} s are too few (need at least 20)");
+    }
+    // 1. Gaussian standardisation.
+    let mean = y.iter().sum::<f64>() / n as f64;
+    let std = (y.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1) as f64).sqrt();
+    if std.is_nan() || std <= 1e-12 * mean.abs().max(1.0) {
+        bail!("arma: {target} is constant over the calibration part: nothing to model");
+    }
+    let z: Vec<f64> = y.iter().map(|v| (v - mean) / std).collect();
+    // 2. ADF and differencing.
+    let mut w = z.clone();
+    let mut d = 0;
+    let mut steps = Vec::new();
+    let stationary = loop {
+        let t = adf::adfuller(&w, args.adf_maxlag).map_err(|e| anyhow!("arma: d = {d}: {e}"))?;
+        let rejects = t.pvalue <= args.adf_alpha;
+        let crit: serde_json::Map<String, Value> = mackinnon::CRIT_LEVELS
+            .iter()
+            .zip(t.crit)
+            .map(|(k, v)| (k.to_string(), json!(v)))
+            .collect();
+        steps.push(json!({
+            "d": d, "stat": t.stat, "pvalue": t.pvalue, "usedlag": t.usedlag, "nobs": t.nobs,
+            "maxlag": t.maxlag, "rejects_unit_root": rejects,
+            "crit": crit,
+        }));
+        if rejects {
+            break true;
+        }
+        if d == args.max_diff {
+            break false;
+        }
+        w = difference(&w, 1);
+        d += 1;
+    };
+    if !stationary {
+        eprintln!(
+            "arma: warning: the ADF test keeps a unit root after {d} difference(s) (p > {}); fitting on d = {d} anyway",
+            args.adf_alpha
+        );
+    }
+    // 3. Identification figures.
+    let lags = REPORTED_LAGS.min(w.len().saturating_sub(1));
+    let acf = acf::acf(&w, lags);
+    let pacf = acf::pacf(&w, lags);
+    // 4. AIC over (p, q).
+    let (table, best) = order::search(&w, args.max_p, args.max_q, true);
+    let Some(best) = best else {
+        let why = table
+            .first()
+            .and_then(|c| c.fit.as_ref().err().cloned())
+            .unwrap_or_default();
+        bail!("arma: no ARMA(p, q) could be fitted ({why})");
+    };
+    let est = table[best].fit.clone().map_err(|e| anyhow!("arma: {e}"))?;
+    let yw = if est.p > 0 {
+        let y = yule_walker::yule_walker(&w, est.p, args.yw_method)?;
+        json!({"method": args.yw_method, "order": est.p, "phi": y.phi, "sigma": y.sigma})
+    } else {
+        Value::Null
+    };
+    let fitted = ArmaFit { mean, std, d, est };
+    let arma = fitted.to_blob()?;
+    let model = Model {
+        inputs: channels(ds)?,
+        outputs: outputs(ds)?,
+        dt_s: dt,
+        params: Params::Arma(arma.clone()),
+    }
+    .validate()
+    .map_err(|e| {
+        anyhow!("arma: fitted ARMA({}, {}) refused: {e} (a root on the unit circle? try smaller --max-p/--max-q)", fitted.est.p, fitted.est.q)
+    })?;
+    // 5. What the forecasts do, on this grid: trainer vs blob, one step vs free run.
+    let trainer = fitted.one_step_forecasts(y_all);
+    let (blob_one, free) = blob_forecasts(&arma, y_all, grid.calib_end);
+    let ce = grid.calib_end;
+    let held = y_all.len() - ce;
+    let horizon = |steps: usize| -> Value {
+        if steps == 0 || steps > held {
+            return Value::Null;
+        }
+        json!({"steps": steps, "minutes": steps as f64 * dt / 60.0,
+               "abs_error_um": (free[steps - 1] - y_all[ce + steps - 1]).abs()})
+    };
+    let horizons: Vec<Value> = [1usize, 4, 40, 240, 960]
+        .iter()
+        .map(|h| horizon(*h))
+        .collect();
+    let e = &fitted.est;
+    let details = json!({
+        "series": target,
+        "dt_s": dt,
+        "native_dt_s": native,
+        "calibration_samples": n,
+        "held_out_samples": held,
+        "standardisation": {"mean": mean, "std": std},
+        "adf": steps,
+        "d": d,
+        "stationary": stationary,
+        "acf": acf,
+        "pacf": pacf,
+        "order": {"p": e.p, "q": e.q},
+        "phi": e.phi,
+        "theta": e.theta,
+        "mu": e.mu,
+        "constant": e.constant(),
+        "sigma2": e.sigma2,
+        "innovation_std_um": e.sigma2.sqrt() * std,
+        "llf": e.llf,
+        "aic": e.aic,
+        "yule_walker": yw,
+        "aic_table": table.iter().map(order::Cell::json).collect::<Vec<_>>(),
+        "forecasts": {
+            "trainer_one_step_rmse_calibration_um": rmse(trainer[..ce].iter().copied().zip(y.iter().copied())),
+            "blob_one_step_rmse_calibration_um": rmse(blob_one[..ce].iter().copied().zip(y.iter().copied())),
+            "blob_one_step_rmse_held_out_um": rmse(blob_one[ce..].iter().copied().zip(y_all[ce..].iter().copied())),
+            "free_run_from_calibration_end_rmse_held_out_um": rmse(free.iter().copied().zip(y_all[ce..].iter().copied())),
+            "free_run_horizons": horizons,
+            "persistence_rmse_held_out_um": rmse(y_all[ce.max(1) - 1..y_all.len() - 1].iter().copied().zip(y_all[ce.max(1)..].iter().copied())),
+        },
+    });
+    Ok(Fitted { model, details })
+}

@@ -1,0 +1,444 @@
+//! BP network and GA-BP trainers (seed 000; seed 003 also uses a BP net).
+//!
+//! `--model bp`: a one-hidden-layer net (tansig or logsig hidden, purelin
+//! output) on `mapminmax`-scaled calibration rows, Nguyen-Widrow initial
+//! weights from `--seed`, trained by Levenberg-Marquardt with early
+//! stopping on validation blocks of the calibration rows, as MATLAB's
+//! `feedforwardnet` + `trainlm` would be (the papers used MATLAB).
+//! `--model gabp`: a genetic algorithm first picks the hidden size and the
+//! initial weights (seed 000, Eq. 16-17), then the same LM training runs
+//! from its best individual; the details report BP alone beside GA-BP.
+//!
+//! Validation rows: the calibration rows are a time series, and MATLAB's
+//! default random division would put each validation row between two
+//! training rows a few seconds away, so the validation error would measure
+//! interpolation and never stop anything. The rows are instead cut into
+//! `--val-blocks` contiguous blocks and every `--val-every`-th block
+//! (counting from the first, so the last block of the calibration part is
+//! one of them) validates: 20 blocks, every 5th, gives 20 % of the rows in
+//! four blocks of 72 min each on a 24 h calibration day.
+
+pub mod ga;
+pub mod gd;
+pub mod init;
+pub mod lm;
+pub mod net;
+pub mod rng;
+
+use super::arx::progress;
+use super::{channels, linalg, outputs, Fitted};
+use crate::dataset::Dataset;
+use anyhow::{anyhow, bail, Result};
+use clap::{Args, ValueEnum};
+use model_core::bp::{Activation, BpNet, MAX_HIDDEN, MAX_W1};
+use model_core::{Model, Params};
+use net::{Data, Scaling, Shape};
+use rng::SplitMix64;
+use serde_json::{json, Map, Value};
+
+/// Hidden size without `--hidden`: seed 000's GA settled on a 4-10-3 net,
+/// and the FL_THERMAL runs have 16 inputs, where 10 neurons keep the net at
+/// 181 weights for 4600 training rows. Capped by the blob's `MAX_W1 / m`.
+pub const DEFAULT_HIDDEN: usize = 10;
+
+/// Hidden transfer functions a trainer offers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum HiddenActivation {
+    /// `tanh` (MATLAB's default for `feedforwardnet`).
+    Tansig,
+    /// The logistic sigmoid.
+    Logsig,
+}
+
+impl From<HiddenActivation> for Activation {
+    fn from(a: HiddenActivation) -> Self {
+        match a {
+            HiddenActivation::Tansig => Self::Tansig,
+            HiddenActivation::Logsig => Self::Logsig,
+        }
+    }
+}
+
+/// BP and GA-BP options of `thermcomp fit`.
+#[derive(Args, Clone, Debug)]
+pub struct BpArgs {
+    /// bp, gabp: random seed (training is deterministic for a given seed).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// bp: hidden neurons [default: 10 (seed 000's 4-10-3 net), at most 384 / inputs].
+    #[arg(long, value_name = "N")]
+    pub hidden: Option<usize>,
+    /// bp, gabp: hidden-layer transfer function.
+    #[arg(long, value_enum, default_value = "tansig")]
+    pub activation: HiddenActivation,
+    /// bp, gabp: Levenberg-Marquardt epochs at most.
+    #[arg(long, default_value_t = 200, value_name = "N")]
+    pub epochs: usize,
+    /// bp, gabp: stop after this many epochs without a better validation error (MATLAB max_fail).
+    #[arg(long, default_value_t = 6, value_name = "N")]
+    pub max_fail: usize,
+    /// bp, gabp: cut the calibration rows into this many contiguous blocks for validation.
+    #[arg(long, default_value_t = 20, value_name = "N")]
+    pub val_blocks: usize,
+    /// bp, gabp: every K-th block validates (0: no validation, no early stop).
+    #[arg(long, default_value_t = 5, value_name = "K")]
+    pub val_every: usize,
+    /// bp, gabp: training MSE goal (on targets scaled to [-1, 1]) for the
+    /// convergence report [default: half the MSE of a linear least-squares fit].
+    #[arg(long, value_name = "MSE")]
+    pub goal: Option<f64>,
+    /// gabp: individuals per generation.
+    #[arg(long, default_value_t = 40, value_name = "N")]
+    pub ga_population: usize,
+    /// gabp: generations.
+    #[arg(long, default_value_t = 30, value_name = "N")]
+    pub ga_generations: usize,
+    /// gabp: crossover probability of a pair.
+    #[arg(long, default_value_t = 0.7, value_name = "P")]
+    pub ga_crossover: f64,
+    /// gabp: mutation probability of an individual.
+    #[arg(long, default_value_t = 0.2, value_name = "P")]
+    pub ga_mutation: f64,
+    /// gabp: hidden sizes the GA searches [default: 2..16, at most 384 / inputs].
+    #[arg(long, value_name = "MIN..MAX")]
+    pub ga_hidden: Option<String>,
+    /// gabp: epochs of gradient-descent BP (traingdx) for the convergence comparison (0: skip).
+    #[arg(long, default_value_t = 1000, value_name = "N")]
+    pub gd_epochs: usize,
+}
+
+/// Splits row indices `0..rows` into training and validation blocks.
+pub fn division(rows: usize, blocks: usize, every: usize) -> (Vec<usize>, Vec<usize>) {
+    if every == 0 || blocks < 2 || rows < 2 * blocks {
+        return ((0..rows).collect(), Vec::new());
+    }
+    (0..rows).partition(|&r| !(r * blocks / rows + 1).is_multiple_of(every))
+}
+
+/// Parses `MIN..MAX` (inclusive).
+fn parse_range(s: &str) -> Result<(usize, usize)> {
+    let bad = || anyhow!("--ga-hidden {s}: expected MIN..MAX, e.g. 2..16");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let lo: usize = a.trim().parse().map_err(|_| bad())?;
+    let hi: usize = b.trim().parse().map_err(|_| bad())?;
+    Ok((lo, hi))
+}
+
+/// MSE of per-target linear least squares on scaled rows: the default goal's base.
+fn linear_mse(d: &Data) -> Result<f64> {
+    let x: Vec<Vec<f64>> = (0..d.x.nrows())
+        .map(|r| d.x.row(r).iter().copied().collect())
+        .collect();
+    let mut sse = 0.0;
+    for k in 0..d.t.ncols() {
+        let y: Vec<f64> = d.t.column(k).iter().copied().collect();
+        let (b0, b) = linalg::least_squares(&x, &y)?;
+        for (row, yv) in x.iter().zip(&y) {
+            let fit = b0 + row.iter().zip(&b).map(|(a, c)| a * c).sum::<f64>();
+            sse += (yv - fit) * (yv - fit);
+        }
+    }
+    Ok(sse / d.errors().max(1) as f64)
+}
+
+/// Held-out figures of `net` on `ds`'s held-out rows, with eval's metric code.
+fn holdout_figures(ds: &Dataset, net: &BpNet) -> Result<Value> {
+    let q = ds.targets.len();
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for run in &ds.runs {
+        for r in run.calib_end..run.t_s.len() {
+            let x: Option<Vec<f64>> = run.x.iter().map(|c| c[r]).collect();
+            if let Some(x) = x {
+                xs.push(x);
+                ys.push(run.y.iter().map(|c| c[r]).collect::<Vec<_>>());
+            }
+        }
+    }
+    if xs.is_empty() {
+        return Ok(Value::Null);
+    }
+    let pred = net::predict_rows(net, &xs).ok_or_else(|| anyhow!("bp: net not in trainer form"))?;
+    let mut out = Map::new();
+    for k in 0..q {
+        let (y, yhat): (Vec<f64>, Vec<f64>) = ys
+            .iter()
+            .zip(&pred)
+            .filter_map(|(y, p)| y[k].map(|v| (v, p[k])))
+            .unzip();
+        let m = model_core::metrics::metrics(&y, &yhat)
+            .map_err(|e| anyhow!("{}: {e}", ds.targets[k]))?;
+        out.insert(ds.targets[k].clone(), crate::eval::metrics_json(&m));
+    }
+    Ok(Value::Object(out))
+}
+
+/// An LM run's figures for the JSON.
+fn lm_json(r: &lm::LmReport) -> Value {
+    json!({
+        "epochs_run": r.epochs,
+        "best_epoch": r.best_epoch,
+        "stop": r.stop,
+        "train_mse_start": r.train_mse.first(),
+        "train_mse_end": r.train_mse.last(),
+        "val_mse_best": r.val_mse.get(r.best_epoch),
+        "goal_reached_epoch": r.goal_epoch,
+        "goal_reached_s": r.goal_seconds,
+        "seconds": r.seconds,
+    })
+}
+
+/// LM with a progress bar.
+fn run_lm(
+    shape: Shape,
+    act: Activation,
+    w0: &[f64],
+    tr: &Data,
+    val: Option<&Data>,
+    o: &lm::LmOptions,
+    what: &str,
+) -> lm::LmReport {
+    let pb = progress(o.epochs, what);
+    let r = lm::train(shape, act, w0, tr, val, o, Some(&pb));
+    pb.finish_and_clear();
+    r
+}
+
+/// Fits `--model bp` (`genetic = false`) or `--model gabp`.
+pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
+    let kind = if genetic { "gabp" } else { "bp" };
+    let inputs = channels(ds)?;
+    let outs = outputs(ds)?;
+    let (m, q) = (ds.inputs.len(), ds.targets.len());
+    let max_hidden = MAX_HIDDEN.min(MAX_W1 / m.max(1));
+    if max_hidden == 0 {
+        bail!("{kind}: {m} inputs exceed the blob's {MAX_W1} input weights (MAX_W1) even with one hidden neuron");
+    }
+    let hidden = match args.hidden {
+        Some(0) => bail!("--hidden must be at least 1"),
+        Some(n) if n > max_hidden => bail!(
+            "--hidden {n} with {m} inputs needs {} input weights; a BP blob holds at most {MAX_W1} (MAX_W1) and {MAX_HIDDEN} hidden neurons: use --hidden {max_hidden} or fewer",
+            n * m
+        ),
+        Some(n) => n,
+        None => DEFAULT_HIDDEN.min(max_hidden),
+    };
+    if args.val_every == 1 {
+        bail!("--val-every 1 would validate on every block and train on none: use 0 (no validation) or 2 and up");
+    }
+    if args.epochs == 0 {
+        bail!("--epochs must be at least 1");
+    }
+    for (name, p) in [
+        ("--ga-crossover", args.ga_crossover),
+        ("--ga-mutation", args.ga_mutation),
+    ] {
+        if !(0.0..=1.0).contains(&p) {
+            bail!("{name} {p} must be a probability in [0, 1]");
+        }
+    }
+    if args.goal.is_some_and(|g| !(g.is_finite() && g >= 0.0)) {
+        bail!("--goal must be a finite MSE >= 0");
+    }
+    let ga_hidden = match &args.ga_hidden {
+        Some(s) => parse_range(s)?,
+        None => (2.min(max_hidden), 16.min(max_hidden)),
+    };
+    if genetic {
+        if ga_hidden.0 == 0 || ga_hidden.0 > ga_hidden.1 || ga_hidden.1 > max_hidden {
+            bail!(
+                "--ga-hidden {}..{}: need 1 <= MIN <= MAX <= {max_hidden} ({MAX_W1} input weights (MAX_W1) / {m} inputs, at most {MAX_HIDDEN})",
+                ga_hidden.0, ga_hidden.1
+            );
+        }
+        if args.ga_population < 2 {
+            bail!("--ga-population must be at least 2");
+        }
+    }
+    let (x, y) = ds.calibration_rows();
+    let rows = x.len();
+    if rows < 10 {
+        bail!(
+            "{kind}: {rows} calibration rows with every input and target: too few to train a net"
+        );
+    }
+    let scaling = Scaling::from_rows(&x, &y, m, q);
+    let all = Data {
+        x: scaling.x(&x),
+        t: scaling.y(&y),
+    };
+    let (tr_idx, val_idx) = division(rows, args.val_blocks, args.val_every);
+    let tr = all.rows(&tr_idx);
+    let val = (!val_idx.is_empty()).then(|| all.rows(&val_idx));
+    let (goal, goal_rule) = match args.goal {
+        Some(g) => (g, "--goal".to_string()),
+        None => (
+            0.5 * linear_mse(&tr)?,
+            "half the training MSE of linear least squares on the same scaled rows".to_string(),
+        ),
+    };
+    let act: Activation = args.activation.into();
+    let lm_opts = lm::LmOptions {
+        epochs: args.epochs,
+        max_fail: args.max_fail,
+        goal_mse: goal,
+    };
+    let mut rng = SplitMix64::new(args.seed);
+    // BP alone: Nguyen-Widrow start, LM. This is `--model bp`, and gabp's baseline.
+    let bp_shape = Shape { m, n: hidden, q };
+    let bp_w0 = init::nguyen_widrow(bp_shape, act, &mut rng);
+    let bp = run_lm(
+        bp_shape,
+        act,
+        &bp_w0,
+        &tr,
+        val.as_ref(),
+        &lm_opts,
+        "bp epochs (LM)",
+    );
+    let division_json = json!({
+        "rule": "contiguous blocks; every K-th validates",
+        "blocks": args.val_blocks, "every": args.val_every,
+        "train_rows": tr_idx.len(), "validation_rows": val_idx.len(),
+    });
+    let common = json!({
+        "activation": act.name(),
+        "output_activation": "purelin",
+        "scaling": "mapminmax to [-1, 1] over the calibration rows",
+        "init": "Nguyen-Widrow (initnw)",
+        "training": "Levenberg-Marquardt (trainlm: mu 1e-3, x0.1/x10, mu_max 1e10)",
+        "seed": args.seed,
+        "division": division_json,
+        "goal_mse": goal,
+        "goal_rule": goal_rule,
+    });
+    let (shape, w, details) = if !genetic {
+        let mut d = common;
+        d["hidden"] = json!(hidden);
+        d["hidden_rule"] = json!(if args.hidden.is_some() {
+            "--hidden".to_string()
+        } else {
+            format!("default {DEFAULT_HIDDEN} (seed 000's 4-10-3 net), capped by {MAX_W1} / inputs")
+        });
+        d["parameters"] = json!(bp_shape.params());
+        d["lm"] = lm_json(&bp);
+        (bp_shape, bp.w, d)
+    } else {
+        let ga_opts = ga::GaOptions {
+            population: args.ga_population,
+            generations: args.ga_generations,
+            crossover: args.ga_crossover,
+            mutation: args.ga_mutation,
+            hidden: ga_hidden,
+        };
+        let pb = progress(args.ga_generations, "gabp generations");
+        let g = ga::evolve(m, q, act, &tr, &ga_opts, &mut rng, Some(&pb));
+        pb.finish_and_clear();
+        let ga_shape = Shape { m, n: g.hidden, q };
+        let gabp = run_lm(
+            ga_shape,
+            act,
+            &g.w,
+            &tr,
+            val.as_ref(),
+            &lm_opts,
+            "gabp epochs (LM)",
+        );
+        // BP alone at the GA's hidden size: isolates what the GA's initial
+        // weights buy from what its choice of size does.
+        let same_w0 = init::nguyen_widrow(ga_shape, act, &mut SplitMix64::new(args.seed));
+        let same = run_lm(
+            ga_shape,
+            act,
+            &same_w0,
+            &tr,
+            val.as_ref(),
+            &lm_opts,
+            "bp epochs at the GA's size (LM)",
+        );
+        let gd_json = if args.gd_epochs > 0 {
+            let run = |shape: Shape, w0: &[f64], what: &str| {
+                let pb = progress(args.gd_epochs, what);
+                let r = gd::train(shape, act, w0, &tr, args.gd_epochs, goal, Some(&pb));
+                pb.finish_and_clear();
+                json!({"goal_reached_epoch": r.goal_epoch, "goal_reached_s": r.goal_seconds,
+                       "epochs_run": r.epochs, "train_mse_end": r.final_mse, "seconds": r.seconds})
+            };
+            json!({
+                "algorithm": "traingdx (lr 0.01, x1.05/x0.7, momentum 0.9), no early stop",
+                "epoch_cap": args.gd_epochs,
+                "bp": run(bp_shape, &bp_w0, "bp epochs (gradient descent)"),
+                "bp_same_hidden": run(ga_shape, &same_w0, "bp epochs at the GA's size (gradient descent)"),
+                "gabp": run(ga_shape, &g.w, "gabp epochs (gradient descent)"),
+            })
+        } else {
+            Value::Null
+        };
+        let bp_net =
+            net::to_bpnet(bp_shape, act, &bp.w, &scaling).map_err(|e| anyhow!("bp: {e}"))?;
+        let ga_net =
+            net::to_bpnet(ga_shape, act, &gabp.w, &scaling).map_err(|e| anyhow!("gabp: {e}"))?;
+        let mut d = common;
+        d["hidden"] = json!(g.hidden);
+        d["hidden_rule"] = json!(format!(
+            "chosen by the GA in {}..{}",
+            ga_hidden.0, ga_hidden.1
+        ));
+        d["parameters"] = json!(ga_shape.params());
+        d["lm"] = lm_json(&gabp);
+        d["ga"] = json!({
+            "population": args.ga_population, "generations": args.ga_generations,
+            "crossover": args.ga_crossover, "mutation": args.ga_mutation,
+            "hidden_range": [ga_hidden.0, ga_hidden.1],
+            "fitness": "1 / SSE of the scaled training rows (seed 000, Eq. 17)",
+            "best_train_mse": g.best_sse.iter().map(|s| s / tr.errors() as f64).collect::<Vec<_>>(),
+            "seconds": g.seconds,
+        });
+        d["convergence"] = json!({
+            "goal_mse": goal,
+            "lm": {
+                "bp": {"hidden": hidden, "init": "Nguyen-Widrow", "train_mse_start": bp.train_mse.first(), "goal_reached_epoch": bp.goal_epoch, "goal_reached_s": bp.goal_seconds, "epochs_run": bp.epochs, "stop": bp.stop, "train_mse_end": bp.train_mse.last(), "seconds": bp.seconds},
+                "bp_same_hidden": {"hidden": g.hidden, "init": "Nguyen-Widrow", "train_mse_start": same.train_mse.first(), "goal_reached_epoch": same.goal_epoch, "goal_reached_s": same.goal_seconds, "epochs_run": same.epochs, "stop": same.stop, "train_mse_end": same.train_mse.last(), "seconds": same.seconds},
+                "gabp": {"hidden": g.hidden, "init": "GA best individual", "train_mse_start": gabp.train_mse.first(), "goal_reached_epoch": gabp.goal_epoch, "goal_reached_s": gabp.goal_seconds.map(|s| s + g.seconds), "ga_seconds": g.seconds, "epochs_run": gabp.epochs, "stop": gabp.stop, "train_mse_end": gabp.train_mse.last(), "seconds": gabp.seconds + g.seconds},
+            },
+            "gd": gd_json,
+        });
+        d["holdout"] = json!({
+            "bp": holdout_figures(ds, &bp_net)?,
+            "gabp": holdout_figures(ds, &ga_net)?,
+        });
+        (ga_shape, gabp.w, d)
+    };
+    let net = net::to_bpnet(shape, act, &w, &scaling).map_err(|e| anyhow!("{kind}: {e}"))?;
+    let model = Model {
+        inputs,
+        outputs: outs,
+        dt_s: 0.0,
+        params: Params::Bp(net),
+    }
+    .validate()
+    .map_err(|e| anyhow!("fitted model refused: {e}"))?;
+    Ok(Fitted { model, details })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn division_takes_every_kth_contiguous_block() {
+        let (tr, val) = division(100, 20, 5);
+        // Blocks of 5 rows; blocks 4, 9, 14, 19 validate: 20 rows in 4 runs.
+        assert_eq!(val.len(), 20);
+        assert_eq!(&val[..5], &[20, 21, 22, 23, 24]);
+        assert_eq!(*val.last().unwrap(), 99);
+        assert_eq!(tr.len() + val.len(), 100);
+        assert!(division(100, 20, 0).1.is_empty());
+        assert!(division(30, 20, 5).1.is_empty());
+    }
+
+    #[test]
+    fn ranges_parse() {
+        assert_eq!(parse_range("2..16").unwrap(), (2, 16));
+        assert!(parse_range("2-16").is_err());
+    }
+}
