@@ -100,15 +100,73 @@ pub const SAMPLE_PERIOD_MS: u32 = 1_000;
 /// RTIC monotonic (SysTick) tick rate: 1 kHz, so a tick is a millisecond.
 pub const MONO_HZ: u32 = 1_000;
 
-/// Independent-watchdog timeout, fed once per sample period. The IWDG runs
-/// from the LSI, 17..47 kHz (32 kHz typical; DS10693 "LSI oscillator
-/// characteristics"); the HAL assumes 32 kHz, so the real timeout can be as
-/// short as 32/47 of this. 2 s keeps that worst case (1.36 s) above the 1 s
-/// feed period with margin; a 1 s timeout could fire between two feeds.
-pub const IWDG_TIMEOUT_MS: u32 = 2_000;
+/// Worst-case erase time of one 128 KiB flash sector as the firmware erases
+/// it, ms. DS10693 "Flash memory programming" gives t_ERASE128KB typ 1 s /
+/// max 2 s at x32 parallelism but typ 2 s / max 4 s at x8, and
+/// stm32f4xx-hal 0.23's `UnlockedFlash::erase` always erases at x8
+/// (`PSIZE = x8`); the CPU stalls for all of it (one flash bank).
+pub const FLASH_SECTOR_ERASE_MAX_MS: u32 = 4_000;
+
+/// Independent-watchdog timeout. The IWDG runs from the LSI, 17..47 kHz
+/// (32 kHz typical; DS10693 "LSI oscillator characteristics"); the HAL
+/// assumes 32 kHz, so the real timeout can be as short as 32/47 of this.
+/// A model upload erases one 128 KiB sector, stalling the CPU for up to
+/// [`FLASH_SECTOR_ERASE_MAX_MS`] (x8 erase); the upload feeds the watchdog
+/// right before, and the sampling task feeds it at least every
+/// [`SAMPLE_PERIOD_MS`]. 8 s keeps the fastest-LSI timeout (5.45 s) above
+/// the 4 s erase plus one feed period (5 s). The price: with the slowest
+/// LSI (17 kHz) a hung firmware is reset only after ~15 s.
+pub const IWDG_TIMEOUT_MS: u32 = 8_000;
 
 /// Worst-case (fastest LSI) watchdog timeout in ms.
 pub const IWDG_TIMEOUT_MIN_MS: u32 = IWDG_TIMEOUT_MS * 32 / 47;
+
+/// MAX31865 converters on SPI1, one chip select each ([`RTD_CS_PINS`]).
+///
+/// # Which model input reads which channel
+///
+/// A model input named `T<k>` (`T1`, `T2`, ... no leading zero) is read
+/// from RTD channel `k`, i.e. the chip on the `k`-th entry of
+/// [`RTD_CS_PINS`] ([`rtd_channel`] gives the 0-based index). The tool
+/// length input (`tool_mm`) comes from the `SetToolLength` command. Any
+/// other input, or `T<k>` with `k` beyond [`RTD_CHANNELS`], has no source
+/// and reads as stale every sample (so such a model holds its offsets).
+pub const RTD_CHANNELS: usize = 8;
+
+/// Chip-select pins of RTD channels 1..=[`RTD_CHANNELS`], in channel order
+/// (active low, push-pull, idle high). The Arduino D10..D2 header pins in
+/// order, skipping D3 (PB3, the SWO trace pin); PB4 (D5) is NJTRST after
+/// reset, unused with SWD. Details in [`PINOUT`].
+pub const RTD_CS_PINS: [&str; RTD_CHANNELS] =
+    ["PB6", "PC7", "PA9", "PA8", "PB10", "PB4", "PB5", "PA10"];
+
+/// The 0-based RTD channel a model input named `name` is read from:
+/// `T<k>` -> `k - 1` for `k` in `1..=RTD_CHANNELS` (see [`RTD_CHANNELS`]).
+pub fn rtd_channel(name: &str) -> Option<usize> {
+    let digits = name.strip_prefix('T')?;
+    if digits.is_empty() || digits.starts_with('0') || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    let k: usize = digits.parse().ok()?;
+    (1..=RTD_CHANNELS).contains(&k).then(|| k - 1)
+}
+
+/// Mains frequency the MAX31865 notch filter rejects: 50 Hz (Europe, most
+/// of Asia and Africa). Conversions then take 21 ms instead of 17.6 ms,
+/// irrelevant at one sample per second; a 60 Hz site (Americas, parts of
+/// Japan) sets 60 here, else mains pickup on long sensor leads is only
+/// partly rejected.
+pub const RTD_MAINS_HZ: u32 = 50;
+
+/// RTD wiring the converters are configured for: 3-wire, the usual
+/// industrial PT100 connection (the chip cancels the lead resistance).
+/// Must match the converter boards' jumpers; 2- and 4-wire sensors use 2 or 4.
+pub const RTD_WIRES: u8 = 3;
+
+/// While a converter is down (failed configuration) it is retried this
+/// often, ms; the configured ones have their configuration read back at the
+/// same rate (a brown-out resets a chip to "no conversions" silently).
+pub const RTD_RETRY_MS: u32 = 10_000;
 
 /// One MCU pin and what it is wired to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -124,7 +182,7 @@ pub struct PinAssignment {
 }
 
 /// Pinout (alternate functions: DS10693 "Alternate function mapping"; NUCLEO wiring: UM1724).
-pub const PINOUT: [PinAssignment; 9] = [
+pub const PINOUT: [PinAssignment; 8 + RTD_CHANNELS] = [
     PinAssignment {
         signal: "HSE_IN",
         pin: "PH0",
@@ -162,10 +220,52 @@ pub const PINOUT: [PinAssignment; 9] = [
         note: "MAX31865 SDI (D11)",
     },
     PinAssignment {
-        signal: "RTD_CS",
+        signal: "RTD1_CS",
         pin: "PB6",
         af: None,
-        note: "MAX31865 /CS, active low (D10)",
+        note: "MAX31865 #1 /CS, input T1 (D10)",
+    },
+    PinAssignment {
+        signal: "RTD2_CS",
+        pin: "PC7",
+        af: None,
+        note: "MAX31865 #2 /CS, input T2 (D9)",
+    },
+    PinAssignment {
+        signal: "RTD3_CS",
+        pin: "PA9",
+        af: None,
+        note: "MAX31865 #3 /CS, input T3 (D8)",
+    },
+    PinAssignment {
+        signal: "RTD4_CS",
+        pin: "PA8",
+        af: None,
+        note: "MAX31865 #4 /CS, input T4 (D7)",
+    },
+    PinAssignment {
+        signal: "RTD5_CS",
+        pin: "PB10",
+        af: None,
+        note: "MAX31865 #5 /CS, input T5 (D6)",
+    },
+    PinAssignment {
+        signal: "RTD6_CS",
+        pin: "PB4",
+        af: None,
+        note: "MAX31865 #6 /CS, input T6 (D5, NJTRST after reset)",
+    },
+    PinAssignment {
+        signal: "RTD7_CS",
+        pin: "PB5",
+        af: None,
+        note: "MAX31865 #7 /CS, input T7 (D4)",
+    },
+    PinAssignment {
+        signal: "RTD8_CS",
+        pin: "PA10",
+        af: None,
+        note: "MAX31865 #8 /CS, input T8 (D2)",
     },
     PinAssignment {
         signal: "CAN1_RX",
@@ -193,7 +293,50 @@ const _: () = {
     assert!(SYSCLK_HZ.is_multiple_of(MONO_HZ) && MONO_HZ == 1_000);
     // The watchdog must survive one feed period plus 25 % jitter even with the fastest LSI.
     assert!(IWDG_TIMEOUT_MIN_MS > SAMPLE_PERIOD_MS + SAMPLE_PERIOD_MS / 4);
+    // ... and a sector erase (CPU stalled) right after a feed, plus one feed period.
+    assert!(IWDG_TIMEOUT_MIN_MS > FLASH_SECTOR_ERASE_MAX_MS + SAMPLE_PERIOD_MS);
+    assert!(RTD_MAINS_HZ == 50 || RTD_MAINS_HZ == 60);
+    assert!(RTD_WIRES >= 2 && RTD_WIRES <= 4);
+    assert!(RTD_RETRY_MS >= SAMPLE_PERIOD_MS);
     assert!(IWDG_TIMEOUT_MS < 32_768); // HAL limit
     assert!(CAN_HEARTBEAT_ID <= 0x7FF); // 11-bit standard id
     assert!(RTD_SPI_HZ <= 5_000_000);
 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn input_names_map_to_rtd_channels() {
+        assert_eq!(rtd_channel("T1"), Some(0));
+        assert_eq!(rtd_channel("T8"), Some(7));
+        for name in [
+            "T0",
+            "T9",
+            "T01",
+            "T",
+            "t1",
+            "T1a",
+            "tool_mm",
+            "T+1",
+            "",
+            "T99999999999999999999",
+        ] {
+            assert_eq!(rtd_channel(name), None, "{name}");
+        }
+    }
+
+    #[test]
+    fn every_rtd_cs_pin_is_in_the_pinout_once() {
+        for (k, pin) in RTD_CS_PINS.iter().enumerate() {
+            let rows: Vec<_> = PINOUT.iter().filter(|p| p.pin == *pin).collect();
+            assert_eq!(rows.len(), 1, "{pin}");
+            assert_eq!(rows[0].signal, format!("RTD{}_CS", k + 1));
+        }
+        let mut pins: Vec<_> = PINOUT.iter().map(|p| p.pin).collect();
+        pins.sort_unstable();
+        pins.dedup();
+        assert_eq!(pins.len(), PINOUT.len(), "a pin used twice");
+    }
+}

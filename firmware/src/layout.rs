@@ -11,9 +11,10 @@
 //! sectors of their own: a new model blob is erased and written into the
 //! inactive slot while the active one keeps being used, then the firmware
 //! switches slots. The F446 has one flash bank, so the CPU stalls on flash
-//! reads while a sector is being erased (1-2 s for 128 KiB, DS10693
-//! "Flash memory programming"): the erase must run in a low-priority
-//! task with the watchdog in mind.
+//! reads while a sector is being erased (128 KiB: 1-2 s at x32, 2-4 s at
+//! the x8 stm32f4xx-hal uses; DS10693 "Flash memory programming"): the
+//! erase must run in a low-priority task with the watchdog in mind
+//! (`board::FLASH_SECTOR_ERASE_MAX_MS`, `board::IWDG_TIMEOUT_MS`).
 
 /// One contiguous address range (a `MEMORY` region of `memory.x`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -8,16 +8,46 @@
 //! * [`board`]: clocks, pinout, bus speeds, task periods.
 //! * [`layout`]: the flash/RAM map of `memory.x`, including the model slots.
 //! * [`offsets`]: what the hub reports per sample.
+//! * [`report`]: what the pipeline hands to the emitters after each sample.
+//! * [`pipeline`]: readings -> validate -> spike filter -> model -> fault
+//!   supervisor -> slew limit/clamp -> [`report::Report`], once per sample,
+//!   infallible after one `validate` (feature `model`).
+//! * `rtd` (feature `model`): one MAX31865 converter channel: driver
+//!   errors to channel faults, fault clearing, retry while down.
+//! * [`spike`]: rejects single-sample jumps no thermal signal can make.
+//! * [`supervisor`]: hold, then ramp offsets to zero while inputs are bad.
+//! * [`limiter`]: per-output clamp and slew limit, the last stop before the CNC.
+//! * [`config`]: the shared settings error and duration-to-samples rounding.
 //! * [`hub`]: loads the model blob from a slot and turns each sample into
 //!   axis offsets, holding the last good offsets when a sample is bad. With
 //!   the `model` feature off (`--no-default-features`) it is a stand-in that
 //!   always gives zero offsets and does not link model-core: the baseline
 //!   for measuring what the model path costs in flash and RAM.
+//! * [`can_frames`]: the CAN frames the CNC reads (spec: `docs/wire-format.md`,
+//!   `thermcomp.dbc`).
+//! * [`protocol`]: the serial link's COBS/postcard messages.
+//! * `upload` (feature `model`): model upload into the inactive A/B slot.
 #![cfg_attr(not(test), no_std)]
 
 pub mod board;
+pub mod can_frames;
 pub mod layout;
 pub mod offsets;
+pub mod protocol;
+pub mod report;
+#[cfg(feature = "model")]
+pub mod upload;
+
+pub mod config;
+pub mod limiter;
+pub mod spike;
+pub mod supervisor;
+
+#[cfg(feature = "model")]
+pub mod pipeline;
+
+#[cfg(feature = "model")]
+pub mod rtd;
 
 #[cfg(feature = "model")]
 pub mod hub;

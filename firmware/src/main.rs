@@ -13,11 +13,26 @@
 //! (`lib.rs`: `board`, `layout`, `hub`) and `model-core`.
 //!
 //! * `app` (target only, `cfg(target_os = "none")`): the RTIC v2 application.
-//!   `init` reads model slot A through `FlashExt::read` and loads it into a
-//!   `hub::Hub`. `sample` (priority 2) runs every `board::SAMPLE_PERIOD_MS`,
-//!   probes the RTD converter, steps the model, feeds the watchdog and hands
-//!   its result to `emit` (priority 1), which reports over USART2 and CAN1
-//!   without delaying the next sample.
+//!   `init` picks the boot slot (`upload::select_boot_slot` over both slots,
+//!   read through `FlashExt::read`), loads its `Hub` into a `Pipeline` held
+//!   in a static, and sets up USART2, SPI1 with one chip select per MAX31865
+//!   (`board::RTD_CS_PINS`), CAN1 and the IWDG.
+//!   - `sample` (priority 2): configures the converters (auto conversion),
+//!     then every `Pipeline::sample_period_ms` from a fixed start reads the
+//!     converter of each model input `T<k>` (`board::rtd_channel`), runs
+//!     `Pipeline::on_sample`, feeds the watchdog and queues the result for
+//!     `emit`; every `board::RTD_RETRY_MS` it restarts converters that are
+//!     down and reads back the configuration of the others (`firmware::rtd`).
+//!   - `emit` (priority 1): COBS telemetry on USART2, OFFSETS/STATUS
+//!     (/OFFSETS_EXT) and the heartbeat on CAN1 (`can_frames`).
+//!   - `usart2` (interrupt, priority 3): bytes into a `protocol::FrameReader`,
+//!     decoded commands through an `rtic_sync` channel to `command`.
+//!   - `command` (priority 1): ping, tool length, and model uploads through
+//!     `upload::Uploader` on the board flash; a committed model is swapped
+//!     into the pipeline under the lock, between two samples.
+//!
+//!   Without the `model` feature the same tasks run, but `sample` reads no
+//!   converters and reports `NoModel`, and only `Ping` is accepted.
 //! * Host build: `fn main` prints the memory layout, pinout, defaults and the
 //!   model slot facts, so CI (`cargo run -p firmware`) checks that they build
 //!   and shows them.
@@ -35,7 +50,7 @@ fn main() {
 
 #[cfg(not(target_os = "none"))]
 mod host {
-    use firmware::{board, layout};
+    use firmware::{board, can_frames, layout};
 
     /// Human-readable byte count.
     fn size(bytes: u32) -> String {
@@ -119,6 +134,62 @@ mod host {
         for (name, value) in rows {
             println!("  {name:<17} {value}");
         }
+        println!(
+            "  {:<17} {} ms max (x8, CPU stalled; IWDG must outlast it)",
+            "sector erase",
+            board::FLASH_SECTOR_ERASE_MAX_MS
+        );
+        println!();
+
+        println!(
+            "RTD channels (MAX31865 on SPI1, {}-wire, {} Hz filter, auto conversion; retry/check every {} ms)",
+            board::RTD_WIRES,
+            board::RTD_MAINS_HZ,
+            board::RTD_RETRY_MS
+        );
+        println!("  model input T<k> reads channel k; tool_mm comes from SetToolLength; other inputs read stale");
+        for (k, pin) in board::RTD_CS_PINS.iter().enumerate() {
+            let input = format!("T{}", k + 1);
+            debug_assert_eq!(board::rtd_channel(&input), Some(k));
+            println!("  {input:<4} <- RTD{} /CS {pin}", k + 1);
+        }
+        println!();
+
+        println!(
+            "CAN frames (CAN 2.0A, node 0x{:02X}; spec docs/wire-format.md, thermcomp.dbc)",
+            board::CAN_NODE_ID
+        );
+        let frames: [(&str, u16, &str); 5] = [
+            (
+                "OFFSETS",
+                can_frames::OFFSETS_ID,
+                "every sample: outputs 1-3, state, counter",
+            ),
+            (
+                "STATUS",
+                can_frames::STATUS_ID,
+                "every sample: flags, faulty channels, shape",
+            ),
+            (
+                "OFFSETS_EXT",
+                can_frames::OFFSETS_EXT_ID,
+                "every sample with a 4th output",
+            ),
+            ("SLOPE", can_frames::SLOPE_ID, "defined, not sent yet"),
+            (
+                "HEARTBEAT",
+                can_frames::HEARTBEAT_ID,
+                "NMT state, checked at every sample",
+            ),
+        ];
+        for (name, id, when) in frames {
+            println!("  0x{id:03X}  {name:<12} {when}");
+        }
+        println!(
+            "  heartbeat period {} ms; offsets {} um/bit",
+            can_frames::DEFAULT_HEARTBEAT_MS,
+            can_frames::OFFSET_UM_PER_BIT
+        );
         println!();
 
         print_model_slot();
@@ -133,7 +204,7 @@ mod host {
         use std::mem::size_of;
 
         let bytes = |n: usize| format!("{n} B ({:.1} KiB)", n as f64 / 1024.0);
-        println!("Model slot (read at boot from MODEL_A)");
+        println!("Model slots (boot: the committed slot with the highest generation, upload::select_boot_slot)");
         println!(
             "  {:<19} {FORMAT_VERSION} (magic \"TCMB\")",
             "blob format version"
@@ -150,9 +221,19 @@ mod host {
         println!("  {:<19} {}", "ValidModel", bytes(size_of::<ValidModel>()));
         println!("  {:<19} {}", "ModelState", bytes(size_of::<ModelState>()));
         println!(
-            "  {:<19} {} (static RAM of a loaded model)",
+            "  {:<19} {} (a loaded model)",
             "Hub",
             bytes(size_of::<Hub>())
+        );
+        println!(
+            "  {:<19} {} (static RAM: hub + filters + limiter)",
+            "Pipeline",
+            bytes(size_of::<firmware::pipeline::Pipeline>())
+        );
+        println!(
+            "  {:<19} {} (static RAM: upload read-back scratch)",
+            "upload scratch",
+            bytes(MAX_BLOB_LEN)
         );
     }
 
@@ -197,55 +278,458 @@ mod rt {
     }
 }
 
+/// Board glue that is not a task: the flash adapter, the shared chip
+/// selects, the RTD bank, and the per-sample work with and without the
+/// model (feature `model`), so the RTIC app below stays the same in both.
+#[cfg(target_os = "none")]
+mod glue {
+    use stm32f4xx_hal::gpio::{AnyPin, Output};
+    #[cfg(feature = "model")]
+    use {
+        core::{cell::RefCell, convert::Infallible},
+        embedded_hal::delay::DelayNs,
+        embedded_hal::digital::{ErrorType, OutputPin},
+        embedded_storage::nor_flash::{ErrorType as FlashErrorType, NorFlash, ReadNorFlash},
+        firmware::board,
+        stm32f4xx_hal::flash::{Error as FlashError, FlashExt, LockedFlash},
+    };
+
+    /// An RTD chip-select pin.
+    pub type CsPin = AnyPin<Output>;
+
+    #[cfg(feature = "model")]
+    /// The board flash for the uploader: unlocked only for the duration of
+    /// one erase or write (the HAL's `UnlockedFlash` relocks on drop).
+    pub struct BoardFlash(pub LockedFlash);
+
+    #[cfg(feature = "model")]
+    impl FlashErrorType for BoardFlash {
+        type Error = FlashError;
+    }
+
+    #[cfg(feature = "model")]
+    impl ReadNorFlash for BoardFlash {
+        const READ_SIZE: usize = 1;
+
+        fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), FlashError> {
+            ReadNorFlash::read(&mut self.0, offset, bytes)
+        }
+
+        fn capacity(&self) -> usize {
+            ReadNorFlash::capacity(&self.0)
+        }
+    }
+
+    #[cfg(feature = "model")]
+    impl NorFlash for BoardFlash {
+        const WRITE_SIZE: usize = 1;
+        const ERASE_SIZE: usize = 128 * 1024;
+
+        fn erase(&mut self, from: u32, to: u32) -> Result<(), FlashError> {
+            NorFlash::erase(&mut self.0.unlocked(), from, to)
+        }
+
+        fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), FlashError> {
+            NorFlash::write(&mut self.0.unlocked(), offset, bytes)
+        }
+    }
+
+    #[cfg(feature = "model")]
+    /// A chip select shared by reference, so a new `SpiDevice` for a chip
+    /// can be made after `Max31865::new` failed and dropped the old one.
+    #[derive(Clone, Copy)]
+    pub struct SharedCs<'a>(pub &'a RefCell<CsPin>);
+
+    #[cfg(feature = "model")]
+    impl ErrorType for SharedCs<'_> {
+        type Error = Infallible;
+    }
+
+    #[cfg(feature = "model")]
+    impl OutputPin for SharedCs<'_> {
+        fn set_low(&mut self) -> Result<(), Infallible> {
+            self.0.borrow_mut().set_low();
+            Ok(())
+        }
+
+        fn set_high(&mut self) -> Result<(), Infallible> {
+            self.0.borrow_mut().set_high();
+            Ok(())
+        }
+    }
+
+    #[cfg(feature = "model")]
+    /// Busy-wait delay in core cycles for the SPI devices: SysTick belongs
+    /// to the monotonic, and each device needs its own delay by value. The
+    /// MAX31865 driver issues no delay operations, so it never runs.
+    #[derive(Clone, Copy)]
+    pub struct CycleDelay;
+
+    #[cfg(feature = "model")]
+    impl DelayNs for CycleDelay {
+        fn delay_ns(&mut self, ns: u32) {
+            // 180 cycles per us; at least `ns` long (asm::delay waits >= n cycles).
+            let cycles = u64::from(ns) * u64::from(board::SYSCLK_HZ / 1_000_000) / 1000 + 1;
+            cortex_m::asm::delay(u32::try_from(cycles).unwrap_or(u32::MAX));
+        }
+    }
+
+    /// What `emit` gets after each sample.
+    #[derive(Clone, Copy)]
+    pub struct Sampled {
+        pub report: firmware::report::Report,
+        pub info: firmware::can_frames::StatusInfo,
+        /// Raw temperatures in model input order (NaN: not a temperature or not read).
+        pub temps_c: [f64; firmware::offsets::MAX_INPUTS],
+    }
+
+    #[cfg(feature = "model")]
+    pub use with_model::*;
+    #[cfg(not(feature = "model"))]
+    pub use without_model::*;
+
+    #[cfg(feature = "model")]
+    mod with_model {
+        use super::{CsPin, CycleDelay, Sampled, SharedCs};
+        use core::cell::RefCell;
+        use embedded_hal_bus::spi::RefCellDevice;
+        use firmware::can_frames::StatusInfo;
+        use firmware::offsets::MAX_INPUTS;
+        use firmware::pipeline::{Pipeline, Reading};
+        use firmware::protocol::{Command, CommandKind, ErrorCode, HubMessage, PROTOCOL_VERSION};
+        use firmware::rtd::Converter;
+        use firmware::upload::Uploader;
+        use firmware::{board, hub};
+        use max31865::{Config, Filter, Mode, Wires};
+        use stm32f4xx_hal::{pac, spi::Spi};
+
+        /// What the sampling task and the command task share.
+        pub type Core = Pipeline;
+        /// The upload state machine over the board flash.
+        pub type Upload = Uploader<super::BoardFlash>;
+        /// SPI1 and the chip selects, handed to `sample`.
+        pub type RtdHw = (Spi<pac::SPI1>, [CsPin; board::RTD_CHANNELS]);
+        /// One converter's device: SPI1 borrowed per transaction.
+        pub type RtdDevice<'a> = RefCellDevice<'a, Spi<pac::SPI1>, SharedCs<'a>, CycleDelay>;
+        /// All converters.
+        pub type Bank<'a> = [Converter<RtdDevice<'a>>; board::RTD_CHANNELS];
+
+        /// Every converter: auto conversions, the board's wiring and mains
+        /// filter, full-range fault window (only open/short trip it).
+        pub const RTD_CONFIG: Config = Config::new(
+            match board::RTD_WIRES {
+                2 => Wires::Two,
+                4 => Wires::Four,
+                _ => Wires::Three,
+            },
+            match board::RTD_MAINS_HZ {
+                60 => Filter::Hz60,
+                _ => Filter::Hz50,
+            },
+            Mode::Auto,
+        );
+
+        /// First auto conversion after configuration, ms (21 ms max at 50 Hz).
+        pub const FIRST_CONVERSION_MS: u32 =
+            max31865::conversion_time_us(RTD_CONFIG.filter, Mode::Auto).div_ceil(1000) + 1;
+
+        /// A fresh device for channel `k`.
+        pub fn device<'a>(
+            bus: &'a RefCell<Spi<pac::SPI1>>,
+            cs: &'a [RefCell<CsPin>; board::RTD_CHANNELS],
+            k: usize,
+        ) -> Option<RtdDevice<'a>> {
+            let pin = cs.get(k)?;
+            // Drives CS high; infallible.
+            RefCellDevice::new(bus, SharedCs(pin), CycleDelay).ok()
+        }
+
+        /// Starts every converter that is down; reads back the configuration
+        /// of those that are up. Logs each change.
+        pub fn service<'a>(
+            bank: &mut Bank<'a>,
+            bus: &'a RefCell<Spi<pac::SPI1>>,
+            cs: &'a [RefCell<CsPin>; board::RTD_CHANNELS],
+        ) {
+            for (k, ch) in bank.iter_mut().enumerate() {
+                if ch.is_up() {
+                    if let Err(f) = ch.check() {
+                        defmt::warn!(
+                            "RTD{=usize}: lost its configuration ({}), retrying",
+                            k + 1,
+                            defmt::Debug2Format(&f)
+                        );
+                    }
+                } else if let Some(dev) = device(bus, cs, k) {
+                    match ch.start(dev, RTD_CONFIG) {
+                        Ok(()) => defmt::info!("RTD{=usize}: up", k + 1),
+                        Err(f) => {
+                            defmt::debug!("RTD{=usize}: down ({})", k + 1, defmt::Debug2Format(&f))
+                        }
+                    }
+                }
+            }
+        }
+
+        /// One sample: read the converters the model's inputs name, run the
+        /// pipeline.
+        pub fn sample(p: &mut Pipeline, bank: &mut Bank<'_>) -> Sampled {
+            let mut readings = [Reading::Stale; MAX_INPUTS];
+            let mut temps_c = [f64::NAN; MAX_INPUTS];
+            let n = p.hub().input_count().min(MAX_INPUTS);
+            if let Some(model) = p.hub().model() {
+                for ((r, t), input) in readings.iter_mut().zip(&mut temps_c).zip(model.inputs()) {
+                    let Some(ch) =
+                        board::rtd_channel(input.name.as_str()).and_then(|k| bank.get_mut(k))
+                    else {
+                        continue;
+                    };
+                    *r = ch.read();
+                    if let Reading::Value(v) = *r {
+                        *t = v;
+                    }
+                }
+            }
+            let report = p.on_sample(readings.get(..n).unwrap_or(&[]));
+            let faults = p.hub().faults();
+            if faults.consecutive == 1 {
+                defmt::warn!(
+                    "sample {=u32} refused: faulty inputs {=u32:#x}",
+                    report.seq,
+                    report.faulty_channels
+                );
+            }
+            Sampled {
+                report,
+                info: StatusInfo {
+                    n_inputs: n,
+                    consecutive_faults: faults.consecutive,
+                },
+                temps_c,
+            }
+        }
+
+        /// The period `sample` runs at, ms.
+        pub fn period_ms(p: &Pipeline) -> u32 {
+            p.sample_period_ms()
+        }
+
+        /// Carries out one command; the reply. Uploads: `feed` right before
+        /// the erase; on commit the new hub is swapped in under the lock.
+        pub fn command(
+            core: &mut impl rtic::Mutex<T = &'static mut Pipeline>,
+            uploader: &mut Upload,
+            scratch: &mut [u8],
+            feed: impl FnOnce(),
+            cmd: &Command,
+        ) -> HubMessage {
+            match cmd {
+                Command::Ping => HubMessage::Pong {
+                    protocol: PROTOCOL_VERSION,
+                },
+                Command::SetToolLength { mm } => {
+                    match core.lock(|p| p.set_tool_length_mm(f64::from(*mm))) {
+                        Ok(()) => HubMessage::Ack(CommandKind::SetToolLength),
+                        Err(_) => HubMessage::Nack {
+                            command: CommandKind::SetToolLength,
+                            error: ErrorCode::OutOfRange,
+                        },
+                    }
+                }
+                _ => {
+                    if let Command::UploadBegin { len, .. } = cmd {
+                        defmt::info!(
+                            "upload of {=u32} B: erasing slot (CPU stalls up to {=u32} ms)",
+                            *len,
+                            board::FLASH_SECTOR_ERASE_MAX_MS
+                        );
+                        core.lock(|p| p.set_uploading(true));
+                        feed();
+                    }
+                    let (reply, committed) = uploader.handle(cmd, scratch).unwrap_or((
+                        HubMessage::Nack {
+                            command: CommandKind::Unknown,
+                            error: ErrorCode::Unsupported,
+                        },
+                        None,
+                    ));
+                    let uploading = uploader.is_uploading();
+                    let swapped = committed.map(|c| {
+                        let slot = c.slot;
+                        (
+                            slot,
+                            core.lock(|p| {
+                                p.set_uploading(uploading);
+                                p.swap_model(c.hub).map(|()| log_model(p.hub()))
+                            }),
+                        )
+                    });
+                    core.lock(|p| p.set_uploading(uploading));
+                    match swapped {
+                        Some((_, Ok(()))) => defmt::info!("upload committed, new model running"),
+                        Some((_, Err(_))) => {
+                            defmt::error!("committed model refused by the pipeline")
+                        }
+                        None => {}
+                    }
+                    reply
+                }
+            }
+        }
+
+        /// Boot log of the model: what was loaded, or why nothing was.
+        pub fn log_model(hub: &hub::Hub) {
+            match (hub.model(), hub.load_error()) {
+                (Some(model), _) => {
+                    defmt::info!(
+                        "model {=str}: {=usize} inputs, {=usize} outputs",
+                        model.kind().name(),
+                        model.inputs().len(),
+                        model.outputs().len()
+                    );
+                    for (j, input) in model.inputs().iter().enumerate() {
+                        match board::rtd_channel(input.name.as_str()) {
+                            Some(k) => defmt::info!(
+                                "  input {=usize} {=str} <- RTD{=usize}",
+                                j,
+                                input.name.as_str(),
+                                k + 1
+                            ),
+                            None => defmt::info!(
+                                "  input {=usize} {=str} (not an RTD)",
+                                j,
+                                input.name.as_str()
+                            ),
+                        }
+                    }
+                }
+                (None, Some(error)) => defmt::warn!("no model: {}", error),
+                (None, None) => defmt::warn!("no model"),
+            }
+        }
+    }
+
+    /// Without model support: no converters, NoModel reports, commands
+    /// other than Ping refused.
+    #[cfg(not(feature = "model"))]
+    mod without_model {
+        use super::Sampled;
+        use firmware::can_frames::StatusInfo;
+        use firmware::offsets::MAX_INPUTS;
+        use firmware::protocol::{Command, ErrorCode, HubMessage, PROTOCOL_VERSION};
+        use firmware::report::{Report, StatusFlags};
+
+        /// The sample counter.
+        pub type Core = u32;
+        pub type Upload = ();
+        pub type RtdHw = ();
+        pub type Bank<'a> = ();
+
+        pub fn sample(seq: &mut u32, _bank: &mut ()) -> Sampled {
+            let report = Report {
+                seq: *seq,
+                flags: StatusFlags(StatusFlags::NO_MODEL),
+                ..Report::default()
+            };
+            *seq = seq.wrapping_add(1);
+            Sampled {
+                report,
+                info: StatusInfo::default(),
+                temps_c: [f64::NAN; MAX_INPUTS],
+            }
+        }
+
+        pub fn period_ms(_: &u32) -> u32 {
+            firmware::board::SAMPLE_PERIOD_MS
+        }
+
+        pub fn command(
+            _core: &mut impl rtic::Mutex<T = &'static mut u32>,
+            _uploader: &mut (),
+            _scratch: &mut [u8],
+            _feed: impl FnOnce(),
+            cmd: &Command,
+        ) -> HubMessage {
+            match cmd {
+                Command::Ping => HubMessage::Pong {
+                    protocol: PROTOCOL_VERSION,
+                },
+                other => HubMessage::Nack {
+                    command: other.kind(),
+                    error: ErrorCode::Unsupported,
+                },
+            }
+        }
+    }
+}
+
 /// The RTIC v2 application (board only).
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true, dispatchers = [UART4, UART5])]
 mod app {
+    use crate::glue::{self, Core, RtdHw, Sampled, Upload};
     use crate::rt::Mono;
-    use bxcan::{Frame, StandardId};
+    use bxcan::{Frame, Mailbox};
     use core::mem::MaybeUninit;
-    use firmware::{board, hub, layout};
+    use firmware::can_frames::{encode_report, Heartbeat, NmtState, DEFAULT_HEARTBEAT_MS};
+    use firmware::protocol::{
+        self, Command, CommandKind, ErrorCode, FrameError, FrameReader, HubMessage, Telemetry,
+        COMMAND_FRAME_MAX, HUB_FRAME_MAX,
+    };
+    use firmware::{board, layout};
     use rtic_monotonics::Timebase;
+    use rtic_sync::channel::{Receiver, Sender};
     use stm32f4xx_hal::{
         can::{Can, CanExt},
-        flash::FlashExt,
-        gpio::{GpioExt, Output, PB6},
+        gpio::GpioExt,
         hal::spi::MODE_1,
         hal_02::blocking::serial::Write as _,
+        hal_02::serial::Read as _,
         pac,
         prelude::_fugit_ExtU32,
         rcc::{Config, RccExt},
-        serial::{Serial, SerialExt},
-        spi::{Spi, SpiExt},
+        serial::{Rx, RxListen, SerialExt, Tx},
+        spi::SpiExt,
         time::{Bps, Hertz},
         watchdog::IndependentWatchdog,
     };
 
-    /// CANopen heartbeat id of this node.
-    const HEARTBEAT_ID: StandardId = match StandardId::new(board::CAN_HEARTBEAT_ID) {
-        Some(id) => id,
-        None => panic!("heartbeat id is not an 11-bit id"),
-    };
-    /// CANopen NMT state "operational" (CiA 301), the heartbeat payload.
-    const NMT_OPERATIONAL: u8 = 0x05;
+    /// A decoded command, or why a frame was dropped.
+    type Incoming = Result<Command, FrameError>;
+    /// Commands queued between the USART2 interrupt and `command`: the
+    /// host waits for each reply, so 4 only matters for garbage frames.
+    const COMMAND_QUEUE: usize = 4;
+    /// Samples waiting for `emit`: one being sent, one queued; more means
+    /// the UART/CAN cannot keep up and the oldest reports are dropped.
+    const EMIT_QUEUE: usize = 2;
+    /// Tries per CAN frame when all three mailboxes are busy, 1 ms apart
+    /// (a frame takes ~0.25 ms at 500 kbit/s).
+    const CAN_TX_TRIES: u32 = 5;
 
     #[shared]
-    struct Shared {}
+    struct Shared {
+        /// The pipeline (or the sample counter without the model).
+        core: &'static mut Core,
+        watchdog: IndependentWatchdog,
+        tx: Tx<pac::USART2>,
+    }
 
     #[local]
     struct Local {
-        watchdog: IndependentWatchdog,
-        rtd_spi: Spi<pac::SPI1>,
-        rtd_cs: PB6<Output>,
-        uart: Serial<pac::USART2>,
+        /// SPI1 and the chip selects, taken by `sample` when it starts.
+        rtd_hw: Option<RtdHw>,
+        rx: Rx<pac::USART2>,
+        cmd_tx: Sender<'static, Incoming, COMMAND_QUEUE>,
+        cmd_rx: Receiver<'static, Incoming, COMMAND_QUEUE>,
+        sampled_tx: Sender<'static, Sampled, EMIT_QUEUE>,
+        sampled_rx: Receiver<'static, Sampled, EMIT_QUEUE>,
+        uploader: Upload,
         can: bxcan::Can<Can<pac::CAN1>>,
-        hub: &'static mut hub::Hub,
     }
 
-    // `hub_slot` is a static that starts uninitialised (so it costs .bss, not
-    // flash); `MaybeUninit::write` fills it safely and hands out the
-    // `&'static mut` that `sample` keeps.
-    #[init(local = [hub_slot: MaybeUninit<hub::Hub> = MaybeUninit::uninit()])]
+    // `core_slot` starts uninitialised (.bss, not flash); `MaybeUninit::write`
+    // fills it once and hands out the `&'static mut` the tasks share.
+    #[init(local = [core_slot: MaybeUninit<Core> = MaybeUninit::uninit()])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
 
@@ -275,35 +759,43 @@ mod app {
             ]
         );
 
-        // The model: slot A as a byte slice of the memory-mapped flash (no
-        // `unsafe` here: the HAL's `FlashExt::read`). A flash smaller than the
-        // layout expects gives an empty slot, which loads as "no model".
-        let flash = dp.FLASH;
-        let start = (layout::MODEL_A.origin - layout::FLASH_BASE) as usize;
-        let slot = flash
-            .read()
-            .get(start..start + layout::MODEL_A.len as usize)
-            .unwrap_or(&[]);
-        let hub = cx.local.hub_slot.write(hub::Hub::load(slot));
-        log_model(hub);
+        let (core, uploader) = boot(dp.FLASH, cx.local.core_slot);
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
+        let gpioc = dp.GPIOC.split(&mut rcc);
 
         let uart = dp
             .USART2
             .serial((gpioa.pa2, gpioa.pa3), Bps(board::UART_BAUD), &mut rcc)
             .unwrap();
+        let (tx, mut rx) = uart.split();
+        rx.listen();
 
+        // SPI1 and the chip selects (board::RTD_CS_PINS order), all idle high
+        // before any chip is addressed.
         const _: () = assert!(board::RTD_SPI_MODE == 1);
-        let rtd_spi = dp.SPI1.spi(
+        let spi = dp.SPI1.spi(
             (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
             MODE_1,
             Hertz::from_raw(board::RTD_SPI_HZ),
             &mut rcc,
         );
-        let mut rtd_cs = gpiob.pb6.into_push_pull_output();
-        rtd_cs.set_high();
+        let cs = [
+            gpiob.pb6.into_push_pull_output().erase(),
+            gpioc.pc7.into_push_pull_output().erase(),
+            gpioa.pa9.into_push_pull_output().erase(),
+            gpioa.pa8.into_push_pull_output().erase(),
+            gpiob.pb10.into_push_pull_output().erase(),
+            gpiob.pb4.into_push_pull_output().erase(),
+            gpiob.pb5.into_push_pull_output().erase(),
+            gpioa.pa10.into_push_pull_output().erase(),
+        ]
+        .map(|mut pin| {
+            pin.set_high();
+            pin
+        });
+        let rtd_hw = rtd_hw(spi, cs);
 
         // `leave_disabled` instead of `enable`: `enable` blocks until it sees 11
         // recessive bits, which never happens without a transceiver. `emit`
@@ -312,7 +804,10 @@ mod app {
             .set_bit_timing(board::CAN_TIMING.btr())
             .leave_disabled();
 
-        // Last: from here on `sample` must run at least every IWDG timeout.
+        let (cmd_tx, cmd_rx) = rtic_sync::make_channel!(Incoming, COMMAND_QUEUE);
+        let (sampled_tx, sampled_rx) = rtic_sync::make_channel!(Sampled, EMIT_QUEUE);
+
+        // Last: from here on `sample` must feed it at least every IWDG timeout.
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.stop_on_debug(&dp.DBGMCU, true);
         watchdog.start(board::IWDG_TIMEOUT_MS.millis());
@@ -321,143 +816,319 @@ mod app {
             "init: sysclk {=u32} Hz, pclk1 {=u32} Hz, sample period {=u32} ms",
             clocks.sysclk().raw(),
             clocks.pclk1().raw(),
-            board::SAMPLE_PERIOD_MS
+            glue::period_ms(core)
         );
         sample::spawn().ok();
+        command::spawn().ok();
+        emit::spawn().ok();
 
         (
-            Shared {},
+            Shared { core, watchdog, tx },
             Local {
-                watchdog,
-                rtd_spi,
-                rtd_cs,
-                uart,
+                rtd_hw,
+                rx,
+                cmd_tx,
+                cmd_rx,
+                sampled_tx,
+                sampled_rx,
+                uploader,
                 can,
-                hub,
             },
         )
     }
 
-    /// Boot log of the model slot: what was loaded, or why nothing was.
+    /// Picks the boot slot (`upload::select_boot_slot`), loads its model
+    /// into the pipeline static and builds the uploader.
     #[cfg(feature = "model")]
-    fn log_model(hub: &hub::Hub) {
-        match (hub.model(), hub.load_error()) {
-            (Some(model), _) => {
-                let mut names = [""; hub::MAX_OUTPUTS];
-                for (dst, name) in names.iter_mut().zip(model.outputs()) {
-                    *dst = name.as_str();
-                }
-                defmt::info!(
-                    "model {=str}: {=usize} inputs -> {=[?]}",
-                    model.kind().name(),
-                    model.inputs().len(),
-                    names.get(..model.outputs().len()).unwrap_or(&[])
-                );
-            }
-            (None, Some(error)) => defmt::warn!("no model: {}", error),
-            (None, None) => defmt::warn!("no model"),
-        }
+    fn boot(
+        flash: pac::FLASH,
+        slot: &'static mut MaybeUninit<Core>,
+    ) -> (&'static mut Core, Upload) {
+        use firmware::hub::Hub;
+        use firmware::pipeline::{Pipeline, PipelineConfig};
+        use firmware::upload::{select_boot_slot, Slot, SlotMap, Uploader};
+        use stm32f4xx_hal::flash::FlashExt;
+
+        // The slots as byte slices of the memory-mapped flash (no `unsafe`:
+        // the HAL's `FlashExt::read`). A flash smaller than the layout
+        // expects gives empty slots, which load as "no model".
+        let bytes = flash.read();
+        let region = |r: layout::Region| {
+            let start = (r.origin - layout::FLASH_BASE) as usize;
+            bytes.get(start..start + r.len as usize).unwrap_or(&[])
+        };
+        let (a, b) = (region(layout::MODEL_A), region(layout::MODEL_B));
+        let active = select_boot_slot(a, b);
+        defmt::info!("boot slot: {}", defmt::Debug2Format(&active));
+        // No bootable slot: load A anyway, so the log says why it failed.
+        let hub = Hub::load(if active == Some(Slot::B) { b } else { a });
+        // Hub (11.4 KiB) and Pipeline (~13 KiB) pass through init's stack once
+        // each before landing in the static: the library builds them by value.
+        let pipeline = match Pipeline::new(hub, PipelineConfig::DEFAULT) {
+            Ok(p) => slot.write(p),
+            // The default config is checked by the library's tests.
+            Err(e) => defmt::panic!("pipeline config: {}", defmt::Debug2Format(&e)),
+        };
+        glue::log_model(pipeline.hub());
+        let flash = glue::BoardFlash(stm32f4xx_hal::flash::LockedFlash::new(flash));
+        (pipeline, Uploader::new(flash, SlotMap::BOARD, active))
     }
 
     #[cfg(not(feature = "model"))]
-    fn log_model(_hub: &hub::Hub) {
+    fn boot(
+        _flash: pac::FLASH,
+        slot: &'static mut MaybeUninit<Core>,
+    ) -> (&'static mut Core, Upload) {
         defmt::info!("model support not built in: offsets stay zero");
+        (slot.write(0), ())
     }
 
-    /// Log a refused sample once when the hub starts holding its offsets.
     #[cfg(feature = "model")]
-    fn log_fault(hub: &hub::Hub, offsets: &hub::Offsets) {
-        let faults = hub.faults();
-        if faults.consecutive == 1 {
-            if let Some(fault) = hub.last_fault() {
-                defmt::warn!(
-                    "model refused sample ({}): holding last good offsets {=[?]}",
-                    fault,
-                    offsets.values.get(..hub.output_count()).unwrap_or(&[])
-                );
-            }
-        }
+    fn rtd_hw(
+        spi: stm32f4xx_hal::spi::Spi<pac::SPI1>,
+        cs: [glue::CsPin; board::RTD_CHANNELS],
+    ) -> Option<RtdHw> {
+        Some((spi, cs))
     }
 
     #[cfg(not(feature = "model"))]
-    fn log_fault(_hub: &hub::Hub, _offsets: &hub::Offsets) {}
+    fn rtd_hw(
+        _spi: stm32f4xx_hal::spi::Spi<pac::SPI1>,
+        _cs: [glue::CsPin; board::RTD_CHANNELS],
+    ) -> Option<RtdHw> {
+        None
+    }
 
-    /// Periodic sampling: probe the RTD converter's configuration register,
-    /// step the model, feed the watchdog, pass the sequence number to `emit`.
-    #[task(priority = 2, local = [watchdog, rtd_spi, rtd_cs, hub, seq: u32 = 0])]
-    async fn sample(cx: sample::Context) {
-        let period = <Mono as Timebase>::Duration::from_ticks(board::SAMPLE_PERIOD_MS);
-        let mut next = Mono::now();
-        loop {
-            // MAX31865: read register 0x00 (configuration): address byte, then one dummy byte.
-            let mut buf = [0x00u8, 0x00];
-            cx.local.rtd_cs.set_low();
-            let res = cx.local.rtd_spi.transfer_in_place(&mut buf);
-            cx.local.rtd_cs.set_high();
-            let config = match res {
-                Ok(()) => Some(buf[1]),
-                Err(_) => None,
+    /// Periodic sampling from a fixed start (no drift): read the converters
+    /// the model needs, run the pipeline, feed the watchdog, hand the
+    /// result to `emit`. Converters are configured at the start and then
+    /// serviced every `board::RTD_RETRY_MS`.
+    #[task(priority = 2, shared = [core, watchdog], local = [rtd_hw, sampled_tx])]
+    async fn sample(mut cx: sample::Context) {
+        #[cfg(feature = "model")]
+        let (bus, cs) = {
+            // Taken once: this task never ends.
+            let Some((spi, pins)) = cx.local.rtd_hw.take() else {
+                defmt::panic!("sample started twice");
             };
+            // Lives as long as this never-ending task (its future is static).
+            (
+                core::cell::RefCell::new(spi),
+                pins.map(core::cell::RefCell::new),
+            )
+        };
+        #[cfg(feature = "model")]
+        let mut bank: glue::Bank<'_> = core::array::from_fn(|_| firmware::rtd::Converter::down());
+        #[cfg(feature = "model")]
+        {
+            glue::service(&mut bank, &bus, &cs);
+            Mono::delay(ms(glue::FIRST_CONVERSION_MS)).await;
+        }
+        #[cfg(not(feature = "model"))]
+        let mut bank: glue::Bank<'_> = ();
+        #[cfg(not(feature = "model"))]
+        let _ = cx.local.rtd_hw.take();
 
-            // No RTD driver yet: every channel reads as missing (NaN), so the
-            // model refuses each sample and the hub holds its last good
-            // offsets (zero) and counts the fault.
-            let readings = [f64::NAN; hub::MAX_INPUTS];
-            let hub = &mut **cx.local.hub;
-            let inputs = readings.get(..hub.input_count()).unwrap_or(&[]);
-            let offsets = hub.on_sample(inputs);
-            log_fault(hub, &offsets);
-
-            *cx.local.seq = cx.local.seq.wrapping_add(1);
-            defmt::info!(
-                "sample {=u32}: RTD config {=?}, offsets {=[?]} ({=str})",
-                *cx.local.seq,
-                config,
-                offsets.values,
-                if offsets.fresh { "fresh" } else { "held" }
-            );
-            cx.local.watchdog.feed();
-
-            if emit::spawn(*cx.local.seq).is_err() {
-                defmt::warn!("emit still busy, sample {=u32} not reported", *cx.local.seq);
+        let retry = ms(board::RTD_RETRY_MS);
+        let feed_every = ms(board::SAMPLE_PERIOD_MS);
+        let mut next = Mono::now();
+        let mut next_service = next + retry;
+        loop {
+            let (sampled, period_ms) = cx
+                .shared
+                .core
+                .lock(|core| (glue::sample(core, &mut bank), glue::period_ms(core)));
+            cx.shared.watchdog.lock(|w| w.feed());
+            if cx.local.sampled_tx.try_send(sampled).is_err() {
+                defmt::warn!(
+                    "emit still busy, sample {=u32} not reported",
+                    sampled.report.seq
+                );
             }
 
+            let now = Mono::now();
+            if now >= next_service {
+                #[cfg(feature = "model")]
+                glue::service(&mut bank, &bus, &cs);
+                next_service = now + retry;
+            }
+
+            // Next deadline from the fixed start; after a stall (flash erase)
+            // skip the missed ones rather than sample in a burst.
+            let period = ms(period_ms);
             next += period;
-            Mono::delay_until(next).await;
+            let mut skipped = 0u32;
+            while next <= Mono::now() {
+                next += period;
+                skipped += 1;
+            }
+            if skipped > 0 {
+                defmt::warn!("{=u32} samples skipped (CPU stalled)", skipped);
+            }
+            // Sleep, feeding the watchdog at least every SAMPLE_PERIOD_MS so a
+            // model with a longer dt_s does not trip it.
+            loop {
+                let now = Mono::now();
+                if now >= next {
+                    break;
+                }
+                let wake = if next - now > feed_every {
+                    now + feed_every
+                } else {
+                    next
+                };
+                Mono::delay_until(wake).await;
+                cx.shared.watchdog.lock(|w| w.feed());
+            }
         }
     }
 
-    /// Report one sample (placeholder): a text line on USART2 and a CANopen
-    /// heartbeat on CAN1. Lower priority than `sample`, so a slow UART never
-    /// delays sampling.
-    #[task(priority = 1, local = [uart, can, can_up: bool = false])]
-    async fn emit(cx: emit::Context, seq: u32) {
-        let mut line = *b"hb 0000000000\r\n";
-        write_decimal(&mut line[3..13], seq);
-        if cx.local.uart.bwrite_all(&line).is_err() {
-            defmt::warn!("USART2 write failed");
+    /// USART2 receive: bytes into the COBS frame reader, decoded commands
+    /// (and dropped frames) to `command`. Highest priority: at 115200 baud
+    /// a byte arrives every 87 us and the USART holds only one.
+    #[task(binds = USART2, priority = 3, local = [rx, cmd_tx, reader: FrameReader<COMMAND_FRAME_MAX> = FrameReader::new()])]
+    fn usart2(cx: usart2::Context) {
+        loop {
+            match cx.local.rx.read() {
+                Ok(byte) => {
+                    if let Some(incoming) = cx.local.reader.push::<Command>(byte) {
+                        if cx.local.cmd_tx.try_send(incoming).is_err() {
+                            defmt::warn!("command queue full, frame dropped");
+                        }
+                    }
+                }
+                // Nothing left to read.
+                Err(stm32f4xx_hal::nb::Error::WouldBlock) => break,
+                // Overrun/noise/framing (cleared by the read): the frame in
+                // progress will fail to decode and be refused.
+                Err(stm32f4xx_hal::nb::Error::Other(_)) => {}
+            }
         }
+    }
 
-        if !*cx.local.can_up {
-            *cx.local.can_up = cx.local.can.enable_non_blocking().is_ok();
-            if !*cx.local.can_up {
+    /// Serial commands, lowest priority: uploads (the erase stalls the CPU),
+    /// tool length, ping. One reply per command.
+    #[task(priority = 1, shared = [core, watchdog, tx], local = [cmd_rx, uploader, scratch: [u8; model_scratch::LEN] = [0; model_scratch::LEN]])]
+    async fn command(mut cx: command::Context) {
+        while let Ok(incoming) = cx.local.cmd_rx.recv().await {
+            let reply = match incoming {
+                Ok(cmd) => {
+                    let watchdog = &mut cx.shared.watchdog;
+                    glue::command(
+                        &mut cx.shared.core,
+                        cx.local.uploader,
+                        cx.local.scratch,
+                        || watchdog.lock(|w| w.feed()),
+                        &cmd,
+                    )
+                }
+                Err(_) => HubMessage::Nack {
+                    command: CommandKind::Unknown,
+                    error: ErrorCode::Malformed,
+                },
+            };
+            send(&mut cx.shared.tx, &reply);
+        }
+    }
+
+    /// The upload's read-back buffer: a whole blob (none without the model).
+    mod model_scratch {
+        #[cfg(feature = "model")]
+        pub const LEN: usize = model_core::blob::MAX_BLOB_LEN;
+        #[cfg(not(feature = "model"))]
+        pub const LEN: usize = 0;
+    }
+
+    /// One message as a COBS frame on USART2 (blocking: ~13 ms for the
+    /// longest telemetry frame at 115200 baud, at priority 1).
+    fn send(tx: &mut impl rtic::Mutex<T = Tx<pac::USART2>>, msg: &HubMessage) {
+        let mut buf = [0u8; HUB_FRAME_MAX];
+        match protocol::encode(msg, &mut buf) {
+            Ok(n) => {
+                let frame = buf.get(..n).unwrap_or(&[]);
+                if tx.lock(|tx| tx.bwrite_all(frame)).is_err() {
+                    defmt::warn!("USART2 write failed");
+                }
+            }
+            Err(_) => defmt::error!("message does not fit HUB_FRAME_MAX"),
+        }
+    }
+
+    /// Report one sample: telemetry on USART2; OFFSETS/STATUS(/OFFSETS_EXT)
+    /// and the heartbeat on CAN1. Lower priority than `sample`, so a slow
+    /// UART or a busy bus never delays sampling.
+    #[task(priority = 1, shared = [tx], local = [sampled_rx, can, can_up: bool = false, heartbeat: Heartbeat = Heartbeat::new(DEFAULT_HEARTBEAT_MS)])]
+    async fn emit(mut cx: emit::Context) {
+        while let Ok(s) = cx.local.sampled_rx.recv().await {
+            report(
+                &mut cx.shared.tx,
+                cx.local.can,
+                cx.local.can_up,
+                cx.local.heartbeat,
+                &s,
+            )
+            .await;
+        }
+    }
+
+    /// One sample out on USART2 and CAN1.
+    async fn report(
+        tx: &mut impl rtic::Mutex<T = Tx<pac::USART2>>,
+        can: &mut bxcan::Can<Can<pac::CAN1>>,
+        can_up: &mut bool,
+        heartbeat: &mut Heartbeat,
+        s: &Sampled,
+    ) {
+        let n = (s.info.n_inputs).min(s.temps_c.len());
+        let telemetry = Telemetry::new(&s.report, s.temps_c.get(..n).unwrap_or(&[]));
+        send(tx, &HubMessage::Telemetry(telemetry));
+
+        if !*can_up {
+            *can_up = can.enable_non_blocking().is_ok();
+            if !*can_up {
                 defmt::debug!("CAN1 waiting for bus idle");
                 return;
             }
             defmt::info!("CAN1 on bus");
         }
-        let frame = Frame::new_data(HEARTBEAT_ID, [NMT_OPERATIONAL]);
-        match cx.local.can.transmit(&frame) {
-            Ok(_) => {}
-            Err(_) => defmt::warn!("CAN1 mailboxes full, heartbeat dropped"),
+        // Frames still pending from the last sample are a period old (no
+        // ACK on the bus): drop them so fresh ones go out when it recovers.
+        for mailbox in [Mailbox::Mailbox0, Mailbox::Mailbox1, Mailbox::Mailbox2] {
+            can.abort(mailbox);
+        }
+        // Ascending ids, so a later frame never displaces an earlier one.
+        let mut sent = 0u32;
+        let frames = encode_report::<Frame>(&s.report, &s.info);
+        let heartbeat = heartbeat.poll::<Frame>(Mono::now().as_ticks(), NmtState::Operational);
+        for frame in frames.iter().chain(heartbeat.as_ref()) {
+            if transmit(can, frame).await {
+                sent += 1;
+            }
+        }
+        let wanted = frames.len() as u32 + u32::from(heartbeat.is_some());
+        if sent < wanted {
+            defmt::warn!(
+                "CAN1: {=u32} of {=u32} frames not queued (bus off or no ACK?)",
+                wanted - sent,
+                wanted
+            );
         }
     }
 
-    /// Right-aligned, zero-padded decimal of `value` into `out` (no `core::fmt`).
-    fn write_decimal(out: &mut [u8], mut value: u32) {
-        for digit in out.iter_mut().rev() {
-            *digit = b'0' + (value % 10) as u8;
-            value /= 10;
+    /// A duration of `n` monotonic ticks (ms, `board::MONO_HZ`).
+    fn ms(n: u32) -> <Mono as Timebase>::Duration {
+        <Mono as Timebase>::Duration::from_ticks(n)
+    }
+
+    /// Queues one frame, waiting up to `CAN_TX_TRIES` ms for a free mailbox.
+    async fn transmit(can: &mut bxcan::Can<Can<pac::CAN1>>, frame: &Frame) -> bool {
+        for _ in 0..CAN_TX_TRIES {
+            match can.transmit(frame) {
+                Ok(_) => return true,
+                Err(stm32f4xx_hal::nb::Error::WouldBlock) => Mono::delay(ms(1)).await,
+                Err(stm32f4xx_hal::nb::Error::Other(never)) => match never {},
+            }
         }
+        false
     }
 }

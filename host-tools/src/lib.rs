@@ -8,6 +8,7 @@ pub mod eval;
 pub mod fit;
 pub mod predict;
 pub mod refit;
+pub mod replay;
 pub mod runfile;
 pub mod runner;
 pub mod score;

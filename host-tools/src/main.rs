@@ -5,7 +5,7 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
-use host_tools::{blobfile, eval, fit, predict, refit, select, show, spec};
+use host_tools::{blobfile, eval, fit, predict, refit, replay, select, show, spec};
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -40,6 +40,15 @@ enum Command {
     /// new runs and, if it has, update the model (seed 002's self-adaptive
     /// compensation; rule in docs/fit.md, "refit").
     Refit(refit::RefitArgs),
+    /// Run the hub's own firmware pipeline over run files and write the CAN
+    /// frames it would send (candump log).
+    ///
+    /// Temperatures become the codes a MAX31865 returns for a PT100, read back
+    /// through the firmware's driver; the pipeline spike-filters, steps the
+    /// model, holds/ramps on faults, slew-limits and clamps; frames per
+    /// firmware/thermcomp.dbc. The sample period is the hub's (the model's
+    /// dt_s, or 1 s for static models).
+    Replay(replay::ReplayArgs),
     /// Rank and pick temperature sensors (grey: seed 000; wgrey: seed 002; maxtree: seed 003).
     ///
     /// grey: grey clustering, grey correlation, best adjusted R^2 of the
@@ -114,6 +123,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(a) => fit::run(&a),
         Command::Refit(a) => refit::run(&a),
         Command::Select(a) => select::run(&a),
+        Command::Replay(a) => replay::run(&a),
     }
 }
 

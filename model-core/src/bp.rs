@@ -146,17 +146,25 @@ impl BpNet {
     /// for each of its outputs.
     pub fn evaluate(&self, x: &[f64], mut emit: impl FnMut(u8, f64)) {
         let m = self.inputs.len();
+        // Each input is scaled once, not once per hidden neuron (a division
+        // each: on the hub's M4F, f64 is software).
+        let mut scaled = [0.0; MAX_CHANNELS];
+        for (i, xs) in scaled.iter_mut().enumerate().take(m) {
+            let ch = self.inputs.get(i).map_or(0, |c| usize::from(*c));
+            let raw = x.get(ch).copied().unwrap_or(0.0);
+            let lo = self.x_min.get(i).copied().unwrap_or(0.0);
+            let hi = self.x_max.get(i).copied().unwrap_or(0.0);
+            *xs = scale(raw, lo, hi);
+        }
         let mut hidden = [0.0; MAX_HIDDEN];
         for (j, h) in hidden.iter_mut().enumerate().take(self.hidden()) {
             let row = self.w1.get(j * m..(j + 1) * m).unwrap_or(&[]);
-            let mut acc = self.b1.get(j).copied().unwrap_or(0.0);
-            for (i, w) in row.iter().enumerate() {
-                let ch = self.inputs.get(i).map_or(0, |c| usize::from(*c));
-                let raw = x.get(ch).copied().unwrap_or(0.0);
-                let lo = self.x_min.get(i).copied().unwrap_or(0.0);
-                let hi = self.x_max.get(i).copied().unwrap_or(0.0);
-                acc += w * scale(raw, lo, hi);
-            }
+            let acc = row
+                .iter()
+                .zip(&scaled)
+                .fold(self.b1.get(j).copied().unwrap_or(0.0), |a, (w, xs)| {
+                    a + w * xs
+                });
             *h = self.hidden_activation.apply(acc);
         }
         let n = self.hidden();

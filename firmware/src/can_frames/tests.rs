@@ -1,0 +1,319 @@
+//! Exact bytes, round trips, saturation, and the shared vectors that
+//! `scripts/check_dbc.py` checks against the DBC with cantools.
+
+use super::*;
+use crate::offsets::MAX_OUTPUTS;
+
+fn report(seq: u32, offsets: [f64; MAX_OUTPUTS], n_outputs: u8, state: HubState) -> Report {
+    Report {
+        seq,
+        offsets,
+        n_outputs,
+        state,
+        flags: StatusFlags::default(),
+        faulty_channels: 0,
+    }
+}
+
+fn hex(f: &RawFrame) -> std::string::String {
+    f.data().iter().map(|b| format!("{b:02X}")).collect()
+}
+
+#[test]
+fn offsets_exact_bytes() {
+    let r = report(0x0105, [1.0, -1.0, 12.34, 0.0], 3, HubState::Running);
+    let f: RawFrame = encode_offsets(&r).unwrap();
+    assert_eq!(f.raw_id(), 0x181);
+    assert_eq!(f.data(), &[0x0A, 0x00, 0xF6, 0xFF, 0x7B, 0x00, 0x01, 0x05]);
+    assert_eq!(f.to_string(), "181#0A00F6FF7B000105");
+}
+
+#[test]
+fn offsets_round_trip_within_half_a_bit() {
+    for v in [-500.0, -123.456, -0.04, 0.0, 0.05, 0.149, 7.77, 499.99] {
+        let r = report(9, [v, -v, v / 2.0, 0.0], 3, HubState::Holding);
+        let f: RawFrame = encode_offsets(&r).unwrap();
+        let Ok(Message::Offsets(m)) = decode(&f) else {
+            panic!("{f}")
+        };
+        for (got, want) in m.offsets_um.iter().zip([v, -v, v / 2.0]) {
+            assert!((got - want).abs() <= 0.05 + 1e-12, "{got} vs {want}");
+        }
+        assert_eq!(state_of(&m), Some(HubState::Holding));
+        assert_eq!(m.counter, 9);
+    }
+}
+
+#[test]
+fn offsets_saturate_never_wrap() {
+    let r = report(
+        0,
+        [3300.0, -1e300, f64::INFINITY, 0.0],
+        3,
+        HubState::Running,
+    );
+    let f: RawFrame = encode_offsets(&r).unwrap();
+    assert_eq!(&f.data()[..6], &[0xFF, 0x7F, 0x00, 0x80, 0xFF, 0x7F]);
+    let nan = report(0, [f64::NAN, 0.0, 0.0, 0.0], 1, HubState::Running);
+    let f: RawFrame = encode_offsets(&nan).unwrap();
+    assert_eq!(&f.data()[..2], &[0, 0]);
+}
+
+#[test]
+fn counter_rolls_with_the_sample() {
+    let f: RawFrame = encode_offsets(&report(0x1FF, [0.0; 4], 1, HubState::Running)).unwrap();
+    assert_eq!(f.data()[7], 0xFF);
+    let f: RawFrame = encode_offsets(&report(0x200, [0.0; 4], 1, HubState::Running)).unwrap();
+    assert_eq!(f.data()[7], 0x00);
+}
+
+#[test]
+fn status_exact_bytes_and_round_trip() {
+    let mut r = report(0x42, [0.0; 4], 4, HubState::Holding);
+    r.flags = StatusFlags(StatusFlags::SENSOR_FAULT | StatusFlags::STALE);
+    // Bits above the 24 a model can have are dropped.
+    r.faulty_channels = 0xFF80_0005;
+    let info = StatusInfo {
+        n_inputs: 24,
+        consecutive_faults: 300,
+    };
+    let f: RawFrame = encode_status(&r, &info).unwrap();
+    assert_eq!(f.raw_id(), 0x281);
+    assert_eq!(f.data(), &[0x05, 0x00, 0x05, 0x00, 0x80, 0x98, 0xFF, 0x42]);
+    assert_eq!(
+        decode(&f),
+        Ok(Message::Status(StatusMsg {
+            flags: r.flags,
+            faulty_channels: 0x80_0005,
+            n_inputs: 24,
+            n_outputs: 4,
+            consecutive_faults: 255,
+            counter: 0x42,
+        }))
+    );
+}
+
+#[test]
+fn fourth_output_goes_in_offsets_ext() {
+    let r = report(3, [1.0, 2.0, 3.0, -250.0], 4, HubState::Running);
+    let frames: heapless::Vec<RawFrame, 3> = encode_report(&r, &StatusInfo::default());
+    let ids: std::vec::Vec<u16> = frames.iter().map(RawFrame::raw_id).collect();
+    assert_eq!(ids, [0x181, 0x281, 0x381]);
+    assert_eq!(frames[2].data(), &[0x3C, 0xF6, 0, 0, 0, 0, 0x01, 0x03]);
+    let three = report(3, [1.0, 2.0, 3.0, 0.0], 3, HubState::Running);
+    let frames: heapless::Vec<RawFrame, 3> = encode_report(&three, &StatusInfo::default());
+    assert_eq!(frames.len(), 2);
+}
+
+#[test]
+fn slope_exact_bytes_saturation_and_round_trip() {
+    let f: RawFrame = encode_slope(11.5, 250.0, 2, 7).unwrap();
+    assert_eq!(f.raw_id(), 0x481);
+    // 11500 = 0x2CEC, 250 = 0xFA.
+    assert_eq!(f.data(), &[0xEC, 0x2C, 0, 0, 0xFA, 0, 2, 7]);
+    let Ok(Message::Slope(m)) = decode(&f) else {
+        panic!()
+    };
+    assert_eq!(
+        (m.slope_um_per_m, m.reference_mm, m.output),
+        (11.5, 250.0, 2)
+    );
+    let f: RawFrame = encode_slope(1e12, -1e9, 0, 0).unwrap();
+    assert_eq!(f.data(), &[0xFF, 0xFF, 0xFF, 0x7F, 0x00, 0x80, 0, 0]);
+}
+
+#[test]
+fn heartbeat_bytes_and_period() {
+    let f: RawFrame = encode_heartbeat(NmtState::Operational).unwrap();
+    assert_eq!(f.to_string(), "701#05");
+    assert_eq!(decode(&f), Ok(Message::Heartbeat(0x05)));
+    assert_eq!(NmtState::from_code(0x05), Some(NmtState::Operational));
+
+    let mut hb = Heartbeat::new(500);
+    let due = |hb: &mut Heartbeat, t| hb.poll::<RawFrame>(t, NmtState::Operational).is_some();
+    assert!(due(&mut hb, 100));
+    assert!(!due(&mut hb, 599));
+    assert!(due(&mut hb, 600));
+    // Across the clock's wrap.
+    let mut hb = Heartbeat::new(500);
+    assert!(due(&mut hb, u32::MAX - 100));
+    assert!(!due(&mut hb, 398));
+    assert!(due(&mut hb, 399));
+    // Period 0 disables it.
+    assert!(!due(&mut Heartbeat::new(0), 0));
+}
+
+#[test]
+fn decoder_refuses_foreign_frames() {
+    let f = RawFrame::new(StandardId::new(0x182).unwrap(), &[0; 8]).unwrap();
+    assert_eq!(decode(&f), Err(DecodeError::UnknownId));
+    let f = RawFrame::new(StandardId::new(0x181).unwrap(), &[0; 7]).unwrap();
+    assert_eq!(
+        decode(&f),
+        Err(DecodeError::BadLength {
+            expected: 8,
+            found: 7
+        })
+    );
+    let ext = embedded_can::ExtendedId::new(0x181).unwrap();
+    assert!(RawFrame::new(ext, &[]).is_none());
+    assert!(RawFrame::new(StandardId::ZERO, &[0; 9]).is_none());
+}
+
+// ---- Shared vectors: the Rust encoder and the DBC (through cantools) agree.
+
+/// One vector: frame bytes and the physical signal values the DBC must give.
+fn vector(name: &str, f: &RawFrame, signals: &[(&str, f64)]) -> std::string::String {
+    let sigs: std::vec::Vec<std::string::String> = signals
+        .iter()
+        .map(|(n, v)| format!("\"{n}\": {v}"))
+        .collect();
+    format!(
+        "    {{\"name\": \"{name}\", \"id\": {}, \"data\": \"{}\", \"signals\": {{{}}}}}",
+        f.raw_id(),
+        hex(f),
+        sigs.join(", ")
+    )
+}
+
+fn flag_signals(flags: StatusFlags) -> std::vec::Vec<(&'static str, f64)> {
+    const NAMES: [&str; 8] = [
+        "SensorFault",
+        "SpikeRejected",
+        "Stale",
+        "ModelFault",
+        "Clamped",
+        "SlewLimited",
+        "NoModel",
+        "Uploading",
+    ];
+    NAMES
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (*n, f64::from(flags.0 >> i & 1)))
+        .collect()
+}
+
+/// Builds the vectors from known values, checking each against this
+/// module's decoder on the way.
+fn vectors() -> std::string::String {
+    let mut out = std::vec::Vec::new();
+    let offsets = |name: &str, r: &Report, out: &mut std::vec::Vec<_>| {
+        let f: RawFrame = encode_offsets(r).unwrap();
+        let Ok(Message::Offsets(m)) = decode(&f) else {
+            panic!()
+        };
+        out.push(vector(
+            name,
+            &f,
+            &[
+                ("OffsetOut1", m.offsets_um[0]),
+                ("OffsetOut2", m.offsets_um[1]),
+                ("OffsetOut3", m.offsets_um[2]),
+                ("HubState", f64::from(m.state)),
+                ("Counter", f64::from(m.counter)),
+            ],
+        ));
+    };
+    let status = |name: &str, r: &Report, info: &StatusInfo, out: &mut std::vec::Vec<_>| {
+        let f: RawFrame = encode_status(r, info).unwrap();
+        let Ok(Message::Status(m)) = decode(&f) else {
+            panic!()
+        };
+        let mut s = flag_signals(m.flags);
+        s.extend([
+            ("FaultyChannels", f64::from(m.faulty_channels)),
+            ("InputCount", f64::from(m.n_inputs)),
+            ("OutputCount", f64::from(m.n_outputs)),
+            ("ConsecutiveFaults", f64::from(m.consecutive_faults)),
+            ("Counter", f64::from(m.counter)),
+        ]);
+        out.push(vector(name, &f, &s));
+    };
+
+    let mut nominal = report(0x0105, [1.0, -1.0, 12.34, 0.0], 3, HubState::Running);
+    nominal.flags = StatusFlags(StatusFlags::SLEW_LIMITED);
+    let info = StatusInfo {
+        n_inputs: 5,
+        consecutive_faults: 0,
+    };
+    offsets("offsets_nominal", &nominal, &mut out);
+    status("status_nominal", &nominal, &info, &mut out);
+
+    let mut fault = report(
+        0x42,
+        [5000.0, -5000.0, -123.45, -250.0],
+        4,
+        HubState::Holding,
+    );
+    fault.flags =
+        StatusFlags(StatusFlags::SENSOR_FAULT | StatusFlags::STALE | StatusFlags::CLAMPED);
+    fault.faulty_channels = 0x80_0005;
+    let info = StatusInfo {
+        n_inputs: 24,
+        consecutive_faults: 300,
+    };
+    offsets("offsets_saturated", &fault, &mut out);
+    status("status_fault", &fault, &info, &mut out);
+    let f: RawFrame = encode_offsets_ext(&fault).unwrap();
+    let Ok(Message::OffsetsExt(m)) = decode(&f) else {
+        panic!()
+    };
+    out.push(vector(
+        "offsets_ext",
+        &f,
+        &[
+            ("OffsetOut4", m.offsets_um[0]),
+            ("HubState", f64::from(m.state)),
+            ("Counter", f64::from(m.counter)),
+        ],
+    ));
+
+    let mut none = report(0xFFFF_FFFF, [0.0; 4], 0, HubState::NoModel);
+    none.flags = StatusFlags(StatusFlags::NO_MODEL | StatusFlags::UPLOADING);
+    offsets("offsets_no_model", &none, &mut out);
+    status("status_no_model", &none, &StatusInfo::default(), &mut out);
+
+    for (name, slope, reference, output, counter) in [
+        ("slope_nominal", 11.5, 250.0, 2, 7),
+        ("slope_negative", -42.125, -1200.0, 0, 255),
+        ("slope_saturated", 1e12, -1e9, 1, 0),
+    ] {
+        let f: RawFrame = encode_slope(slope, reference, output, counter).unwrap();
+        let Ok(Message::Slope(m)) = decode(&f) else {
+            panic!()
+        };
+        out.push(vector(
+            name,
+            &f,
+            &[
+                ("Slope", m.slope_um_per_m),
+                ("ReferencePos", m.reference_mm),
+                ("SlopeOutput", f64::from(m.output)),
+                ("Counter", f64::from(m.counter)),
+            ],
+        ));
+    }
+    let f: RawFrame = encode_heartbeat(NmtState::Operational).unwrap();
+    out.push(vector("heartbeat_operational", &f, &[("NmtState", 5.0)]));
+    format!("{{\n  \"vectors\": [\n{}\n  ]\n}}\n", out.join(",\n"))
+}
+
+/// The committed `firmware/tests/data/can_vectors.json` is exactly what this
+/// encoder produces; `scripts/check_dbc.py` (no arguments) decodes the same
+/// bytes with cantools and the DBC and checks the signal values, so the DBC
+/// and the encoder are tied together. `UPDATE_CAN_VECTORS=1` rewrites it.
+#[test]
+fn shared_vectors_match_the_encoder() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/can_vectors.json");
+    let want = vectors();
+    if std::env::var_os("UPDATE_CAN_VECTORS").is_some() {
+        std::fs::write(path, &want).unwrap();
+    }
+    let have = std::fs::read_to_string(path).unwrap_or_default();
+    assert!(
+        have == want,
+        "{path} differs from the encoder's output; if the change is intended, \
+         rerun with UPDATE_CAN_VECTORS=1 and then scripts/check_dbc.py"
+    );
+}

@@ -1,0 +1,710 @@
+//! The per-sample pipeline: readings -> validate -> spike filter -> model ->
+//! fault supervisor -> slew limit and clamp -> [`Report`].
+//!
+//! # Use from the RTIC app
+//!
+//! ```text
+//! init:    let pipeline = Pipeline::new(Hub::load(slot_a), PipelineConfig::DEFAULT)?;
+//!          (the config is a constant; `validate` failing is a build bug)
+//! sample:  for each input of pipeline.hub().model().inputs():
+//!              readings[j] = match converter j { Ok(code) => Reading::pt100(code),
+//!                                                Err(e) => Reading::Fault(..) }
+//!          let report = pipeline.on_sample(&readings[..]);   // infallible
+//!          emit::spawn(report);                               // `Report` is Copy
+//!          reschedule after pipeline.sample_period_ms()
+//! upload:  let hub = Hub::load(slot_b); (low priority, slow)
+//!          pipeline.lock(|p| p.swap_model(hub));  (between two samples)
+//! command: pipeline.lock(|p| p.set_tool_length_mm(mm));
+//! ```
+//!
+//! # What happens per sample
+//!
+//! 1. Each model input gets one [`Reading`], in the model's input order.
+//!    An input named [`TOOL_INPUT`] (`tool_mm`) takes the length last set by
+//!    [`Pipeline::set_tool_length_mm`] instead (its reading is ignored; until
+//!    a length is set the input counts as stale). A temperature
+//!    ([`Reading::Value`]) must be finite and on the RTD curve (-200..=850 C)
+//!    and passes the spike filter (`spike`); a [`Reading::Direct`] value
+//!    (speed, power, position) must be finite and within model-core's input
+//!    range and is not spike-filtered. Anything else makes the channel
+//!    faulty for this sample.
+//! 2. Only if every input is good is the model stepped. A faulty channel
+//!    does not step the model: its state (and a dynamic model's time base)
+//!    freezes; see `supervisor` for what that costs.
+//! 3. The supervisor turns "good sample or not" into follow / hold / ramp.
+//! 4. The limiter clamps and slew-limits every output, so each offset is
+//!    finite, within `+-clamp_um` and moves at most `slew_um_per_s * dt_s`
+//!    per sample, whatever the readings (asserted by a property test).
+//!
+//! Without a model the pipeline reports zero offsets, [`HubState::NoModel`]
+//! and [`StatusFlags::NO_MODEL`], and ignores the readings.
+
+use model_core::model::MAX_INPUT_MAGNITUDE;
+use model_core::rtd::{RtdChannel, RtdCode, RtdError, T_MAX_C, T_MIN_C};
+
+use crate::board;
+pub use crate::config::ConfigError;
+use crate::hub::Hub;
+use crate::limiter::{limit, LimiterConfig};
+use crate::offsets::{MAX_INPUTS, MAX_OUTPUTS};
+use crate::report::{HubState, Report, StatusFlags};
+use crate::spike::{SpikeConfig, SpikeState};
+use crate::supervisor::{ramp_toward_zero, Phase, Supervisor, SupervisorConfig};
+
+// One bit per input in `Report::faulty_channels`.
+const _: () = assert!(MAX_INPUTS <= 32);
+// `Report::n_outputs` is a u8.
+const _: () = assert!(MAX_OUTPUTS <= u8::MAX as usize);
+
+/// Name of the model input that carries the tool length (a run-file
+/// column, CONTRACT section 2), filled from [`Pipeline::set_tool_length_mm`].
+pub const TOOL_INPUT: &str = "tool_mm";
+
+/// Longest tool length accepted, mm: the longest holder-plus-tool on a
+/// machining centre is a few hundred mm (ISO 7388 / HSK tool magazines
+/// allow ~300-500 mm), so a value beyond 1 m is a wrong command.
+pub const MAX_TOOL_LENGTH_MM: f64 = 1000.0;
+
+/// Why a channel has no usable value this sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ChannelFault {
+    /// The RTD or a lead is open (broken).
+    Open,
+    /// The RTD or its leads are shorted.
+    Short,
+    /// A reading outside the sensor's range (still a plausible connection).
+    OutOfRange,
+    /// The bus to the converter failed (SPI error).
+    Bus,
+    /// The converter reported a fault or gave a value that cannot be
+    /// converted (fault status bit, bad configuration).
+    Converter,
+}
+
+impl From<RtdError> for ChannelFault {
+    fn from(e: RtdError) -> Self {
+        match e {
+            RtdError::Open => Self::Open,
+            RtdError::Short => Self::Short,
+            RtdError::ResistanceOutOfRange
+            | RtdError::TemperatureOutOfRange
+            | RtdError::CodeOutOfRange => Self::OutOfRange,
+            _ => Self::Converter,
+        }
+    }
+}
+
+/// One model input's value for one sample, as the sampling task read it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reading {
+    /// A temperature, C (spike-filtered).
+    Value(f64),
+    /// Any other input (speed_rpm, power_kw, a position), in its unit:
+    /// fast-moving by nature, so not spike-filtered.
+    Direct(f64),
+    /// The channel could not be read.
+    Fault(ChannelFault),
+    /// Nothing new since the last sample (conversion not ready, timeout).
+    Stale,
+}
+
+impl Reading {
+    /// A temperature from a raw converter code through model-core's RTD
+    /// conversion, or the fault the code shows (open, short, out of range).
+    pub fn from_rtd(channel: &RtdChannel, code: RtdCode) -> Self {
+        match channel.temperature_c(code) {
+            Ok(t_c) => Self::Value(t_c),
+            Err(e) => Self::Fault(e.into()),
+        }
+    }
+
+    /// A PT100 on a MAX31865 with the 400 ohm reference (the board's
+    /// converter): `code` is the 15-bit RTD value (register >> 1).
+    pub fn pt100(code: u16) -> Self {
+        Self::from_rtd(&RtdChannel::MAX31865_PT100, RtdCode(u32::from(code)))
+    }
+}
+
+/// Every setting of the pipeline. Check with [`PipelineConfig::validate`]
+/// (or let [`Pipeline::new`] do it); afterwards nothing can fail.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PipelineConfig {
+    /// Sample period for a model without memory, s. A dynamic (TF/ARMA)
+    /// model brings its own `dt_s`, which then wins: it was identified at
+    /// that period and is only right when stepped at it.
+    pub default_sample_period_s: f64,
+    /// Spike filter for temperature inputs.
+    pub spike: SpikeConfig,
+    /// Hold time and ramp to zero on faults.
+    pub supervisor: SupervisorConfig,
+    /// Slew rate and clamp per output.
+    pub limiter: LimiterConfig,
+}
+
+impl PipelineConfig {
+    /// The defaults (see each part for its reasons); the sample period is
+    /// `board::SAMPLE_PERIOD_MS`.
+    pub const DEFAULT: Self = Self {
+        default_sample_period_s: board::SAMPLE_PERIOD_MS as f64 / 1000.0,
+        spike: SpikeConfig::DEFAULT,
+        supervisor: SupervisorConfig::DEFAULT,
+        limiter: LimiterConfig::DEFAULT,
+    };
+
+    /// Checks every setting once, and that the ramp to zero is no faster
+    /// than any output's slew limit (else the limiter, not the configured
+    /// ramp, would set the rate).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !crate::config::positive(self.default_sample_period_s) {
+            return Err(ConfigError::SamplePeriod);
+        }
+        self.spike.validate()?;
+        self.supervisor.validate()?;
+        self.limiter.validate()?;
+        for (i, slew) in self.limiter.slew_um_per_s.iter().enumerate() {
+            if self.supervisor.ramp_um_per_s > *slew {
+                return Err(ConfigError::RampFasterThanSlew {
+                    output: u8::try_from(i).unwrap_or(u8::MAX),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The period `hub`'s model must be stepped at, s: the model's `dt_s`
+    /// if it is dynamic (model-core validated it finite and positive), else
+    /// [`PipelineConfig::default_sample_period_s`].
+    pub fn sample_period_s(&self, hub: &Hub) -> f64 {
+        match hub.model() {
+            Some(m) if m.kind().is_dynamic() && crate::config::positive(m.model().dt_s) => {
+                m.model().dt_s
+            }
+            _ => self.default_sample_period_s,
+        }
+    }
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Why [`Pipeline::swap_model`] refused a hub.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum SwapError {
+    /// The hub holds no valid model (its `load_error` says why); the
+    /// running model stays.
+    NoModel,
+}
+
+impl core::fmt::Display for SwapError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NoModel => write!(f, "the new hub holds no valid model"),
+        }
+    }
+}
+
+impl core::error::Error for SwapError {}
+
+/// The per-sample quantities a config gives at one sample period, computed
+/// once when the period is set (at start and at a model swap).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Timing {
+    dt_s: f64,
+    spike_limit_k: f64,
+    hold_samples: u32,
+    ramp_step_um: f64,
+    slew_step_um: [f64; MAX_OUTPUTS],
+}
+
+impl Timing {
+    fn new(config: &PipelineConfig, dt_s: f64) -> Self {
+        let mut slew_step_um = [0.0; MAX_OUTPUTS];
+        for (step, rate) in slew_step_um.iter_mut().zip(&config.limiter.slew_um_per_s) {
+            *step = rate * dt_s;
+        }
+        Self {
+            dt_s,
+            spike_limit_k: config.spike.limit_k(dt_s),
+            hold_samples: config.supervisor.hold_samples(dt_s),
+            ramp_step_um: config.supervisor.ramp_step_um(dt_s),
+            slew_step_um,
+        }
+    }
+}
+
+/// Bit `j` set: model input `j` is named [`TOOL_INPUT`].
+fn tool_mask(hub: &Hub) -> u32 {
+    hub.model().map_or(0, |m| {
+        m.inputs()
+            .iter()
+            .enumerate()
+            .filter(|(_, ch)| ch.name.as_str() == TOOL_INPUT)
+            .fold(0, |mask, (j, _)| mask | bit(j))
+    })
+}
+
+/// `1 << j`, or 0 past bit 31 (cannot happen: `MAX_INPUTS <= 32`).
+fn bit(j: usize) -> u32 {
+    u32::try_from(j)
+        .ok()
+        .and_then(|j| 1u32.checked_shl(j))
+        .unwrap_or(0)
+}
+
+/// The hub plus everything between the converters and the CNC.
+#[derive(Clone, Debug)]
+pub struct Pipeline {
+    hub: Hub,
+    config: PipelineConfig,
+    timing: Timing,
+    /// Spike-filter memory per model input.
+    spike: [SpikeState; MAX_INPUTS],
+    /// Inputs filled from `tool_mm` rather than from a reading.
+    tool_mask: u32,
+    tool_mm: Option<f64>,
+    supervisor: Supervisor,
+    /// The offsets last reported, um (zero past the model's output count).
+    offsets_um: [f64; MAX_OUTPUTS],
+    seq: u32,
+    uploading: bool,
+}
+
+impl Pipeline {
+    /// A pipeline around `hub` (with or without a model) after checking
+    /// `config`. Offsets start at zero and reach the model's through the
+    /// slew limiter, so power-up is not a jump either.
+    pub fn new(hub: Hub, config: PipelineConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let timing = Timing::new(&config, config.sample_period_s(&hub));
+        Ok(Self {
+            tool_mask: tool_mask(&hub),
+            hub,
+            config,
+            timing,
+            spike: [SpikeState::NEW; MAX_INPUTS],
+            tool_mm: None,
+            supervisor: Supervisor::NEW,
+            offsets_um: [0.0; MAX_OUTPUTS],
+            seq: 0,
+            uploading: false,
+        })
+    }
+
+    /// The hub (model, load error, fault counters).
+    pub fn hub(&self) -> &Hub {
+        &self.hub
+    }
+
+    /// The validated settings.
+    pub fn config(&self) -> &PipelineConfig {
+        &self.config
+    }
+
+    /// The period [`Pipeline::on_sample`] must be called at, s (see
+    /// [`PipelineConfig::sample_period_s`]).
+    pub fn sample_period_s(&self) -> f64 {
+        self.timing.dt_s
+    }
+
+    /// The sample period in whole milliseconds (at least 1), for the
+    /// sampling task's schedule.
+    pub fn sample_period_ms(&self) -> u32 {
+        // `as` saturates; the period is finite and positive.
+        ((self.timing.dt_s * 1000.0 + 0.5) as u32).max(1)
+    }
+
+    /// The offsets last reported, um.
+    pub fn offsets_um(&self) -> [f64; MAX_OUTPUTS] {
+        self.offsets_um
+    }
+
+    /// The current tool length, mm (`None` until first set).
+    pub fn tool_length_mm(&self) -> Option<f64> {
+        self.tool_mm
+    }
+
+    /// Sets the tool length that fills any model input named
+    /// [`TOOL_INPUT`], from the next sample on (a tool change: a real step,
+    /// so it is not spike-filtered; the slew limiter still smooths it).
+    /// Refuses a value that is not finite or outside
+    /// `0..=MAX_TOOL_LENGTH_MM`, keeping the old one.
+    pub fn set_tool_length_mm(&mut self, tool_mm: f64) -> Result<(), ConfigError> {
+        if !(0.0..=MAX_TOOL_LENGTH_MM).contains(&tool_mm) {
+            return Err(ConfigError::ToolLength);
+        }
+        self.tool_mm = Some(tool_mm);
+        Ok(())
+    }
+
+    /// Marks a model upload as in progress (sets
+    /// [`StatusFlags::UPLOADING`] in every report until cleared).
+    pub fn set_uploading(&mut self, uploading: bool) {
+        self.uploading = uploading;
+    }
+
+    /// Installs a new hub (its model already decoded and validated, e.g. by
+    /// a low-priority task) between two samples. The new model's state
+    /// starts afresh (a `Reference::First` input takes the next sample as
+    /// its reference). Each output continues from the offset last reported
+    /// for the output of the same name (zero for a new output) through the
+    /// slew limiter, so there is no jump; an output the new model lacks is
+    /// no longer reported. Spike-filter memory carries over by input name;
+    /// the fault timer and the tool length carry over. The sample period
+    /// becomes the new model's (see [`Pipeline::sample_period_s`]).
+    ///
+    /// Refuses a hub without a model, keeping the running one.
+    pub fn swap_model(&mut self, hub: Hub) -> Result<(), SwapError> {
+        let Some(new) = hub.model() else {
+            return Err(SwapError::NoModel);
+        };
+        let mut offsets_um = [0.0; MAX_OUTPUTS];
+        let mut spike = [SpikeState::NEW; MAX_INPUTS];
+        if let Some(old) = self.hub.model() {
+            for (value, name) in offsets_um.iter_mut().zip(new.outputs()) {
+                if let Some(k) = old.outputs().iter().position(|n| n == name) {
+                    *value = self.offsets_um.get(k).copied().unwrap_or(0.0);
+                }
+            }
+            for (state, channel) in spike.iter_mut().zip(new.inputs()) {
+                if let Some(k) = old.inputs().iter().position(|c| c.name == channel.name) {
+                    *state = self.spike.get(k).copied().unwrap_or(SpikeState::NEW);
+                }
+            }
+        }
+        self.timing = Timing::new(&self.config, self.config.sample_period_s(&hub));
+        self.tool_mask = tool_mask(&hub);
+        self.offsets_um = offsets_um;
+        self.spike = spike;
+        self.hub = hub;
+        Ok(())
+    }
+
+    /// One sample: `readings` holds one [`Reading`] per model input, in the
+    /// model's input order (a missing entry counts as [`Reading::Stale`],
+    /// extra entries are ignored). Never fails, never panics; every offset
+    /// in the report is finite, within the clamp, and at most one slew step
+    /// from the previous report's.
+    pub fn on_sample(&mut self, readings: &[Reading]) -> Report {
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        let mut flags = StatusFlags::default();
+        if self.uploading {
+            flags.set(StatusFlags::UPLOADING);
+        }
+        let Some(model) = self.hub.model() else {
+            flags.set(StatusFlags::NO_MODEL);
+            return Report {
+                seq,
+                offsets: [0.0; MAX_OUTPUTS],
+                n_outputs: 0,
+                state: HubState::NoModel,
+                flags,
+                faulty_channels: 0,
+            };
+        };
+        let n_in = model.inputs().len().min(MAX_INPUTS);
+        let n_out = model.outputs().len().min(MAX_OUTPUTS);
+
+        // 1. Validate and spike-filter each input.
+        let mut inputs = [0.0; MAX_INPUTS];
+        let mut faulty = 0u32;
+        for (j, (x, state)) in inputs
+            .iter_mut()
+            .zip(self.spike.iter_mut())
+            .take(n_in)
+            .enumerate()
+        {
+            let reading = if self.tool_mask & bit(j) != 0 {
+                self.tool_mm.map_or(Reading::Stale, Reading::Direct)
+            } else {
+                readings.get(j).copied().unwrap_or(Reading::Stale)
+            };
+            let good = match reading {
+                Reading::Value(t_c) if t_c.is_finite() && (T_MIN_C..=T_MAX_C).contains(&t_c) => {
+                    if self
+                        .config
+                        .spike
+                        .filter(state, t_c, self.timing.spike_limit_k)
+                        .accepted()
+                    {
+                        *x = t_c;
+                        true
+                    } else {
+                        flags.set(StatusFlags::SPIKE_REJECTED);
+                        false
+                    }
+                }
+                Reading::Direct(v) if v.is_finite() && v.abs() <= MAX_INPUT_MAGNITUDE => {
+                    *x = v;
+                    true
+                }
+                Reading::Value(_) | Reading::Direct(_) | Reading::Fault(_) => {
+                    state.miss();
+                    flags.set(StatusFlags::SENSOR_FAULT);
+                    false
+                }
+                Reading::Stale => {
+                    state.miss();
+                    flags.set(StatusFlags::STALE);
+                    false
+                }
+            };
+            if !good {
+                faulty |= bit(j);
+            }
+        }
+
+        // 2. Step the model only on a fully good sample.
+        let mut model_out = None;
+        if faulty == 0 {
+            let out = self.hub.on_sample(inputs.get(..n_in).unwrap_or(&[]));
+            if out.fresh {
+                model_out = Some(out.values);
+            } else {
+                flags.set(StatusFlags::MODEL_FAULT);
+            }
+        }
+
+        // 3. Follow, hold or ramp.
+        let phase = self
+            .supervisor
+            .step(model_out.is_some(), self.timing.hold_samples);
+
+        // 4. Limit every output.
+        let mut all_zero = true;
+        for (i, ((offset, step), clamp)) in self
+            .offsets_um
+            .iter_mut()
+            .zip(&self.timing.slew_step_um)
+            .zip(&self.config.limiter.clamp_um)
+            .take(n_out)
+            .enumerate()
+        {
+            let target = match (phase, &model_out) {
+                (Phase::Follow, Some(values)) => values.get(i).copied().unwrap_or(*offset),
+                (Phase::Ramp, _) => ramp_toward_zero(*offset, self.timing.ramp_step_um),
+                _ => *offset,
+            };
+            let limited = limit(*offset, target, *step, *clamp);
+            *offset = limited.value_um;
+            if limited.clamped {
+                flags.set(StatusFlags::CLAMPED);
+            }
+            if limited.slew_limited {
+                flags.set(StatusFlags::SLEW_LIMITED);
+            }
+            all_zero &= *offset == 0.0;
+        }
+
+        Report {
+            seq,
+            offsets: self.offsets_um,
+            n_outputs: u8::try_from(n_out).unwrap_or(u8::MAX),
+            state: phase.hub_state(all_zero),
+            flags,
+            faulty_channels: faulty,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use model_core::linear::{Coef, Linear, LinearOutput};
+    use model_core::tf::TfEntry;
+    use model_core::{Channel, Model, Name, Params, Reference, ValidModel};
+
+    fn name(s: &str) -> Name {
+        Name::try_from(s).unwrap()
+    }
+
+    fn vec<T: Clone, const N: usize>(items: &[T]) -> heapless::Vec<T, N> {
+        heapless::Vec::from_slice(items).unwrap()
+    }
+
+    fn hub(model: &ValidModel) -> Hub {
+        let mut blob = [0u8; 4096];
+        let n = model_core::encode(model, &mut blob).unwrap();
+        let hub = Hub::load(&blob[..n]);
+        assert!(hub.model().is_some());
+        hub
+    }
+
+    /// dz_um = 10 * (T1 - 20) + 2 * tool_mm.
+    fn tool_model() -> ValidModel {
+        Model {
+            inputs: vec(&[
+                Channel {
+                    name: name("T1"),
+                    reference: Reference::Value(20.0),
+                },
+                Channel {
+                    name: name(TOOL_INPUT),
+                    reference: Reference::Absolute,
+                },
+            ]),
+            outputs: vec(&[name("dz_um")]),
+            dt_s: 0.0,
+            params: Params::Linear(Linear {
+                outputs: vec(&[LinearOutput {
+                    output: 0,
+                    intercept: 0.0,
+                    coef: vec(&[
+                        Coef {
+                            channel: 0,
+                            value: 10.0,
+                        },
+                        Coef {
+                            channel: 1,
+                            value: 2.0,
+                        },
+                    ]),
+                    position: None,
+                }]),
+            }),
+        }
+        .validate()
+        .unwrap()
+    }
+
+    fn tf_model(dt_s: f64) -> ValidModel {
+        Model {
+            inputs: vec(&[Channel {
+                name: name("T1"),
+                reference: Reference::First,
+            }]),
+            outputs: vec(&[name("dz_um")]),
+            dt_s,
+            params: Params::Tf(vec(&[TfEntry {
+                output: 0,
+                input: 0,
+                a: vec(&[0.1]),
+                b: vec(&[0.5, -0.4]),
+            }])),
+        }
+        .validate()
+        .unwrap()
+    }
+
+    #[test]
+    fn defaults_validate_and_period_follows_the_model() {
+        assert_eq!(PipelineConfig::DEFAULT.validate(), Ok(()));
+        let p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        assert_eq!((p.sample_period_s(), p.sample_period_ms()), (1.0, 1000));
+        let p = Pipeline::new(hub(&tf_model(0.5)), PipelineConfig::DEFAULT).unwrap();
+        assert_eq!((p.sample_period_s(), p.sample_period_ms()), (0.5, 500));
+        let p = Pipeline::new(Hub::load(&[]), PipelineConfig::DEFAULT).unwrap();
+        assert_eq!(p.sample_period_s(), 1.0);
+    }
+
+    #[test]
+    fn config_errors_name_the_setting() {
+        let mut c = PipelineConfig::DEFAULT;
+        c.supervisor.ramp_um_per_s = 3.0;
+        assert_eq!(
+            c.validate(),
+            Err(ConfigError::RampFasterThanSlew { output: 0 })
+        );
+        let mut c = PipelineConfig::DEFAULT;
+        c.default_sample_period_s = 0.0;
+        assert_eq!(c.validate(), Err(ConfigError::SamplePeriod));
+        assert!(Pipeline::new(Hub::load(&[]), c).is_err());
+    }
+
+    #[test]
+    fn readings_from_rtd_codes() {
+        // 8192 / 32768 * 400 ohm = 100 ohm = 0 C exactly.
+        assert_eq!(Reading::pt100(8192), Reading::Value(0.0));
+        // Top code: open input.
+        assert_eq!(Reading::pt100(32767), Reading::Fault(ChannelFault::Open));
+        assert_eq!(Reading::pt100(0), Reading::Fault(ChannelFault::Short));
+        assert_eq!(
+            ChannelFault::from(RtdError::CodeOutOfRange),
+            ChannelFault::OutOfRange
+        );
+        assert_eq!(
+            ChannelFault::from(RtdError::InvalidParameter),
+            ChannelFault::Converter
+        );
+    }
+
+    #[test]
+    fn tool_length_fills_the_tool_input_and_is_checked() {
+        let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        // No tool length yet: the tool input is stale, whatever is passed.
+        let r = p.on_sample(&[Reading::Value(20.5), Reading::Direct(100.0)]);
+        assert_eq!(r.state, HubState::Holding);
+        assert!(r.flags.has(StatusFlags::STALE));
+        assert_eq!(r.faulty_channels, 0b10);
+
+        assert_eq!(p.set_tool_length_mm(f64::NAN), Err(ConfigError::ToolLength));
+        assert_eq!(p.set_tool_length_mm(-1.0), Err(ConfigError::ToolLength));
+        assert_eq!(p.set_tool_length_mm(1000.1), Err(ConfigError::ToolLength));
+        assert_eq!(p.tool_length_mm(), None);
+        assert_eq!(p.set_tool_length_mm(0.5), Ok(()));
+        // dz = 10 * 0.1 + 2 * 0.5 = 2 um: one slew step, reached exactly.
+        // The reading passed for tool_mm is ignored.
+        let r = p.on_sample(&[Reading::Value(20.1), Reading::Stale]);
+        assert_eq!(r.state, HubState::Running);
+        assert_eq!(r.faulty_channels, 0);
+        assert!((r.offsets[0] - 2.0).abs() < 1e-12, "{r:?}");
+        // A tool change is a real step: not spike-filtered, only slewed.
+        p.set_tool_length_mm(300.0).unwrap();
+        let r = p.on_sample(&[Reading::Value(20.1), Reading::Stale]);
+        assert_eq!(r.state, HubState::Running);
+        assert!(r.flags.has(StatusFlags::SLEW_LIMITED));
+        assert!((r.offsets[0] - 4.0).abs() < 1e-12, "{r:?}");
+    }
+
+    #[test]
+    fn short_readings_slice_counts_as_stale() {
+        let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        p.set_tool_length_mm(0.0).unwrap();
+        let r = p.on_sample(&[]);
+        assert_eq!(r.faulty_channels, 0b01);
+        assert!(r.flags.has(StatusFlags::STALE));
+        assert_eq!(r.offsets, [0.0; MAX_OUTPUTS]);
+    }
+
+    #[test]
+    fn out_of_curve_and_absurd_direct_values_are_sensor_faults() {
+        let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        p.set_tool_length_mm(0.0).unwrap();
+        for bad in [f64::NAN, f64::INFINITY, 900.0, -250.0] {
+            let r = p.on_sample(&[Reading::Value(bad)]);
+            assert!(r.flags.has(StatusFlags::SENSOR_FAULT), "{bad}: {r:?}");
+            assert!(!r.flags.has(StatusFlags::SPIKE_REJECTED));
+        }
+        assert_eq!(p.hub().faults().total(), 0, "the model never saw them");
+    }
+
+    #[test]
+    fn seq_counts_and_uploading_flag_shows() {
+        let mut p = Pipeline::new(Hub::load(&[]), PipelineConfig::DEFAULT).unwrap();
+        assert_eq!(p.on_sample(&[]).seq, 0);
+        p.set_uploading(true);
+        let r = p.on_sample(&[]);
+        assert_eq!(r.seq, 1);
+        assert!(r.flags.has(StatusFlags::UPLOADING | StatusFlags::NO_MODEL));
+        p.set_uploading(false);
+        assert!(!p.on_sample(&[]).flags.has(StatusFlags::UPLOADING));
+    }
+
+    #[test]
+    fn swap_refuses_a_hub_without_a_model_and_takes_the_new_period() {
+        let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        assert_eq!(
+            p.swap_model(Hub::load(&[0xFF; 64])),
+            Err(SwapError::NoModel)
+        );
+        assert_eq!(p.hub().input_count(), 2);
+        assert_eq!(p.swap_model(hub(&tf_model(2.0))), Ok(()));
+        assert_eq!(p.sample_period_s(), 2.0);
+        assert_eq!(p.hub().input_count(), 1);
+    }
+}

@@ -1,0 +1,226 @@
+//! Fault handling: what the offsets do while the inputs or the model are bad.
+//!
+//! # Method
+//!
+//! A sample is *good* when every model input was read, passed the spike
+//! filter and the model produced finite outputs. On a bad sample (open or
+//! shorted RTD, bus error, stale reading, rejected spike, model refusal) the
+//! supervisor moves through
+//!
+//! ```text
+//! Running --bad--> Holding --hold_time_s--> Ramping --offsets at 0--> Zeroed
+//!    ^                |                        |                        |
+//!    +-----good-------+------------good--------+-----------good---------+
+//! ```
+//!
+//! * Holding: the offsets last sent stay as they are. Thermal error changes
+//!   over minutes, so for a short fault (a connector, a bus glitch) the last
+//!   offsets are closer to the truth than none.
+//! * Ramping: once the fault has lasted `hold_time_s`, stale compensation
+//!   may be worse than none, so each offset moves to zero at
+//!   `ramp_um_per_s`, never as a step.
+//! * A good sample returns to Running at once; the slew limiter takes the
+//!   offsets from wherever they are to the model's value, so there is no
+//!   jump in either direction.
+//!
+//! Timing counts samples, not seconds: a fault starting at sample `k` holds
+//! for samples `k .. k + H - 1` with `H = ceil(hold_time_s / dt_s)`, and the
+//! first ramp step is taken at sample `k + H` (see `config::samples_for`).
+//!
+//! The model is not stepped on a bad sample (see `pipeline`): its state
+//! freezes, so a dynamic (TF/ARMA) model's time base stops for the length of
+//! the fault. After recovery it runs on as if the faulty samples had not
+//! happened: its response lags real time by the fault's length, and a
+//! temperature change during the fault enters as one step at recovery.
+//! For faults short against the thermal time constants (minutes to hours)
+//! that error is small; it is the honest alternative to feeding the model
+//! made-up inputs.
+
+use crate::config::{non_negative, positive, samples_for, ConfigError};
+use crate::report::HubState;
+
+/// Hold time and ramp rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SupervisorConfig {
+    /// How long a fault holds the last offsets before they ramp to zero, s.
+    pub hold_time_s: f64,
+    /// How fast offsets ramp to zero after the hold time, um/s. Must not
+    /// exceed any output's slew rate (checked by the pipeline's config).
+    pub ramp_um_per_s: f64,
+}
+
+impl SupervisorConfig {
+    /// The defaults, with their reasons:
+    ///
+    /// * `hold_time_s = 60`: a loose connector, a bus glitch or an EMI burst
+    ///   clears in seconds; over 60 s the thermal error moves by well under a
+    ///   micrometre (drift < 0.1 um/s, see `limiter`), so holding is better
+    ///   than dropping compensation. A sensor still dead after a minute is a
+    ///   real failure: stop trusting the held value.
+    /// * `ramp_um_per_s = 1`: half the default slew rate, so the ramp is the
+    ///   configured one, not the limiter's; a typical 20-50 um offset reaches
+    ///   zero in under a minute, without a step on the part.
+    pub const DEFAULT: Self = Self {
+        hold_time_s: 60.0,
+        ramp_um_per_s: 1.0,
+    };
+
+    /// Checks the settings once.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !non_negative(self.hold_time_s) {
+            return Err(ConfigError::HoldTime);
+        }
+        if !positive(self.ramp_um_per_s) {
+            return Err(ConfigError::RampRate);
+        }
+        Ok(())
+    }
+
+    /// The hold time in whole samples of `dt_s` (rounded up).
+    pub fn hold_samples(&self, dt_s: f64) -> u32 {
+        samples_for(self.hold_time_s, dt_s)
+    }
+
+    /// How far an offset ramps per sample of `dt_s`, um.
+    pub fn ramp_step_um(&self, dt_s: f64) -> f64 {
+        self.ramp_um_per_s * dt_s
+    }
+}
+
+impl Default for SupervisorConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// What the offsets do this sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// Follow the model (through the limiter).
+    Follow,
+    /// Keep the offsets last sent.
+    Hold,
+    /// Move each offset one ramp step towards zero.
+    Ramp,
+}
+
+impl Phase {
+    /// The state to report, given whether every offset is now zero.
+    pub fn hub_state(self, offsets_zero: bool) -> HubState {
+        match self {
+            Self::Follow => HubState::Running,
+            Self::Hold => HubState::Holding,
+            Self::Ramp if offsets_zero => HubState::Zeroed,
+            Self::Ramp => HubState::Ramping,
+        }
+    }
+}
+
+/// The fault timer: consecutive bad samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Supervisor {
+    bad_run: u32,
+}
+
+impl Supervisor {
+    /// No fault seen.
+    pub const NEW: Self = Self { bad_run: 0 };
+
+    /// One sample: `good` as in the module doc, `hold_samples` from
+    /// [`SupervisorConfig::hold_samples`].
+    pub fn step(&mut self, good: bool, hold_samples: u32) -> Phase {
+        if good {
+            self.bad_run = 0;
+            return Phase::Follow;
+        }
+        let before = self.bad_run;
+        self.bad_run = self.bad_run.saturating_add(1);
+        if before < hold_samples {
+            Phase::Hold
+        } else {
+            Phase::Ramp
+        }
+    }
+
+    /// Consecutive bad samples up to and including the last one (0 after a
+    /// good sample).
+    pub fn bad_run(&self) -> u32 {
+        self.bad_run
+    }
+}
+
+/// `prev_um` moved `step_um` towards zero, landing exactly on zero.
+pub fn ramp_toward_zero(prev_um: f64, step_um: f64) -> f64 {
+    if !prev_um.is_finite() || prev_um.abs() <= step_um {
+        0.0
+    } else if prev_um > 0.0 {
+        prev_um - step_um
+    } else {
+        prev_um + step_um
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn holds_exactly_hold_samples_then_ramps_then_recovers() {
+        let cfg = SupervisorConfig {
+            hold_time_s: 5.0,
+            ramp_um_per_s: 1.0,
+        };
+        let hold = cfg.hold_samples(1.0);
+        assert_eq!(hold, 5);
+        let mut s = Supervisor::NEW;
+        assert_eq!(s.step(true, hold), Phase::Follow);
+        for _ in 0..5 {
+            assert_eq!(s.step(false, hold), Phase::Hold);
+        }
+        assert_eq!(s.step(false, hold), Phase::Ramp);
+        assert_eq!(s.bad_run(), 6);
+        assert_eq!(s.step(true, hold), Phase::Follow);
+        assert_eq!(s.bad_run(), 0);
+        // A new fault starts a new hold.
+        assert_eq!(s.step(false, hold), Phase::Hold);
+    }
+
+    #[test]
+    fn zero_hold_ramps_at_once() {
+        let mut s = Supervisor::NEW;
+        assert_eq!(s.step(false, 0), Phase::Ramp);
+    }
+
+    #[test]
+    fn states_for_phases() {
+        assert_eq!(Phase::Follow.hub_state(true), HubState::Running);
+        assert_eq!(Phase::Hold.hub_state(true), HubState::Holding);
+        assert_eq!(Phase::Ramp.hub_state(false), HubState::Ramping);
+        assert_eq!(Phase::Ramp.hub_state(true), HubState::Zeroed);
+    }
+
+    #[test]
+    fn ramp_lands_on_zero() {
+        assert_eq!(ramp_toward_zero(2.5, 1.0), 1.5);
+        assert_eq!(ramp_toward_zero(-2.5, 1.0), -1.5);
+        assert_eq!(ramp_toward_zero(0.5, 1.0), 0.0);
+        assert_eq!(ramp_toward_zero(-1.0, 1.0), 0.0);
+        assert_eq!(ramp_toward_zero(f64::NAN, 1.0), 0.0);
+    }
+
+    #[test]
+    fn defaults_valid_bad_values_refused() {
+        assert_eq!(SupervisorConfig::DEFAULT.validate(), Ok(()));
+        assert_eq!(SupervisorConfig::DEFAULT.hold_samples(1.0), 60);
+        let bad = SupervisorConfig {
+            hold_time_s: -1.0,
+            ..SupervisorConfig::DEFAULT
+        };
+        assert_eq!(bad.validate(), Err(ConfigError::HoldTime));
+        let bad = SupervisorConfig {
+            ramp_um_per_s: f64::NAN,
+            ..SupervisorConfig::DEFAULT
+        };
+        assert_eq!(bad.validate(), Err(ConfigError::RampRate));
+    }
+}

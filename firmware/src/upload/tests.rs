@@ -1,0 +1,545 @@
+//! The upload against an in-memory NOR flash with the board's slot
+//! geometry, including power cuts ("reboot" = `select_boot_slot` on what
+//! the flash holds).
+
+use super::*;
+use embedded_storage::nor_flash::{check_erase, check_read, check_write, ErrorType, ReadNorFlash};
+use model_core::linear::{Coef, Linear, LinearOutput};
+use model_core::{Channel, Model, Name, Params, Reference, ValidModel};
+
+const SLOT: u32 = 128 * 1024;
+
+/// NOR flash in RAM: erase sets 0xFF, a write can only clear bits (writing
+/// a 1 over a 0 is an error, as it would silently fail on chip), and an
+/// optional byte budget simulates a power cut mid-write.
+struct MemFlash {
+    data: std::vec::Vec<u8>,
+    budget: Option<usize>,
+    erases: usize,
+}
+
+impl MemFlash {
+    fn new(len: usize) -> Self {
+        Self {
+            data: vec![0xFF; len],
+            budget: None,
+            erases: 0,
+        }
+    }
+}
+
+impl ErrorType for MemFlash {
+    type Error = NorFlashErrorKind;
+}
+
+impl ReadNorFlash for MemFlash {
+    const READ_SIZE: usize = 1;
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        check_read(self, offset, bytes.len())?;
+        let o = offset as usize;
+        bytes.copy_from_slice(&self.data[o..o + bytes.len()]);
+        Ok(())
+    }
+    fn capacity(&self) -> usize {
+        self.data.len()
+    }
+}
+
+impl NorFlash for MemFlash {
+    const WRITE_SIZE: usize = 4;
+    const ERASE_SIZE: usize = 4096;
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        check_erase(self, from, to)?;
+        self.erases += 1;
+        self.data[from as usize..to as usize].fill(0xFF);
+        Ok(())
+    }
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        check_write(self, offset, bytes.len())?;
+        for (i, b) in bytes.iter().enumerate() {
+            if let Some(left) = &mut self.budget {
+                if *left == 0 {
+                    return Err(NorFlashErrorKind::Other); // power cut
+                }
+                *left -= 1;
+            }
+            let cell = &mut self.data[offset as usize + i];
+            if *b & !*cell != 0 {
+                return Err(NorFlashErrorKind::Other); // 0 -> 1 without erase
+            }
+            *cell &= *b;
+        }
+        Ok(())
+    }
+}
+
+const MAP: SlotMap = SlotMap {
+    a: 0,
+    b: SLOT,
+    len: SLOT,
+};
+
+fn flash() -> MemFlash {
+    MemFlash::new(2 * SLOT as usize)
+}
+
+fn slots(f: &MemFlash) -> (&[u8], &[u8]) {
+    f.data.split_at(SLOT as usize)
+}
+
+fn reboot(f: &MemFlash) -> Option<Slot> {
+    let (a, b) = slots(f);
+    select_boot_slot(a, b)
+}
+
+fn name(s: &str) -> Name {
+    Name::try_from(s).unwrap()
+}
+
+fn vec<T: Clone, const N: usize>(items: &[T]) -> heapless::Vec<T, N> {
+    heapless::Vec::from_slice(items).unwrap()
+}
+
+const N_IN: usize = 12;
+
+/// dz = intercept + sum 0.5 Ti over 12 inputs (a ~250-byte blob, four
+/// chunks): the intercept tells models apart.
+fn raw_model(intercept: f64) -> Model {
+    let names = [
+        "T1", "T2", "T3", "T4", "T5", "T6", "T7", "T8", "T9", "T10", "T11", "T12",
+    ];
+    let inputs: std::vec::Vec<Channel> = names
+        .iter()
+        .map(|n| Channel {
+            name: name(n),
+            reference: Reference::Absolute,
+        })
+        .collect();
+    let coef: std::vec::Vec<Coef> = (0..N_IN as u8)
+        .map(|channel| Coef {
+            channel,
+            value: 0.5,
+        })
+        .collect();
+    Model {
+        inputs: vec(&inputs),
+        outputs: vec(&[name("dz_um")]),
+        dt_s: 0.0,
+        params: Params::Linear(Linear {
+            outputs: vec(&[LinearOutput {
+                output: 0,
+                intercept,
+                coef: vec(&coef),
+                position: None,
+            }]),
+        }),
+    }
+}
+
+fn model(intercept: f64) -> ValidModel {
+    raw_model(intercept).validate().unwrap()
+}
+
+fn blob(intercept: f64) -> std::vec::Vec<u8> {
+    let mut buf = vec![0u8; MAX_BLOB_LEN];
+    let n = model_core::encode(&model(intercept), &mut buf).unwrap();
+    buf.truncate(n);
+    buf
+}
+
+/// Re-seals a blob's CRC after editing it (a blob that is well-formed but
+/// wrong in content).
+fn reseal(b: &mut [u8]) {
+    let n = b.len() - 4;
+    let crc = crc32(&b[..n]);
+    b[n..].copy_from_slice(&crc.to_le_bytes());
+}
+
+/// Uploads `bytes` in chunks of `chunk` bytes, announcing their true CRC.
+fn upload(
+    u: &mut Uploader<MemFlash>,
+    bytes: &[u8],
+    chunk: usize,
+) -> Result<Committed, UploadError> {
+    u.begin(bytes.len() as u32, crc32(bytes))?;
+    for (i, c) in bytes.chunks(chunk).enumerate() {
+        u.chunk((i * chunk) as u32, c)?;
+    }
+    let mut scratch = vec![0u8; MAX_BLOB_LEN];
+    u.commit(&mut scratch)
+}
+
+fn intercept_of(hub: &Hub) -> f64 {
+    let mut h = hub.clone();
+    h.on_sample(&[0.0; N_IN]).values[0]
+}
+
+#[test]
+fn record_round_trip_and_torn_record() {
+    let r = CommitRecord {
+        generation: 7,
+        blob_crc: 0xDEAD_BEEF,
+    };
+    let b = r.to_bytes();
+    assert_eq!(&b[..12], b"TCMC\x07\x00\x00\x00\xEF\xBE\xAD\xDE");
+    assert_eq!(CommitRecord::parse(&b), Some(r));
+    assert_eq!(CommitRecord::parse(&[0xFF; RECORD_LEN]), None);
+    for cut in 0..RECORD_LEN {
+        let mut torn = [0xFF; RECORD_LEN];
+        torn[..cut].copy_from_slice(&b[..cut]);
+        assert_eq!(CommitRecord::parse(&torn), None, "cut at {cut}");
+    }
+}
+
+#[test]
+fn board_slot_map_is_the_layout() {
+    assert_eq!(
+        SlotMap::BOARD,
+        SlotMap {
+            a: 0x4_0000,
+            b: 0x6_0000,
+            len: SLOT
+        }
+    );
+}
+
+#[test]
+fn good_uploads_alternate_slots_with_rising_generations() {
+    let mut u = Uploader::new(flash(), MAP, None);
+    assert_eq!(reboot(&u.flash), None);
+    assert_eq!(u.target(), Slot::A);
+
+    let c = upload(&mut u, &blob(1.0), CHUNK_MAX).unwrap();
+    assert_eq!((c.slot, c.generation), (Slot::A, 1));
+    assert_eq!(intercept_of(&c.hub), 1.0);
+    assert_eq!(reboot(&u.flash), Some(Slot::A));
+    assert!(!u.is_uploading());
+
+    // Odd chunk size (multiple of the 4-byte write size) and a padded tail.
+    let c = upload(&mut u, &blob(2.0), 20).unwrap();
+    assert_eq!((c.slot, c.generation), (Slot::B, 2));
+    assert_eq!(reboot(&u.flash), Some(Slot::B));
+    let (a, b) = slots(&u.flash);
+    assert_eq!(intercept_of(&Hub::load(b)), 2.0);
+    assert_eq!(intercept_of(&Hub::load(a)), 1.0);
+
+    let c = upload(&mut u, &blob(3.0), CHUNK_MAX).unwrap();
+    assert_eq!((c.slot, c.generation), (Slot::A, 3));
+    assert_eq!(reboot(&u.flash), Some(Slot::A));
+    assert_eq!(slot_generation(Slot::A, slots(&u.flash).0), Some(3));
+    assert_eq!(slot_generation(Slot::B, slots(&u.flash).1), Some(2));
+}
+
+#[test]
+fn bare_blob_in_a_boots_as_generation_zero() {
+    let mut f = flash();
+    let b = blob(5.0);
+    f.data[..b.len()].copy_from_slice(&b);
+    assert_eq!(reboot(&f), Some(Slot::A));
+    assert_eq!(slot_generation(Slot::A, slots(&f).0), Some(0));
+    // The same bare blob in B does not boot (an unfinished upload looks so).
+    let mut g = flash();
+    g.data[SLOT as usize..SLOT as usize + b.len()].copy_from_slice(&b);
+    assert_eq!(reboot(&g), None);
+
+    let mut u = Uploader::new(f, MAP, reboot(&g).or(Some(Slot::A)));
+    let c = upload(&mut u, &blob(6.0), CHUNK_MAX).unwrap();
+    assert_eq!((c.slot, c.generation), (Slot::B, 1));
+    assert_eq!(reboot(&u.flash), Some(Slot::B));
+}
+
+/// Uploads a bad blob over a running slot A and checks the refusal and
+/// that A still boots, untouched.
+fn refused(bytes: &[u8]) -> UploadError {
+    let mut u = Uploader::new(flash(), MAP, None);
+    upload(&mut u, &blob(1.0), CHUNK_MAX).unwrap();
+    let before = slots(&u.flash).0.to_vec();
+    let err = upload(&mut u, bytes, CHUNK_MAX).unwrap_err();
+    assert_eq!(u.active(), Some(Slot::A));
+    assert!(!u.is_uploading());
+    assert_eq!(reboot(&u.flash), Some(Slot::A));
+    assert_eq!(slots(&u.flash).0, &before[..]);
+    err
+}
+
+#[test]
+fn corrupted_blobs_are_refused_and_the_old_slot_stays_active() {
+    // Damaged in transit or by the host: the blob's own CRC fails.
+    let mut b = blob(2.0);
+    b[20] ^= 0x10;
+    assert!(matches!(
+        refused(&b),
+        UploadError::Blob(BlobError::BadCrc { .. })
+    ));
+
+    // Another format version.
+    let mut b = blob(2.0);
+    b[4] = 2;
+    reseal(&mut b);
+    assert_eq!(
+        refused(&b),
+        UploadError::Blob(BlobError::UnsupportedVersion { found: 2 })
+    );
+
+    // Header kind says PCR, body is linear.
+    let mut b = blob(2.0);
+    b[6] = 3;
+    reseal(&mut b);
+    assert_eq!(
+        refused(&b),
+        UploadError::Blob(BlobError::BadKind { code: 3 })
+    );
+
+    // Well-formed but invalid model (non-finite coefficient).
+    let mut body = [0u8; 1024];
+    let body = postcard::to_slice(&raw_model(f64::NAN), &mut body).unwrap();
+    let mut b = blob(2.0)[..HEADER_LEN].to_vec();
+    b[8..12].copy_from_slice(&(body.len() as u32).to_le_bytes());
+    b.extend_from_slice(body);
+    b.extend([0; 4]);
+    reseal(&mut b);
+    assert!(matches!(
+        refused(&b),
+        UploadError::Blob(BlobError::Invalid(_))
+    ));
+
+    // Not a blob at all; and a blob with bytes after it.
+    let mut junk = blob(2.0);
+    junk[..4].copy_from_slice(b"JUNK");
+    assert_eq!(refused(&junk), UploadError::Blob(BlobError::BadMagic));
+    let mut long = blob(2.0);
+    long.extend([0xAB; 8]);
+    assert!(matches!(
+        refused(&long),
+        UploadError::Blob(BlobError::LengthMismatch { .. })
+    ));
+}
+
+#[test]
+fn transfer_crc_mismatch_is_refused() {
+    let mut u = Uploader::new(flash(), MAP, None);
+    let b = blob(1.0);
+    u.begin(b.len() as u32, crc32(&b) ^ 1).unwrap();
+    for (i, c) in b.chunks(CHUNK_MAX).enumerate() {
+        u.chunk((i * CHUNK_MAX) as u32, c).unwrap();
+    }
+    let mut scratch = vec![0u8; MAX_BLOB_LEN];
+    assert!(matches!(
+        u.commit(&mut scratch),
+        Err(UploadError::CrcMismatch { .. })
+    ));
+    assert_eq!(reboot(&u.flash), None);
+}
+
+#[test]
+fn interrupted_upload_is_ignored_at_reboot() {
+    let mut u = Uploader::new(flash(), MAP, None);
+    upload(&mut u, &blob(1.0), CHUNK_MAX).unwrap();
+    // Half the chunks, then power is lost (no commit).
+    let b = blob(2.0);
+    u.begin(b.len() as u32, crc32(&b)).unwrap();
+    u.chunk(0, &b[..CHUNK_MAX]).unwrap();
+    assert!(u.is_uploading());
+    let f = u.into_inner();
+    assert_eq!(reboot(&f), Some(Slot::A));
+    // The held-back magic: slot B holds no blob yet.
+    assert_eq!(&f.data[SLOT as usize..SLOT as usize + 4], &[0xFF; 4]);
+
+    // Every byte written, blob valid, but no record: still A.
+    let mut u = Uploader::new(f, MAP, Some(Slot::A));
+    u.begin(b.len() as u32, crc32(&b)).unwrap();
+    for (i, c) in b.chunks(CHUNK_MAX).enumerate() {
+        u.chunk((i * CHUNK_MAX) as u32, c).unwrap();
+    }
+    assert_eq!(reboot(&u.flash), Some(Slot::A));
+
+    // Power cut during the record write, at every byte.
+    for cut in 0..RECORD_LEN {
+        let mut u = Uploader::new(flash(), MAP, None);
+        upload(&mut u, &blob(1.0), CHUNK_MAX).unwrap();
+        u.begin(b.len() as u32, crc32(&b)).unwrap();
+        for (i, c) in b.chunks(CHUNK_MAX).enumerate() {
+            u.chunk((i * CHUNK_MAX) as u32, c).unwrap();
+        }
+        u.flash.budget = Some(cut);
+        let mut scratch = vec![0u8; MAX_BLOB_LEN];
+        assert!(matches!(u.commit(&mut scratch), Err(UploadError::Flash(_))));
+        assert_eq!(reboot(&u.flash), Some(Slot::A), "cut at record byte {cut}");
+        assert_eq!(u.active(), Some(Slot::A));
+    }
+}
+
+#[test]
+fn abort_leaves_the_running_slot() {
+    let mut u = Uploader::new(flash(), MAP, None);
+    upload(&mut u, &blob(1.0), CHUNK_MAX).unwrap();
+    let b = blob(2.0);
+    u.begin(b.len() as u32, crc32(&b)).unwrap();
+    u.chunk(0, &b[..CHUNK_MAX]).unwrap();
+    u.abort();
+    assert_eq!(
+        u.chunk(CHUNK_MAX as u32, &b[CHUNK_MAX..2 * CHUNK_MAX]),
+        Err(UploadError::NotUploading)
+    );
+    let mut scratch = vec![0u8; MAX_BLOB_LEN];
+    assert!(matches!(
+        u.commit(&mut scratch),
+        Err(UploadError::NotUploading)
+    ));
+    assert_eq!(reboot(&u.flash), Some(Slot::A));
+    // A new begin restarts cleanly into the same slot.
+    let c = upload(&mut u, &b, CHUNK_MAX).unwrap();
+    assert_eq!((c.slot, c.generation), (Slot::B, 2));
+}
+
+#[test]
+fn out_of_order_overlapping_and_overlong_chunks_are_refused() {
+    let mut u = Uploader::new(flash(), MAP, None);
+    let b = blob(1.0);
+    assert!(b.len() > 2 * CHUNK_MAX, "test needs three chunks");
+    let c = CHUNK_MAX as u32;
+    assert_eq!(u.chunk(0, &b[..8]), Err(UploadError::NotUploading));
+    u.begin(b.len() as u32, crc32(&b)).unwrap();
+    // The first chunk must carry the 16-byte head.
+    assert_eq!(u.chunk(0, &b[..12]), Err(UploadError::BadChunk));
+    // Skipping ahead.
+    assert_eq!(
+        u.chunk(c, &b[CHUNK_MAX..2 * CHUNK_MAX]),
+        Err(UploadError::OutOfOrder { expected: 0 })
+    );
+    u.chunk(0, &b[..CHUNK_MAX]).unwrap();
+    // Repeated and overlapping.
+    assert_eq!(
+        u.chunk(0, &b[..CHUNK_MAX]),
+        Err(UploadError::OutOfOrder { expected: c })
+    );
+    assert_eq!(
+        u.chunk(c - 4, &b[CHUNK_MAX - 4..CHUNK_MAX + 4]),
+        Err(UploadError::OutOfOrder { expected: c })
+    );
+    // Not a whole write unit, and not the last chunk.
+    assert_eq!(
+        u.chunk(c, &b[CHUNK_MAX..CHUNK_MAX + 3]),
+        Err(UploadError::BadChunk)
+    );
+    assert_eq!(u.chunk(c, &[]), Err(UploadError::BadChunk));
+    assert_eq!(u.chunk(c, &[0; CHUNK_MAX + 4]), Err(UploadError::BadChunk));
+    let mut scratch = vec![0u8; MAX_BLOB_LEN];
+    assert!(
+        matches!(u.commit(&mut scratch), Err(UploadError::Incomplete { received }) if received == c)
+    );
+    // Still uploading after refusals; the rest goes through.
+    for (i, chunk) in b.chunks(CHUNK_MAX).enumerate().skip(1) {
+        u.chunk((i * CHUNK_MAX) as u32, chunk).unwrap();
+    }
+    // Past the announced length.
+    assert_eq!(u.chunk(b.len() as u32, &[0; 4]), Err(UploadError::BadChunk));
+    assert_eq!(u.commit(&mut scratch).unwrap().generation, 1);
+}
+
+#[test]
+fn writes_past_the_slot_are_refused() {
+    // A small geometry: 4 KiB slots, so a 16 KiB blob cannot fit.
+    let small = SlotMap {
+        a: 0,
+        b: 4096,
+        len: 4096,
+    };
+    let mut u = Uploader::new(MemFlash::new(8192), small, None);
+    let max = 4096 - RECORD_LEN as u32 - 4;
+    assert_eq!(u.max_len(), max);
+    assert_eq!(u.begin(max + 1, 0), Err(UploadError::BadLength { max }));
+    assert_eq!(u.begin(15, 0), Err(UploadError::BadLength { max }));
+    // Board geometry: the blob format's 16 KiB limit.
+    let mut u = Uploader::new(flash(), MAP, None);
+    assert_eq!(
+        u.begin(MAX_BLOB_LEN as u32 + 1, 0),
+        Err(UploadError::BadLength {
+            max: MAX_BLOB_LEN as u32
+        })
+    );
+    // A slot map beyond the device.
+    let mut u = Uploader::new(MemFlash::new(4096), small, None);
+    assert_eq!(u.begin(100, 0), Err(UploadError::Unsupported));
+    // A chunk past the end of the announced blob never reaches the flash.
+    let mut u = Uploader::new(flash(), MAP, None);
+    u.begin(16, 0).unwrap();
+    assert_eq!(u.chunk(0, &[0; 20]), Err(UploadError::BadChunk));
+    assert_eq!(u.flash.erases, 1);
+}
+
+#[test]
+fn scratch_too_small_is_an_error_not_a_panic() {
+    let mut u = Uploader::new(flash(), MAP, None);
+    let b = blob(1.0);
+    u.begin(b.len() as u32, crc32(&b)).unwrap();
+    for (i, c) in b.chunks(CHUNK_MAX).enumerate() {
+        u.chunk((i * CHUNK_MAX) as u32, c).unwrap();
+    }
+    assert_eq!(
+        u.commit(&mut [0u8; 8]).unwrap_err(),
+        UploadError::ScratchTooSmall
+    );
+    assert_eq!(reboot(&u.flash), None);
+}
+
+#[test]
+fn handle_answers_commands_over_the_protocol() {
+    let mut u = Uploader::new(flash(), MAP, None);
+    let mut scratch = vec![0u8; MAX_BLOB_LEN];
+    let b = blob(4.0);
+    assert!(u.handle(&Command::Ping, &mut scratch).is_none());
+    let (reply, _) = u
+        .handle(
+            &Command::UploadBegin {
+                len: b.len() as u32,
+                crc32: crc32(&b),
+            },
+            &mut scratch,
+        )
+        .unwrap();
+    assert_eq!(
+        reply,
+        HubMessage::Ack(crate::protocol::CommandKind::UploadBegin)
+    );
+    let (reply, _) = u
+        .handle(
+            &Command::UploadChunk {
+                offset: 64,
+                bytes: heapless::Vec::from_slice(&b[64..128]).unwrap(),
+            },
+            &mut scratch,
+        )
+        .unwrap();
+    assert_eq!(
+        reply,
+        HubMessage::Nack {
+            command: crate::protocol::CommandKind::UploadChunk,
+            error: ErrorCode::OutOfOrder { expected: 0 }
+        }
+    );
+    for (i, c) in b.chunks(CHUNK_MAX).enumerate() {
+        let cmd = Command::UploadChunk {
+            offset: (i * CHUNK_MAX) as u32,
+            bytes: heapless::Vec::from_slice(c).unwrap(),
+        };
+        assert!(matches!(
+            u.handle(&cmd, &mut scratch),
+            Some((HubMessage::Ack(_), None))
+        ));
+    }
+    let (reply, committed) = u.handle(&Command::UploadCommit, &mut scratch).unwrap();
+    assert_eq!(
+        reply,
+        HubMessage::Ack(crate::protocol::CommandKind::UploadCommit)
+    );
+    assert_eq!(intercept_of(&committed.unwrap().hub), 4.0);
+    // Error codes on the wire for blob refusals.
+    assert_eq!(
+        ErrorCode::from(UploadError::Blob(BlobError::BadCrc {
+            stored: 0,
+            computed: 1
+        })),
+        ErrorCode::BadBlob { reason: 6 }
+    );
+}

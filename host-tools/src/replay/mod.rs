@@ -1,0 +1,349 @@
+//! `thermcomp replay`: firmware in the loop on the host.
+//!
+//! The hub's own code runs over a run file, sample by sample, exactly as it
+//! runs on the board: the blob is loaded by `firmware::hub::Hub::load`
+//! (refused blobs leave the hub without a model, as on the board); every
+//! temperature is turned into the 15-bit code a MAX31865 would return for a
+//! PT100 at that temperature ([`virtual_rtd`]) and read back through the
+//! `max31865` driver; `firmware::pipeline::Pipeline` spike-filters, steps
+//! the model, supervises faults, slew-limits and clamps; and
+//! `firmware::can_frames` encodes the frames, written in candump's log
+//! format. The sample period is the hub's: the model's `dt_s` for a dynamic
+//! model, the board's default for a static one; inputs are interpolated
+//! linearly onto that grid, and a missing cell reads as a stale sample.
+//!
+//! What differs from the board: no timing (conversions are instant), and
+//! a temperature outside the PT100's range is a converter fault.
+
+pub mod virtual_rtd;
+
+use crate::runfile::{is_temperature_column, resample_linear, uniform_grid, RunFile};
+use crate::source::RunSource;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
+use embedded_can::Frame as _;
+use firmware::can_frames::{self, Heartbeat, Message, NmtState, RawFrame, StatusInfo};
+use firmware::hub::Hub;
+use firmware::pipeline::{ChannelFault, Pipeline, PipelineConfig, Reading, TOOL_INPUT};
+use firmware::report::HubState;
+use max31865::{Config, Filter, Max31865, Mode, Wires};
+use model_core::rtd::{Rtd, RtdChannel, RtdCode};
+use serde_json::json;
+use std::io::Write;
+use std::path::PathBuf;
+use virtual_rtd::VirtualMax31865;
+
+/// Arguments of `thermcomp replay`.
+#[derive(Args)]
+pub struct ReplayArgs {
+    /// The model blob, as it would be flashed (a refused blob runs as "no model").
+    #[arg(long)]
+    pub model: PathBuf,
+    /// The runs to replay.
+    #[command(flatten)]
+    pub runs: RunSource,
+    /// Where to write the CAN frames (candump log format).
+    #[arg(long)]
+    pub candump: PathBuf,
+    /// CAN interface name written in the log.
+    #[arg(long, default_value = "can0")]
+    pub interface: String,
+    /// Also write a CSV of every sample: the inputs as the hub read them and
+    /// the offsets decoded from the frames sent (`<output>_sent`), with the
+    /// hub state and flags.
+    #[arg(long, value_name = "FILE.csv")]
+    pub trace: Option<PathBuf>,
+    /// Print one JSON summary object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Where the hub gets one model input from.
+enum Source {
+    /// A PT100 on its own MAX31865.
+    Rtd(Max31865<VirtualMax31865>, VirtualMax31865),
+    /// A value the hub reads directly (speed, power, position).
+    Direct,
+    /// The tool length, set by a command when it changes.
+    Tool,
+}
+
+/// Whether a column is a temperature the hub reads through an RTD.
+fn is_rtd_column(name: &str) -> bool {
+    is_temperature_column(name) || name.ends_with("_c")
+}
+
+/// What happened over one run.
+#[derive(Default)]
+struct Tally {
+    samples: usize,
+    frames: usize,
+    states: [usize; 5],
+    sensor_faults: usize,
+    stale: usize,
+    max_abs_um: Vec<f64>,
+}
+
+/// Runs `thermcomp replay`.
+pub fn run(a: &ReplayArgs) -> Result<()> {
+    let bytes =
+        std::fs::read(&a.model).with_context(|| format!("cannot read {}", a.model.display()))?;
+    let probe = Hub::load(&bytes);
+    if let Some(e) = probe.load_error() {
+        eprintln!(
+            "note: {}: the hub refuses this blob ({e}): it runs without a model and sends zero offsets",
+            a.model.display()
+        );
+    }
+    let (inputs, outputs): (Vec<String>, Vec<String>) = probe.model().map_or_else(
+        || (Vec::new(), Vec::new()),
+        |m| {
+            (
+                m.inputs().iter().map(|c| c.name.to_string()).collect(),
+                m.outputs().iter().map(|o| o.to_string()).collect(),
+            )
+        },
+    );
+    let map = a.runs.column_map()?;
+    let columns: Vec<String> = inputs.iter().map(|n| map.column(n).to_string()).collect();
+    let runs = a.runs.read(columns.clone())?;
+    let mut log = std::io::BufWriter::new(
+        std::fs::File::create(&a.candump)
+            .with_context(|| format!("cannot write {}", a.candump.display()))?,
+    );
+    let mut trace = match &a.trace {
+        Some(p) => {
+            let mut w = std::io::BufWriter::new(
+                std::fs::File::create(p)
+                    .with_context(|| format!("cannot write {}", p.display()))?,
+            );
+            let mut header = vec!["t_s".to_string()];
+            header.extend(inputs.iter().cloned());
+            header.extend(outputs.iter().map(|o| format!("{o}_sent")));
+            header.extend(["state".to_string(), "flags".to_string()]);
+            writeln!(w, "{}", header.join(","))?;
+            Some(w)
+        }
+        None => None,
+    };
+    let mut per_run = Vec::new();
+    for run in &runs {
+        let tally = replay_run(
+            &bytes,
+            run,
+            &inputs,
+            &columns,
+            outputs.len(),
+            a,
+            &mut log,
+            trace.as_mut(),
+        )?;
+        per_run.push((run.path.display().to_string(), tally));
+    }
+    log.flush()?;
+    if let Some(w) = trace.as_mut() {
+        w.flush()?;
+    }
+    let summary: Vec<_> = per_run
+        .iter()
+        .map(|(name, t)| {
+            json!({
+                "run": name,
+                "samples": t.samples,
+                "frames": t.frames,
+                "states": {
+                    "no_model": t.states[0], "running": t.states[1], "holding": t.states[2],
+                    "ramping": t.states[3], "zeroed": t.states[4],
+                },
+                "sensor_fault_samples": t.sensor_faults,
+                "stale_samples": t.stale,
+                "max_abs_offset_um": outputs.iter().zip(&t.max_abs_um)
+                    .map(|(o, v)| (o.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
+            })
+        })
+        .collect();
+    if a.json {
+        println!(
+            "{}",
+            json!({
+                "model": a.model.display().to_string(),
+                "candump": a.candump.display().to_string(),
+                "sample_period_s": PipelineConfig::DEFAULT.sample_period_s(&probe),
+                "outputs": outputs,
+                "runs": summary,
+            })
+        );
+    } else {
+        for (name, t) in &per_run {
+            println!(
+                "{name}: {} samples, {} frames; running {}, holding {}, ramping {}, zeroed {}, no model {}",
+                t.samples, t.frames, t.states[1], t.states[2], t.states[3], t.states[4], t.states[0]
+            );
+        }
+        eprintln!("wrote {}", a.candump.display());
+    }
+    Ok(())
+}
+
+/// One run through a fresh hub (a run is a power cycle).
+#[allow(clippy::too_many_arguments)]
+fn replay_run(
+    blob: &[u8],
+    run: &RunFile,
+    inputs: &[String],
+    columns: &[String],
+    n_outputs: usize,
+    a: &ReplayArgs,
+    log: &mut impl Write,
+    mut trace: Option<&mut std::io::BufWriter<std::fs::File>>,
+) -> Result<Tally> {
+    let mut pipeline = Pipeline::new(Hub::load(blob), PipelineConfig::DEFAULT)
+        .map_err(|e| anyhow!("pipeline configuration: {e:?}"))?;
+    let dt = pipeline.sample_period_s();
+    let (Some(&t0), Some(&t1)) = (run.t_s.first(), run.t_s.last()) else {
+        bail!("{}: no rows", run.path.display());
+    };
+    let grid = uniform_grid(t0, t1, dt).map_err(|e| anyhow!("{}: {e}", run.path.display()))?;
+    let sampling = run.sampling();
+    if !(sampling.is_uniform
+        && sampling
+            .dt_median_s
+            .is_some_and(|m| (m - dt).abs() <= 1e-6 * dt))
+    {
+        eprintln!(
+            "note: {}: the hub samples every {dt} s: inputs interpolated onto that grid ({} samples)",
+            run.path.display(),
+            grid.len()
+        );
+    }
+    let values: Vec<Vec<Option<f64>>> = columns
+        .iter()
+        .map(|c| {
+            run.column(c)
+                .map(|col| resample_linear(&run.t_s, col, &grid))
+                .ok_or_else(|| {
+                    anyhow!(
+                        "{}: the model needs column \"{c}\" (columns: {})",
+                        run.path.display(),
+                        run.columns.join(", ")
+                    )
+                })
+        })
+        .collect::<Result<_>>()?;
+    let rtd_cfg = Config::new(Wires::Three, Filter::Hz50, Mode::Auto);
+    let mut sources: Vec<Source> = inputs
+        .iter()
+        .map(|name| -> Result<Source> {
+            Ok(if name == TOOL_INPUT {
+                Source::Tool
+            } else if is_rtd_column(name) {
+                let chip = VirtualMax31865::new();
+                let driver = Max31865::new(chip.clone(), rtd_cfg)
+                    .map_err(|e| anyhow!("virtual MAX31865 for {name}: {e}"))?;
+                Source::Rtd(driver, chip)
+            } else {
+                Source::Direct
+            })
+        })
+        .collect::<Result<_>>()?;
+    let channel = RtdChannel::MAX31865_PT100;
+    let mut heartbeat = Heartbeat::new(can_frames::DEFAULT_HEARTBEAT_MS);
+    let mut tally = Tally {
+        max_abs_um: vec![0.0; n_outputs],
+        ..Tally::default()
+    };
+    let mut tool_set: Option<f64> = None;
+    let mut readings = vec![Reading::Stale; inputs.len()];
+    let mut seen = vec![f64::NAN; inputs.len()];
+    for (k, &t) in grid.iter().enumerate() {
+        for (i, src) in sources.iter_mut().enumerate() {
+            let v = values[i][k];
+            readings[i] = match (src, v) {
+                (_, None) => Reading::Stale,
+                (Source::Direct, Some(v)) => Reading::Direct(v),
+                (Source::Tool, Some(v)) => {
+                    if tool_set != Some(v) {
+                        pipeline
+                            .set_tool_length_mm(v)
+                            .map_err(|e| anyhow!("{}: tool_mm {v}: {e:?}", run.path.display()))?;
+                        tool_set = Some(v);
+                    }
+                    Reading::Direct(v)
+                }
+                (Source::Rtd(driver, chip), Some(t_c)) => {
+                    match Rtd::PT100
+                        .resistance_ohm(t_c)
+                        .and_then(|r| channel.adc.code_for_resistance(r))
+                    {
+                        Ok(RtdCode(code)) => chip.set_code(u16::try_from(code).unwrap_or(0)),
+                        // Out of the sensor's range: the chip flags a threshold fault.
+                        Err(_) => chip.set_fault(0x80),
+                    }
+                    match driver.read_code() {
+                        Ok(code) => Reading::from_rtd(&channel, RtdCode(u32::from(code.value()))),
+                        Err(_) => {
+                            let _ = driver.clear_fault();
+                            Reading::Fault(ChannelFault::Converter)
+                        }
+                    }
+                }
+            };
+            seen[i] = match readings[i] {
+                Reading::Value(v) | Reading::Direct(v) => v,
+                _ => f64::NAN,
+            };
+        }
+        let report = pipeline.on_sample(&readings);
+        tally.samples += 1;
+        tally.states[usize::from(report.state.code()).min(4)] += 1;
+        if readings.iter().any(|r| matches!(r, Reading::Fault(_))) {
+            tally.sensor_faults += 1;
+        }
+        if readings.iter().any(|r| matches!(r, Reading::Stale)) {
+            tally.stale += 1;
+        }
+        let info = StatusInfo {
+            n_inputs: pipeline.hub().input_count(),
+            consecutive_faults: pipeline.hub().faults().consecutive,
+        };
+        let now_ms = ((t - t0) * 1000.0).round() as u32;
+        let mut frames: Vec<RawFrame> = can_frames::encode_report(&report, &info)
+            .into_iter()
+            .collect();
+        let nmt = if report.state == HubState::NoModel {
+            NmtState::PreOperational
+        } else {
+            NmtState::Operational
+        };
+        frames.extend(heartbeat.poll::<RawFrame>(now_ms, nmt));
+        let mut sent = [0.0f64; 4];
+        for f in &frames {
+            writeln!(log, "({t:.6}) {} {f}", a.interface)?;
+            match can_frames::decode(f) {
+                Ok(Message::Offsets(m)) => sent[..3].copy_from_slice(&m.offsets_um),
+                Ok(Message::OffsetsExt(m)) => sent[3] = m.offsets_um[0],
+                _ => {}
+            }
+            debug_assert!(f.is_standard());
+        }
+        tally.frames += frames.len();
+        for (m, v) in tally.max_abs_um.iter_mut().zip(&sent) {
+            *m = m.max(v.abs());
+        }
+        if let Some(w) = trace.as_deref_mut() {
+            let mut row = vec![format!("{t}")];
+            row.extend(seen.iter().map(|v| {
+                if v.is_finite() {
+                    format!("{v}")
+                } else {
+                    String::new()
+                }
+            }));
+            row.extend(sent.iter().take(n_outputs).map(|v| format!("{v:.1}")));
+            row.push(format!("{}", report.state.code()));
+            row.push(format!("{}", report.flags.0));
+            writeln!(w, "{}", row.join(","))?;
+        }
+    }
+    Ok(tally)
+}

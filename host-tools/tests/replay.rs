@@ -1,0 +1,241 @@
+//! `thermcomp replay`: the firmware's own pipeline over a real run, checked
+//! against `thermcomp predict` and the fault behaviour the issue asks for.
+
+mod common;
+
+use common::{ok, ok_json, p, write};
+use std::collections::HashMap;
+
+const SPEC: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../examples/fl_thermal_mlr16.toml"
+);
+const RUN: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../examples/fl_thermal_holdout_60s.csv"
+);
+
+/// Frame resolution: offsets go out in 0.1 um steps, so a sent value is
+/// within half a step of what the pipeline computed.
+const HALF_LSB_UM: f64 = 0.05;
+
+/// A CSV as a map column -> values (empty cells NaN).
+fn read_csv(path: &str) -> HashMap<String, Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let mut cols: HashMap<String, Vec<f64>> =
+        header.iter().map(|h| (h.clone(), Vec::new())).collect();
+    for line in lines {
+        for (h, cell) in header.iter().zip(line.split(',')) {
+            cols.get_mut(h)
+                .unwrap()
+                .push(cell.parse().unwrap_or(f64::NAN));
+        }
+    }
+    cols
+}
+
+fn build_model(dir: &std::path::Path) -> String {
+    let blob = dir.join("m.bin");
+    ok(&["model", "build", "--spec", SPEC, "--out", p(&blob)]);
+    p(&blob).to_string()
+}
+
+#[test]
+fn replay_agrees_with_predict_within_the_frame_resolution() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = build_model(dir.path());
+    let (log, trace, pred) = (
+        dir.path().join("out.log"),
+        dir.path().join("trace.csv"),
+        dir.path().join("pred.csv"),
+    );
+    let j = ok_json(&[
+        "replay",
+        "--model",
+        &blob,
+        "--data",
+        RUN,
+        "--candump",
+        p(&log),
+        "--trace",
+        p(&trace),
+        "--json",
+    ]);
+    let run = &j["runs"][0];
+    // 1340 rows 60 s apart, replayed at the hub's 1 s period.
+    assert_eq!(run["samples"], 80281);
+    // OFFSETS + STATUS every sample, HEARTBEAT every 1 s.
+    assert_eq!(run["frames"], 3 * 80281);
+    assert_eq!(run["states"]["running"], 80281);
+    // The model as predict runs it, on the inputs exactly as the hub read
+    // them (after the RTD converter's quantisation): the only difference
+    // left is the frame's 0.1 um step, where no limiter acted.
+    ok(&[
+        "predict",
+        "--model",
+        &blob,
+        "--data",
+        p(&trace),
+        "--out",
+        p(&pred),
+    ]);
+    let (t, pr) = (read_csv(p(&trace)), read_csv(p(&pred)));
+    let flags = &t["flags"];
+    let slewed = flags
+        .iter()
+        .filter(|f| (**f as u16) & (1 << 5) != 0)
+        .count();
+    // Power-up: offsets start at 0 and climb at 2 um/s to the model's.
+    assert!(slewed < 30, "{slewed} slew-limited samples");
+    let mut worst = 0.0f64;
+    for out in ["ch1_um", "ch3_um", "ch5_um"] {
+        let sent = &t[&format!("{out}_sent")];
+        let want = &pr[&format!("{out}_pred")];
+        for k in 0..sent.len() {
+            if (flags[k] as u16) & (1 << 5) == 0 {
+                worst = worst.max((sent[k] - want[k]).abs());
+            }
+        }
+    }
+    assert!(worst <= HALF_LSB_UM + 1e-9, "worst {worst} um");
+    // Against predict on the logged temperatures: the converter's 15-bit
+    // code quantises each PT100 reading to 400/32768 ohm, i.e. at most
+    // 0.0159 K off at 20-35 C (half an LSB over dR/dT >= 0.384 ohm/K); the
+    // model's coefficients turn that into sum |a_i| * 0.0159 K.
+    let raw_pred = dir.path().join("raw.csv");
+    ok(&[
+        "predict",
+        "--model",
+        &blob,
+        "--data",
+        RUN,
+        "--out",
+        p(&raw_pred),
+    ]);
+    let raw = read_csv(p(&raw_pred));
+    let spec: toml::Value = toml::from_str(&std::fs::read_to_string(SPEC).unwrap()).unwrap();
+    for eq in spec["linear"].as_array().unwrap() {
+        let out = eq["output"].as_str().unwrap();
+        let gain: f64 = eq["coef"]
+            .as_table()
+            .unwrap()
+            .values()
+            .map(|v| v.as_float().unwrap().abs())
+            .sum();
+        let bound = gain * 0.0159 + HALF_LSB_UM;
+        let sent = &t[&format!("{out}_sent")];
+        let want = &raw[&format!("{out}_pred")];
+        // Row r of the run is sample 60 r of the replay.
+        let worst = (0..want.len())
+            .filter(|&r| (flags[60 * r] as u16) & (1 << 5) == 0)
+            .map(|r| (sent[60 * r] - want[r]).abs())
+            .fold(0.0, f64::max);
+        assert!(worst <= bound, "{out}: {worst} > {bound}");
+    }
+}
+
+#[test]
+fn a_sensor_that_fails_mid_run_holds_then_ramps_to_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = build_model(dir.path());
+    // T5 lost from the 100th row (60 s rows) on: an empty cell is a sample
+    // with no reading, as when the converter stops answering.
+    let text = std::fs::read_to_string(RUN).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let t5 = header.split(',').position(|c| c == "T5").unwrap();
+    let mut out = vec![header.to_string()];
+    for (r, line) in lines.take(200).enumerate() {
+        let mut cells: Vec<&str> = line.split(',').collect();
+        if r >= 100 {
+            cells[t5] = "";
+        }
+        out.push(cells.join(","));
+    }
+    let run = write(dir.path(), "broken.csv", &(out.join("\n") + "\n"));
+    let (log, trace) = (dir.path().join("out.log"), dir.path().join("trace.csv"));
+    ok(&[
+        "replay",
+        "--model",
+        &blob,
+        "--data",
+        &run,
+        "--candump",
+        p(&log),
+        "--trace",
+        p(&trace),
+    ]);
+    let t = read_csv(p(&trace));
+    let state = &t["state"];
+    // The last interpolated value sits at row 99 (sample 5940); samples
+    // after it read stale. Hold 60 s (60 samples), then ramp at 1 um/s.
+    let first_bad = state.iter().position(|s| *s != 1.0).unwrap();
+    assert_eq!(first_bad, 5941);
+    assert!(state[first_bad..first_bad + 60].iter().all(|s| *s == 2.0));
+    let held = t["ch3_um_sent"][first_bad - 1];
+    assert!(t["ch3_um_sent"][first_bad..first_bad + 60]
+        .iter()
+        .all(|v| *v == held));
+    assert_eq!(state[first_bad + 60], 3.0, "ramping after the hold time");
+    // |ch3| is about 10 um: at 1 um/s it reaches zero within ~10 s more.
+    let zeroed = state.iter().position(|s| *s == 4.0).unwrap();
+    let ramp_s = zeroed - (first_bad + 60);
+    assert!(
+        (ramp_s as f64 - held.abs()).abs() <= 1.0,
+        "ramp took {ramp_s} s for {held} um"
+    );
+    for out in ["ch1_um", "ch3_um", "ch5_um"] {
+        let v = &t[&format!("{out}_sent")];
+        assert!(v.iter().all(|x| x.is_finite()));
+        assert_eq!(*v.last().unwrap(), 0.0, "{out} at zero");
+        // Slew limit 2 um/s, ramp 1 um/s: never a bigger step (+ rounding).
+        assert!(v
+            .windows(2)
+            .all(|w| (w[1] - w[0]).abs() <= 2.0 + 0.1 + 1e-9));
+    }
+}
+
+#[test]
+fn a_corrupted_blob_runs_as_no_model_with_zero_offsets() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = build_model(dir.path());
+    let mut bytes = std::fs::read(&blob).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x40;
+    let bad = dir.path().join("bad.bin");
+    std::fs::write(&bad, &bytes).unwrap();
+    let log = dir.path().join("out.log");
+    let out = common::run(&[
+        "replay",
+        "--model",
+        p(&bad),
+        "--data",
+        RUN,
+        "--candump",
+        p(&log),
+        "--json",
+    ]);
+    assert!(out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("refuses"), "{err}");
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["runs"][0]["states"]["no_model"], j["runs"][0]["samples"]);
+    // Every OFFSETS frame carries zeros and state 0 (NoModel).
+    let text = std::fs::read_to_string(&log).unwrap();
+    let offsets: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.split_whitespace().nth(2))
+        .filter(|f| f.starts_with("181#"))
+        .collect();
+    assert!(!offsets.is_empty());
+    assert!(offsets
+        .iter()
+        .all(|f| f[4..16] == *"000000000000" && &f[16..18] == "00"));
+}

@@ -1,0 +1,183 @@
+#!/usr/bin/env python3
+"""Decode the hub's CAN frames with the DBC, or check the DBC.
+
+    scripts/check_dbc.py                      check the DBC (exit 1 on mismatch)
+    scripts/check_dbc.py 181#0A00F6FF7B000105 ...   decode frames given as ID#HEX
+    scripts/check_dbc.py run.log              decode a candump log
+                                              ("(1700000000.000000) can0 181#0102...")
+    scripts/check_dbc.py run.log --against trace.csv
+                                              decode a `thermcomp replay` log and check
+                                              every HUB_OFFSETS against the replay's
+                                              --trace (exit 1 on any difference)
+
+Without arguments it checks, with cantools (requirements.txt):
+  1. hand-written vectors below (known physical values -> bytes worked out
+     from docs/wire-format.md): cantools must encode the values to exactly
+     those bytes and decode the bytes back to the values;
+  2. firmware/tests/data/can_vectors.json, which the firmware's Rust test
+     (`can_frames::tests::shared_vectors_match_the_encoder`) proves equal to
+     what the Rust encoder sends: cantools must decode every vector's bytes
+     to its signal values (within half a bit) and re-encode them to the same
+     bytes. Together: the Rust encoder and the DBC agree.
+"""
+import json
+import math
+import re
+import sys
+from pathlib import Path
+
+import cantools
+
+ROOT = Path(__file__).resolve().parent.parent
+DBC = ROOT / "firmware" / "thermcomp.dbc"
+VECTORS = ROOT / "firmware" / "tests" / "data" / "can_vectors.json"
+
+# (frame id, data hex, signals): written from the spec, independent of Rust.
+HAND_VECTORS = [
+    # dx = +1.0 um, dy = -1.0 um, dz = +12.3 um, Running, counter 5
+    (0x181, "0A00F6FF7B000105",
+     {"OffsetOut1": 1.0, "OffsetOut2": -1.0, "OffsetOut3": 12.3, "HubState": 1, "Counter": 5}),
+    # +500 um clamp value, Holding, counter 255
+    (0x181, "881300000000 02FF".replace(" ", ""),
+     {"OffsetOut1": 500.0, "OffsetOut2": 0.0, "OffsetOut3": 0.0, "HubState": 2, "Counter": 255}),
+    # SENSOR_FAULT | NO_MODEL, channels 0 and 23 faulty, 24 inputs, 4 outputs
+    (0x281, "4100010080981E09",
+     {"SensorFault": 1, "SpikeRejected": 0, "Stale": 0, "ModelFault": 0, "Clamped": 0,
+      "SlewLimited": 0, "NoModel": 1, "Uploading": 0, "FaultyChannels": 0x800001,
+      "InputCount": 24, "OutputCount": 4, "ConsecutiveFaults": 30, "Counter": 9}),
+    # 4th output -0.1 um
+    (0x381, "FFFF000000000100", {"OffsetOut4": -0.1, "HubState": 1, "Counter": 0}),
+    # slope 1 um/m = 1000 counts, reference 100 mm, output 2
+    (0x481, "E803000064000203", {"Slope": 1.0, "ReferencePos": 100, "SlopeOutput": 2, "Counter": 3}),
+    (0x701, "05", {"NmtState": 5}),
+]
+
+
+def half_bit(db, frame_id, name):
+    sig = db.get_message_by_frame_id(frame_id).get_signal_by_name(name)
+    return abs(sig.scale) / 2 + 1e-9
+
+
+def check_vector(db, frame_id, data_hex, signals, label):
+    """Returns a list of mismatch descriptions (empty when the DBC agrees)."""
+    errors = []
+    data = bytes.fromhex(data_hex)
+    msg = db.get_message_by_frame_id(frame_id)
+    decoded = msg.decode(data, decode_choices=False, scaling=True)
+    if set(decoded) != set(signals):
+        errors.append(f"{label}: signals {sorted(decoded)} != {sorted(signals)}")
+        return errors
+    for name, want in signals.items():
+        if abs(decoded[name] - want) > half_bit(db, frame_id, name):
+            errors.append(f"{label}: {name} decodes to {decoded[name]}, expected {want}")
+    encoded = msg.encode(signals, scaling=True, strict=False, padding=False)
+    if encoded != data:
+        errors.append(f"{label}: cantools encodes {encoded.hex().upper()}, expected {data_hex}")
+    return errors
+
+
+def check(db):
+    errors = []
+    for i, (fid, hexdata, sigs) in enumerate(HAND_VECTORS):
+        errors += check_vector(db, fid, hexdata, sigs, f"hand vector {i} ({fid:03X}#{hexdata})")
+    if not VECTORS.exists():
+        errors.append(f"{VECTORS} missing: run `cargo test -p firmware --lib` with UPDATE_CAN_VECTORS=1")
+        shared = []
+    else:
+        shared = json.loads(VECTORS.read_text())["vectors"]
+    for v in shared:
+        errors += check_vector(db, v["id"], v["data"], v["signals"], v["name"])
+    # Every frame in the DBC is covered by the shared vectors.
+    covered = {v["id"] for v in shared}
+    for m in db.messages:
+        if m.frame_id not in covered:
+            errors.append(f"{m.name} ({m.frame_id:#x}) has no shared vector")
+    for e in errors:
+        print("MISMATCH", e, file=sys.stderr)
+    n = len(HAND_VECTORS) + len(shared)
+    print(f"{DBC.name}: {len(db.messages)} frames, {n} vectors, "
+          f"{'OK' if not errors else str(len(errors)) + ' mismatches'}")
+    return 0 if not errors else 1
+
+
+FRAME_RE = re.compile(r"^(?:\((?P<t>[0-9.]+)\)\s+\S+\s+)?(?P<id>[0-9A-Fa-f]{1,3})#(?P<data>[0-9A-Fa-f]*)$")
+
+
+def decode_line(db, line):
+    m = FRAME_RE.match(line.strip())
+    if not m:
+        raise ValueError(f"not a frame: {line.strip()!r}")
+    fid, data = int(m["id"], 16), bytes.fromhex(m["data"])
+    stamp = f"({m['t']}) " if m["t"] else ""
+    try:
+        msg = db.get_message_by_frame_id(fid)
+    except KeyError:
+        return f"{stamp}{fid:03X} unknown frame"
+    sigs = msg.decode(data, decode_choices=True)
+    body = " ".join(f"{k}={v}" for k, v in sigs.items())
+    return f"{stamp}{msg.name} {body}"
+
+
+def against(db, log, trace):
+    """Every HUB_OFFSETS frame of `log`, decoded by cantools, equals the
+    offsets `thermcomp replay` recorded as sent at that time (its trace's
+    `<output>_sent` columns, model output order): the DBC reads the frames
+    as the hub meant them."""
+    import csv
+    with open(trace, newline="") as f:
+        rows = list(csv.DictReader(f))
+    sent_cols = [c for c in rows[0] if c.endswith("_sent")] if rows else []
+    want = {round(float(r["t_s"]), 6): [float(r[c]) for c in sent_cols] for r in rows}
+    n, worst, bad = 0, 0.0, []
+    for i, line in enumerate(Path(log).read_text().splitlines(), 1):
+        m = FRAME_RE.match(line.strip())
+        if not m:
+            bad.append(f"{log}:{i}: not a frame")
+            continue
+        msg = db.get_message_by_frame_id(int(m["id"], 16))
+        if msg.name != "HUB_OFFSETS":
+            msg.decode(bytes.fromhex(m["data"]))  # every frame must decode
+            continue
+        sig = msg.decode(bytes.fromhex(m["data"]))
+        got = [sig[f"OffsetOut{k + 1}"] for k in range(min(3, len(sent_cols)))]
+        exp = want.get(round(float(m["t"]), 6))
+        if exp is None:
+            bad.append(f"{log}:{i}: no trace row at t = {m['t']}")
+            continue
+        n += 1
+        for g, e in zip(got, exp):
+            worst = max(worst, abs(g - e))
+    if worst > 1e-9:
+        bad.append(f"largest difference {worst} um")
+    print(f"{log}: {n} HUB_OFFSETS frames decoded by cantools {cantools.__version__}; "
+          f"largest difference from the replay trace {worst:.2e} um: {'OK' if not bad else 'FAILED'}")
+    for b in bad[:10]:
+        print(b, file=sys.stderr)
+    return 0 if not bad else 1
+
+
+def main(argv):
+    db = cantools.database.load_file(str(DBC))
+    if not argv:
+        return check(db)
+    if len(argv) == 3 and argv[1] == "--against":
+        return against(db, argv[0], argv[2])
+    lines = []
+    for arg in argv:
+        p = Path(arg)
+        if "#" not in arg and p.exists():
+            lines += [(f"{arg}:{i}", l) for i, l in enumerate(p.read_text().splitlines(), 1) if l.strip()]
+        else:
+            lines.append(("argument", arg))
+    status = 0
+    for where, line in lines:
+        try:
+            print(decode_line(db, line))
+        except Exception as e:  # a bad line is reported, the rest still decode
+            print(f"{where}: {e}", file=sys.stderr)
+            status = 1
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
