@@ -6,6 +6,7 @@ pub mod dataset;
 pub mod distributions;
 pub mod eval;
 pub mod fit;
+pub mod hub;
 pub mod predict;
 pub mod refit;
 pub mod replay;

@@ -5,7 +5,7 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
-use host_tools::{blobfile, eval, fit, predict, refit, replay, select, show, spec};
+use host_tools::{blobfile, eval, fit, hub, predict, refit, replay, select, show, spec};
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -24,6 +24,10 @@ enum Command {
     /// Build or inspect model blobs.
     #[command(subcommand)]
     Model(ModelCommand),
+    /// Talk to the sensor hub over its serial link: upload a model, set the
+    /// tool length, ping, watch telemetry (docs/wire-format.md).
+    #[command(subcommand)]
+    Hub(hub::HubCommand),
     /// Write a model's predictions for run files, row for row.
     Predict(predict::PredictArgs),
     /// Score a model against the measured columns of run files.
@@ -118,6 +122,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::Hub(c) => hub::run(&c),
         Command::Predict(a) => predict::run(&a),
         Command::Eval(a) => eval::run(&a),
         Command::Fit(a) => fit::run(&a),
