@@ -15,5 +15,7 @@ pub mod runner;
 pub mod score;
 pub mod select;
 pub mod show;
+pub mod simulate;
 pub mod source;
 pub mod spec;
+pub mod twin;

@@ -5,7 +5,7 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
-use host_tools::{blobfile, eval, fit, hub, predict, refit, replay, select, show, spec};
+use host_tools::{blobfile, eval, fit, hub, predict, refit, replay, select, show, simulate, spec};
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -61,6 +61,10 @@ enum Command {
     /// maximal-tree clustering, the level by R^2, F test and collinearity.
     /// Formulas and rules: docs/select.md.
     Select(select::SelectArgs),
+    /// Run the thermal twin (a lumped model of a motorized spindle) and
+    /// write a run file; effects from CONTRACT.md section 3 can be switched
+    /// on (docs/twin.md).
+    Simulate(simulate::SimulateArgs),
 }
 
 #[derive(Subcommand)]
@@ -129,6 +133,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Refit(a) => refit::run(&a),
         Command::Select(a) => select::run(&a),
         Command::Replay(a) => replay::run(&a),
+        Command::Simulate(a) => simulate::run(&a),
     }
 }
 

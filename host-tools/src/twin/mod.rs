@@ -1,0 +1,20 @@
+//! The thermal twin: a lumped-parameter model of a motorized spindle on a
+//! machining centre that turns a speed profile into a run file (CONTRACT.md
+//! section 2) with temperatures, five-point probe readings and tool-tip
+//! displacements, with the unmodelled effects of section 3 switchable.
+//!
+//! One concept per module: [`machine`] (the machine file), [`network`] (the
+//! heat equations), [`integrate`] (exact zero-order-hold discretisation),
+//! [`expansion`] (temperatures to displacement), [`sensors`], [`profile`]
+//! (speed over time), [`effects`], [`rng`] (seeded noise) and [`sim`] (one
+//! run). Method and numbers: docs/twin.md.
+
+pub mod effects;
+pub mod expansion;
+pub mod integrate;
+pub mod machine;
+pub mod network;
+pub mod profile;
+pub mod rng;
+pub mod sensors;
+pub mod sim;
