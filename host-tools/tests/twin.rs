@@ -456,21 +456,41 @@ fn simulate_writes_a_run_that_fit_and_eval_take() {
     let blob = dir.path().join("m.bin");
     let run_s = run.to_str().unwrap();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args(["simulate", "--out", run_s, "--hours", "24", "--profile", "spectrum"])
+        .args([
+            "simulate",
+            "--out",
+            run_s,
+            "--hours",
+            "24",
+            "--profile",
+            "spectrum",
+        ])
         .args(["--seed", "1", "--dt-s", "10", "--json"])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(summary["rows"], 8641);
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_thermcomp"))
-        .args(["fit", "--data", run_s, "--target", "dz_um", "--model", "mlr"])
+        .args([
+            "fit", "--data", run_s, "--target", "dz_um", "--model", "mlr",
+        ])
         .args(["--holdout-from-s", "43200", "--json", "--out"])
         .arg(&blob)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let fit: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let red = fit["targets"]["dz_um"]["holdout"]["reduction_pct"].as_f64().unwrap();
+    let red = fit["targets"]["dz_um"]["holdout"]["reduction_pct"]
+        .as_f64()
+        .unwrap();
     assert!(red > 95.0, "held-out reduction {red} %");
 }
