@@ -3,6 +3,8 @@
 
 pub mod blobfile;
 pub mod dataset;
+pub mod demo;
+pub mod diagnose;
 pub mod distributions;
 pub mod eval;
 pub mod fit;

@@ -5,7 +5,9 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
-use host_tools::{blobfile, eval, fit, hub, predict, refit, replay, select, show, simulate, spec};
+use host_tools::{
+    blobfile, demo, diagnose, eval, fit, hub, predict, refit, replay, select, show, simulate, spec,
+};
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -21,6 +23,11 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The whole job, end to end, on the built-in default machine: simulate
+    /// calibration and validation runs, select sensors, fit and validate
+    /// every model kind, export the best, replay it through the firmware,
+    /// diagnose a sim-to-real gap (README, "Two commands").
+    Demo(demo::DemoArgs),
     /// Build or inspect model blobs.
     #[command(subcommand)]
     Model(ModelCommand),
@@ -65,6 +72,10 @@ enum Command {
     /// write a run file; effects from CONTRACT.md section 3 can be switched
     /// on (docs/twin.md).
     Simulate(simulate::SimulateArgs),
+    /// Diagnose the sim-to-real gap: where the residual real - sim sits
+    /// (regimes, frequency bands) and which unmodelled effect explains it,
+    /// judged on a held-out part of the run (docs/diagnose.md).
+    Diagnose(diagnose::DiagnoseArgs),
 }
 
 #[derive(Subcommand)]
@@ -126,6 +137,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::Demo(a) => demo::run(&a),
         Command::Hub(c) => hub::run(&c),
         Command::Predict(a) => predict::run(&a),
         Command::Eval(a) => eval::run(&a),
@@ -134,6 +146,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Select(a) => select::run(&a),
         Command::Replay(a) => replay::run(&a),
         Command::Simulate(a) => simulate::run(&a),
+        Command::Diagnose(a) => diagnose::run(&a),
     }
 }
 

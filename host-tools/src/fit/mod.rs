@@ -158,8 +158,25 @@ fn scores_text(scores: &[TargetScore]) -> String {
     s
 }
 
-/// Runs `thermcomp fit`.
-pub fn run(a: &FitArgs) -> Result<()> {
+/// What [`fit_files`] produced: the blob written and its figures.
+pub struct FitOutcome {
+    /// The model decoded back from the blob written (what is flashed).
+    pub model: ValidModel,
+    /// The blob's bytes, as written to `--out`.
+    pub bytes: Vec<u8>,
+    /// Calibration and held-out figures per target.
+    pub scores: Vec<TargetScore>,
+    /// The inputs the model reads, in order.
+    pub inputs: Vec<String>,
+    /// Calibration rows used.
+    pub calibration_rows: usize,
+    /// `fit --json`'s object.
+    pub json: Value,
+}
+
+/// Trains, writes the blob and scores it: everything `thermcomp fit` does
+/// but print. `thermcomp demo` calls it too.
+pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
     // Read only the columns the fit uses; the inputs default needs the header first.
     let header_only = ReadOptions {
         skip_bad_rows: true,
@@ -219,35 +236,46 @@ pub fn run(a: &FitArgs) -> Result<()> {
         .collect();
     let scores = score(&flashed, &split)?;
     let n_calib = ds.calibration_len();
+    let targets: Map<String, Value> = scores
+        .iter()
+        .map(|t| (t.output.clone(), t.json()))
+        .collect();
+    let json = json!({
+        "model": flashed.kind().name(),
+        "out": a.out.display().to_string(),
+        "bytes": bytes.len(),
+        "inputs": ds.inputs,
+        "reference": ds.form.name(),
+        "holdout_from_s": a.holdout_from_s,
+        "calibration_rows": n_calib,
+        "holdout_rows": ds.holdout_len(),
+        "targets": targets,
+        "details": fitted.details,
+    });
+    Ok(FitOutcome {
+        model: flashed,
+        bytes,
+        scores,
+        inputs: ds.inputs,
+        calibration_rows: n_calib,
+        json,
+    })
+}
+
+/// Runs `thermcomp fit`.
+pub fn run(a: &FitArgs) -> Result<()> {
+    let o = fit_files(a)?;
     if a.json {
-        let targets: Map<String, Value> = scores
-            .iter()
-            .map(|t| (t.output.clone(), t.json()))
-            .collect();
-        println!(
-            "{}",
-            json!({
-                "model": flashed.kind().name(),
-                "out": a.out.display().to_string(),
-                "bytes": bytes.len(),
-                "inputs": ds.inputs,
-                "reference": ds.form.name(),
-                "holdout_from_s": a.holdout_from_s,
-                "calibration_rows": n_calib,
-                "holdout_rows": ds.holdout_len(),
-                "targets": targets,
-                "details": fitted.details,
-            })
-        );
+        println!("{}", o.json);
     } else {
-        print!("{}", scores_text(&scores));
+        print!("{}", scores_text(&o.scores));
         eprintln!(
             "wrote {} ({} bytes, {} model on {} inputs, {} calibration rows)",
             a.out.display(),
-            bytes.len(),
-            flashed.kind().name(),
-            ds.inputs.len(),
-            n_calib
+            o.bytes.len(),
+            o.model.kind().name(),
+            o.inputs.len(),
+            o.calibration_rows
         );
     }
     Ok(())

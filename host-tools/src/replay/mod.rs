@@ -86,6 +86,36 @@ struct Tally {
 
 /// Runs `thermcomp replay`.
 pub fn run(a: &ReplayArgs) -> Result<()> {
+    let summary = replay_files(a)?;
+    if a.json {
+        println!("{summary}");
+    } else {
+        let runs = summary["runs"].as_array().map(Vec::as_slice).unwrap_or(&[]);
+        for r in runs {
+            let st = &r["states"];
+            println!(
+                "{}: {} samples, {} frames; running {}, holding {}, ramping {}, zeroed {}, no model {}",
+                r["run"].as_str().unwrap_or(""),
+                r["samples"],
+                r["frames"],
+                st["running"],
+                st["holding"],
+                st["ramping"],
+                st["zeroed"],
+                st["no_model"]
+            );
+        }
+        eprintln!("wrote {}", a.candump.display());
+    }
+    Ok(())
+}
+
+/// Replays every run and writes the candump log (and the trace): everything
+/// `thermcomp replay` does but print. Returns `replay --json`'s object:
+/// `model`, `candump`, `sample_period_s`, `outputs`, and per run `samples`,
+/// `frames`, `states` (samples per hub state), `sensor_fault_samples`,
+/// `stale_samples`, `max_abs_offset_um`. `thermcomp demo` calls it too.
+pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     let bytes =
         std::fs::read(&a.model).with_context(|| format!("cannot read {}", a.model.display()))?;
     let probe = Hub::load(&bytes);
@@ -162,27 +192,13 @@ pub fn run(a: &ReplayArgs) -> Result<()> {
             })
         })
         .collect();
-    if a.json {
-        println!(
-            "{}",
-            json!({
-                "model": a.model.display().to_string(),
-                "candump": a.candump.display().to_string(),
-                "sample_period_s": PipelineConfig::DEFAULT.sample_period_s(&probe),
-                "outputs": outputs,
-                "runs": summary,
-            })
-        );
-    } else {
-        for (name, t) in &per_run {
-            println!(
-                "{name}: {} samples, {} frames; running {}, holding {}, ramping {}, zeroed {}, no model {}",
-                t.samples, t.frames, t.states[1], t.states[2], t.states[3], t.states[4], t.states[0]
-            );
-        }
-        eprintln!("wrote {}", a.candump.display());
-    }
-    Ok(())
+    Ok(json!({
+        "model": a.model.display().to_string(),
+        "candump": a.candump.display().to_string(),
+        "sample_period_s": PipelineConfig::DEFAULT.sample_period_s(&probe),
+        "outputs": outputs,
+        "runs": summary,
+    }))
 }
 
 /// One run through a fresh hub (a run is a power cycle).

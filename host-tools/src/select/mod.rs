@@ -334,14 +334,7 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
 
 /// Runs `thermcomp select`.
 pub fn run(a: &SelectArgs) -> Result<()> {
-    a.check()?;
-    let (files, inputs) = read(a)?;
-    let names: Vec<&str> = inputs.iter().map(String::as_str).collect();
-    let out = match a.method {
-        Method::Grey => run_grey(a, &files, &names)?,
-        Method::Wgrey => run_wgrey(a, &files, &names)?,
-        Method::Maxtree => run_maxtree(a, &files, &names)?,
-    };
+    let out = select_files(a)?;
     if a.json {
         println!("{}", out.json);
     } else {
@@ -350,10 +343,25 @@ pub fn run(a: &SelectArgs) -> Result<()> {
     Ok(())
 }
 
+/// Checks the arguments, reads the runs and runs the method: everything
+/// `thermcomp select` does but print. `thermcomp demo` calls it too.
+pub fn select_files(a: &SelectArgs) -> Result<Output> {
+    a.check()?;
+    let (files, inputs) = read(a)?;
+    let names: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    match a.method {
+        Method::Grey => run_grey(a, &files, &names),
+        Method::Wgrey => run_wgrey(a, &files, &names),
+        Method::Maxtree => run_maxtree(a, &files, &names),
+    }
+}
+
 /// A method's result in both forms.
-struct Output {
-    json: Value,
-    text: String,
+pub struct Output {
+    /// `select --json`'s object (its `"selected"` lists the sensors picked).
+    pub json: Value,
+    /// The tables `select` prints without `--json`.
+    pub text: String,
 }
 
 /// The columns `names` plus `target`, on the rows where all have values.

@@ -1,0 +1,1005 @@
+//! `thermcomp demo`: the whole job, end to end, on the built-in default
+//! machine (CONTRACT.md section 1), with no arguments and in well under a
+//! minute.
+//!
+//! Six stages, each the library function behind a subcommand, so the demo
+//! shows exactly what those subcommands do (the JSON gives, per stage, the
+//! command line that repeats it on the files left in the output folder):
+//!
+//! 1. **simulate**: a calibration run (`spectrum`, seed 1) and a validation
+//!    run (`steps`, seed 2) of the nominal twin, 24 h at 30 s.
+//! 2. **select**: `maxtree` (seed 003) and `grey` (seed 000, `--scale
+//!    interval`, since dz starts at zero) on the calibration run for
+//!    `dz_um`; the model inputs are the union of both picks.
+//! 3. **fit**: mlr, pcr, arx, tf, bp, gabp (a small GA) and arma on the
+//!    calibration run, each scored on the validation run held out whole
+//!    (`fit --validate`). `arma` forecasts dz from its own measured past: it
+//!    is listed, labelled as such, and never chosen, since a machine without
+//!    a displacement probe cannot run it.
+//! 4. **export**: the kind with the best held-out reduction becomes
+//!    `model.bin`, described as `model show` does (`model.txt`).
+//! 5. **replay**: that blob through the hub's own firmware pipeline over the
+//!    validation run (candump log and trace); the offsets sent are compared
+//!    with the host's f64 model run on the very readings the hub took (the
+//!    firmware path against the host path: frames carry 0.1 um, so they
+//!    agree within half a step where no limiter acted), and with the model
+//!    run on the file (which adds the PT100/MAX31865 quantisation).
+//! 6. **diagnose**: a "real" run with an effect the twin leaves out
+//!    (`ambient`, seed 3) and a small parameter mismatch (front bearing
+//!    heat +5 %) against the nominal twin on the same profile; the verdict
+//!    should name the withheld effect.
+//!
+//! `--quick` shrinks every budget (12 h runs at 60 s, a tinier GA, shorter
+//! searches) so the test suite's unoptimised build finishes in reasonable
+//! time; the figures are then coarser.
+
+use crate::fit::{self, FitArgs, FitKind};
+use crate::replay::{self, ReplayArgs};
+use crate::runfile::{ReadOptions, RunFile};
+use crate::runner::{self, ColumnMap};
+use crate::select::{self, SelectArgs};
+use crate::simulate;
+use crate::twin::effects::{Effect, EffectSet};
+use crate::twin::machine::Machine;
+use crate::twin::profile::{self, Profile};
+use crate::twin::sim::SimOptions;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, FromArgMatches};
+use model_core::ValidModel;
+use serde_json::{json, Map, Value};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `thermcomp demo` (none needed).
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Folder for everything the demo writes (run files, model blobs,
+    /// candump log, diagnose report); created if missing, files in it
+    /// overwritten.
+    #[arg(long, default_value = "thermcomp-demo")]
+    pub out: PathBuf,
+    /// Print one JSON object with every stage's figures instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+    /// Small budgets (12 h runs at 60 s, a 6 x 3 GA, short ARX/TF/ARMA
+    /// searches): for unoptimised builds such as the test suite's. Coarser figures.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// The target every stage works on: axial growth, the largest thermal error.
+pub const TARGET: &str = "dz_um";
+
+/// The effect the "real" machine of stage 6 has and the twin leaves out.
+pub const WITHHELD_EFFECT: Effect = Effect::Ambient;
+
+/// The kinds stage 3 trains, in the order they are reported.
+const KINDS: [FitKind; 7] = [
+    FitKind::Mlr,
+    FitKind::Pcr,
+    FitKind::Arx,
+    FitKind::Tf,
+    FitKind::Bp,
+    FitKind::Gabp,
+    FitKind::Arma,
+];
+
+/// Run lengths, sample times and search budgets.
+struct Budget {
+    /// Length of every simulated run, h.
+    hours: f64,
+    /// Sample time of every simulated run, s.
+    dt_s: f64,
+    /// Extra `fit` arguments per kind (budgets).
+    fit_extra: fn(FitKind) -> &'static [&'static str],
+}
+
+impl Budget {
+    fn new(quick: bool) -> Budget {
+        if quick {
+            Budget {
+                hours: 12.0,
+                dt_s: 60.0,
+                fit_extra: |k| match k {
+                    FitKind::Arx | FitKind::Tf => &[
+                        "--lm-iterations",
+                        "15",
+                        "--backfit-rounds",
+                        "1",
+                        "--search-folds",
+                        "2",
+                    ],
+                    FitKind::Bp => &["--epochs", "60"],
+                    FitKind::Gabp => &[
+                        "--epochs",
+                        "60",
+                        "--ga-population",
+                        "6",
+                        "--ga-generations",
+                        "3",
+                        "--ga-hidden",
+                        "2..8",
+                        "--gd-epochs",
+                        "0",
+                    ],
+                    FitKind::Arma => &["--max-p", "2", "--max-q", "2", "--max-diff", "1"],
+                    _ => &[],
+                },
+            }
+        } else {
+            Budget {
+                // 24 h covers a day of spectrum segments and the whole steps
+                // test; 30 s resolves the fastest thermal time constant (the
+                // bearings', minutes) and keeps each run to 2 881 rows.
+                hours: 24.0,
+                dt_s: 30.0,
+                fit_extra: |k| match k {
+                    // A 12 x 6 GA: ~2 s in a release build (the default 40 x 30 is
+                    // ~15x that); no gradient-descent convergence comparison.
+                    FitKind::Gabp => &[
+                        "--ga-population",
+                        "12",
+                        "--ga-generations",
+                        "6",
+                        "--gd-epochs",
+                        "0",
+                    ],
+                    _ => &[],
+                },
+            }
+        }
+    }
+}
+
+/// Parses a subcommand's arguments as a user would type them, so the demo
+/// gets exactly the CLI's defaults.
+fn parse_args<A: Args + FromArgMatches>(name: &'static str, argv: &[String]) -> Result<A> {
+    let cmd = A::augment_args(clap::Command::new(name).no_binary_name(true));
+    let matches = cmd
+        .try_get_matches_from(argv)
+        .map_err(|e| anyhow!("demo: bad {name} arguments: {}", first_line(&e.to_string())))?;
+    A::from_arg_matches(&matches).map_err(|e| anyhow!("demo: {name}: {e}"))
+}
+
+fn first_line(s: &str) -> &str {
+    s.lines().next().unwrap_or("").trim_start_matches("error: ")
+}
+
+/// `thermcomp NAME ARGS..` as a shell line (paths quoted only if needed).
+fn command_line(name: &str, argv: &[String]) -> String {
+    let mut s = format!("thermcomp {name}");
+    for a in argv {
+        if a.is_empty() || a.contains(|c: char| c.is_whitespace() || "'\"$\\".contains(c)) {
+            let _ = write!(s, " '{}'", a.replace('\'', "'\\''"));
+        } else {
+            let _ = write!(s, " {a}");
+        }
+    }
+    s
+}
+
+fn path_arg(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// Stage headers and timings on stderr.
+struct Progress {
+    started: Instant,
+    stage_started: Instant,
+}
+
+impl Progress {
+    const STAGES: usize = 6;
+
+    fn new() -> Progress {
+        Progress {
+            started: Instant::now(),
+            stage_started: Instant::now(),
+        }
+    }
+
+    fn begin(&mut self, n: usize, what: &str) {
+        self.stage_started = Instant::now();
+        eprintln!("[{n}/{}] {what}", Self::STAGES);
+    }
+
+    /// Ends a stage with its key figures; returns its time, s.
+    fn end(&self, figures: &str) -> f64 {
+        let s = self.stage_started.elapsed().as_secs_f64();
+        eprintln!("      {figures} ({s:.1} s)");
+        s
+    }
+}
+
+/// Runs `thermcomp demo`.
+pub fn run(a: &DemoArgs) -> Result<()> {
+    let out = demo(a)?;
+    if a.json {
+        println!("{out}");
+    } else {
+        print!("{}", summary_text(&out));
+    }
+    Ok(())
+}
+
+/// Runs every stage, writes everything to `a.out`, and returns `demo
+/// --json`'s object.
+pub fn demo(a: &DemoArgs) -> Result<Value> {
+    let budget = Budget::new(a.quick);
+    let dir = &a.out;
+    std::fs::create_dir_all(dir.join("models"))
+        .and_then(|()| std::fs::create_dir_all(dir.join("diagnose")))
+        .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
+    let shown = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.clone());
+    eprintln!(
+        "thermcomp demo: the whole job on the built-in default machine{}; writing to {}",
+        if a.quick { " (--quick budgets)" } else { "" },
+        shown.display()
+    );
+    let mut p = Progress::new();
+    let machine = Machine::default_machine();
+
+    // 1. Simulate.
+    p.begin(
+        1,
+        &format!(
+            "simulate: calibration (spectrum, seed 1) and validation (steps, seed 2) runs, {} h at {} s",
+            budget.hours, budget.dt_s
+        ),
+    );
+    let cal = dir.join("calibration.csv");
+    let val = dir.join("validation.csv");
+    let cal_run = simulate_run(
+        &machine,
+        &Profile::Spectrum,
+        &budget,
+        1,
+        EffectSet::none(),
+        &cal,
+    )?;
+    let val_run = simulate_run(
+        &machine,
+        &Profile::Steps,
+        &budget,
+        2,
+        EffectSet::none(),
+        &val,
+    )?;
+    let t = p.end(&format!(
+        "{} rows each; max |dz| {:.1} um (calibration), {:.1} um (validation)",
+        cal_run["rows"],
+        num(&cal_run["max_abs_dz_um"]),
+        num(&val_run["max_abs_dz_um"])
+    ));
+    let simulate_json = json!({
+        "machine": machine.name,
+        "calibration": cal_run,
+        "validation": val_run,
+        "elapsed_s": t,
+    });
+
+    // 2. Select.
+    p.begin(
+        2,
+        &format!("select: maxtree and grey on the calibration run for {TARGET}"),
+    );
+    let mut picks = Map::new();
+    let mut commands = Vec::new();
+    let mut selected: Vec<String> = Vec::new();
+    for (method, extra) in [("maxtree", &[][..]), ("grey", &["--scale", "interval"][..])] {
+        let mut argv = vec![
+            "--data".to_string(),
+            path_arg(&cal),
+            "--target".into(),
+            TARGET.into(),
+            "--method".into(),
+            method.into(),
+        ];
+        argv.extend(extra.iter().map(|s| s.to_string()));
+        let args: SelectArgs = parse_args("select", &argv)?;
+        let o = select::select_files(&args).with_context(|| format!("demo: select {method}"))?;
+        let pick: Vec<String> = o.json["selected"]
+            .as_array()
+            .ok_or_else(|| anyhow!("demo: select {method} returned no \"selected\""))?
+            .iter()
+            .filter_map(|v| v.as_str().map(str::to_string))
+            .collect();
+        for s in &pick {
+            if !selected.contains(s) {
+                selected.push(s.clone());
+            }
+        }
+        picks.insert(method.into(), json!(pick));
+        commands.push(command_line("select", &argv));
+    }
+    if selected.is_empty() {
+        bail!("demo: select picked no sensors");
+    }
+    // File order (T1, T2, ...), as a user would list them.
+    selected.sort_by_key(|s| s[1..].parse::<u32>().unwrap_or(u32::MAX));
+    let t = p.end(&format!(
+        "maxtree {}, grey {}: inputs {}",
+        list_of(&picks["maxtree"]),
+        list_of(&picks["grey"]),
+        selected.join(",")
+    ));
+    let select_json = json!({
+        "target": TARGET,
+        "methods": picks,
+        "selected": selected,
+        "commands": commands,
+        "elapsed_s": t,
+    });
+
+    // 3. Fit and validate.
+    let names: Vec<&str> = KINDS.iter().map(|k| kind_name(*k)).collect();
+    p.begin(
+        3,
+        &format!(
+            "fit: {} on the calibration run, scored on the validation run",
+            names.join(", ")
+        ),
+    );
+    let bar = crate::fit::arx::progress(KINDS.len(), "fit");
+    let mut models = Vec::new();
+    let mut fitted: Vec<(FitKind, ValidModel, PathBuf)> = Vec::new();
+    for kind in KINDS {
+        let name = kind_name(kind);
+        bar.set_message(format!("fit {name}"));
+        let blob = dir.join("models").join(format!("{name}.bin"));
+        let mut argv = vec![
+            "--data".to_string(),
+            path_arg(&cal),
+            "--validate".into(),
+            path_arg(&val),
+            "--target".into(),
+            TARGET.into(),
+            "--model".into(),
+            name.into(),
+            "--out".into(),
+            path_arg(&blob),
+        ];
+        if kind != FitKind::Arma {
+            argv.push("--inputs".into());
+            argv.push(selected.join(","));
+        }
+        argv.extend((budget.fit_extra)(kind).iter().map(|s| s.to_string()));
+        let args: FitArgs = parse_args("fit", &argv)?;
+        let started = Instant::now();
+        let o = fit::fit_files(&args).with_context(|| format!("demo: fit {name}"))?;
+        let elapsed = started.elapsed().as_secs_f64();
+        let target = &o.json["targets"][TARGET];
+        let (cal_m, val_m) = (&target["calibration"], &target["holdout"]);
+        if !val_m.is_object() {
+            bail!("demo: fit {name}: no held-out figures");
+        }
+        let forecaster = kind == FitKind::Arma;
+        models.push(json!({
+            "kind": name,
+            "label": if forecaster {
+                "forecaster: one step ahead from the measured dz_um itself (needs a displacement probe on the machine)"
+            } else {
+                "compensation model: dz_um from temperatures"
+            },
+            "forecaster": forecaster,
+            "inputs": o.inputs,
+            "blob": path_arg(&blob),
+            "bytes": o.bytes.len(),
+            "calibration": pick_metrics(cal_m),
+            "validation": pick_metrics(val_m),
+            "elapsed_s": elapsed,
+            "command": command_line("fit", &argv),
+        }));
+        fitted.push((kind, o.model, blob));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let best = models
+        .iter()
+        .filter(|m| m["forecaster"] == json!(false))
+        .max_by(|x, y| {
+            let r = |m: &Value| {
+                m["validation"]["reduction_pct"]
+                    .as_f64()
+                    .unwrap_or(f64::MIN)
+            };
+            r(x).total_cmp(&r(y))
+        })
+        .ok_or_else(|| anyhow!("demo: no model fitted"))?;
+    let best_kind = best["kind"].as_str().unwrap_or("").to_string();
+    let best_reduction = num(&best["validation"]["reduction_pct"]);
+    let t = p.end(&format!(
+        "best on validation: {best_kind}, reduction {best_reduction:.1} %, rmse {:.2} um",
+        num(&best["validation"]["rmse_um"])
+    ));
+    let fit_json = json!({
+        "target": TARGET,
+        "inputs": selected,
+        "models": models,
+        "best": best_kind,
+        "elapsed_s": t,
+    });
+
+    // 4. Export the best blob.
+    p.begin(
+        4,
+        &format!("export: {best_kind} (best held-out reduction, arma excluded) to model.bin"),
+    );
+    let (_, best_model, best_blob) = fitted
+        .iter()
+        .find(|(k, _, _)| kind_name(*k) == best_kind)
+        .ok_or_else(|| anyhow!("demo: lost the {best_kind} blob"))?;
+    let model_bin = dir.join("model.bin");
+    let bytes =
+        std::fs::read(best_blob).with_context(|| format!("cannot read {}", best_blob.display()))?;
+    std::fs::write(&model_bin, &bytes)
+        .with_context(|| format!("cannot write {}", model_bin.display()))?;
+    let described = crate::show::describe_json(best_model, &bytes);
+    let model_txt = dir.join("model.txt");
+    std::fs::write(
+        &model_txt,
+        crate::show::describe_text(&model_bin, best_model, &bytes),
+    )
+    .with_context(|| format!("cannot write {}", model_txt.display()))?;
+    let t = p.end(&format!(
+        "{} bytes, {} model, format v{}, CRC {}, dt {} s, inputs {}",
+        bytes.len(),
+        described["kind"].as_str().unwrap_or("?"),
+        described["format_version"],
+        described["crc32"].as_str().unwrap_or("?"),
+        described["dt_s"],
+        input_names(&described).join(",")
+    ));
+    let export_json = json!({
+        "kind": best_kind,
+        "model": path_arg(&model_bin),
+        "show": path_arg(&model_txt),
+        "blob_kind": described["kind"],
+        "bytes": bytes.len(),
+        "format_version": described["format_version"],
+        "crc32": described["crc32"],
+        "dt_s": described["dt_s"],
+        "inputs": input_names(&described),
+        "outputs": described["outputs"],
+        "command": command_line("model show", &["--model".into(), path_arg(&model_bin)]),
+        "elapsed_s": t,
+    });
+
+    // 5. Replay through the firmware.
+    p.begin(
+        5,
+        "replay: model.bin through the hub's firmware pipeline over the validation run",
+    );
+    let candump = dir.join("replay.log");
+    let trace = dir.join("replay-trace.csv");
+    let argv = vec![
+        "--model".to_string(),
+        path_arg(&model_bin),
+        "--data".into(),
+        path_arg(&val),
+        "--candump".into(),
+        path_arg(&candump),
+        "--trace".into(),
+        path_arg(&trace),
+    ];
+    let args: ReplayArgs = parse_args("replay", &argv)?;
+    let summary = replay::replay_files(&args).context("demo: replay")?;
+    let run0 = summary["runs"]
+        .get(0)
+        .ok_or_else(|| anyhow!("demo: replay reported no run"))?;
+    let agreement = replay_agreement(best_model, &trace, &val)?;
+    let t = p.end(&format!(
+        "{} frames over {} samples; running {} of {}; max |sent - model| {:.3} um on the hub's readings ({} of {} samples, no limiter), {:.3} um on the file",
+        run0["frames"],
+        run0["samples"],
+        run0["states"]["running"],
+        run0["samples"],
+        agreement.max_on_readings_um,
+        agreement.compared,
+        agreement.samples,
+        agreement.max_on_file_um
+    ));
+    let replay_json = json!({
+        "model": path_arg(&model_bin),
+        "candump": path_arg(&candump),
+        "trace": path_arg(&trace),
+        "sample_period_s": summary["sample_period_s"],
+        "samples": run0["samples"],
+        "frames": run0["frames"],
+        "states": run0["states"],
+        "sensor_fault_samples": run0["sensor_fault_samples"],
+        "stale_samples": run0["stale_samples"],
+        "max_abs_offset_um": run0["max_abs_offset_um"][TARGET],
+        "limited_samples": agreement.limited,
+        "compared_samples": agreement.compared,
+        "max_abs_sent_minus_model_um": agreement.max_on_readings_um,
+        "max_abs_sent_minus_model_on_file_um": agreement.max_on_file_um,
+        "frame_half_step_um": FRAME_HALF_STEP_UM,
+        "command": command_line("replay", &argv),
+        "elapsed_s": t,
+    });
+
+    // 6. Diagnose a sim-to-real gap.
+    let withheld = WITHHELD_EFFECT.name();
+    p.begin(
+        6,
+        &format!(
+            "diagnose: \"real\" = default machine + {withheld} (withheld) + front bearing heat +{:.0} %, \"sim\" = nominal twin, same spectrum (seed 3)",
+            (MISMATCH_FRONT_BEARING - 1.0) * 100.0
+        ),
+    );
+    let ddir = dir.join("diagnose");
+    let sim_csv = ddir.join("sim.csv");
+    let real_csv = ddir.join("real.csv");
+    let report = ddir.join("report");
+    let schedule = profile::schedule(
+        &Profile::Spectrum,
+        machine.max_rpm,
+        Some(budget.hours),
+        budget.dt_s,
+        3,
+    )?;
+    let mut real_machine = machine.clone();
+    real_machine.heat.front_bearing_w_at_ref *= MISMATCH_FRONT_BEARING;
+    let real_opts = SimOptions {
+        effects: EffectSet::none().with(WITHHELD_EFFECT),
+        seed: 3,
+        sensors: None,
+    };
+    // The twin's own noise is another draw than the "measurement"'s.
+    let sim_opts = SimOptions {
+        effects: EffectSet::none(),
+        seed: 103,
+        sensors: None,
+    };
+    let (real_sum, _) = simulate::write_run(&real_machine, &schedule, &real_opts, &real_csv)?;
+    let (sim_sum, _) = simulate::write_run(&machine, &schedule, &sim_opts, &sim_csv)?;
+    let diag = diagnose_call(&sim_csv, &real_csv, None, Some(&report)).context("demo: diagnose")?;
+    let mut diagnose_json = json!({
+        "withheld": withheld,
+        "mismatch": {"front_bearing_w_at_ref_factor": MISMATCH_FRONT_BEARING},
+        "profile": "spectrum",
+        "seed": 3,
+        "sim": path_arg(&sim_csv),
+        "real": path_arg(&real_csv),
+        "max_abs_dz_um": {"sim": sim_sum.max_abs_dz_um, "real": real_sum.max_abs_dz_um},
+        "command": command_line(
+            "diagnose",
+            &["--sim".into(), path_arg(&sim_csv), "--real".into(), path_arg(&real_csv),
+              "--report".into(), path_arg(&report), "--json".into()],
+        ),
+    });
+    let verdict = diag["verdict"].as_str().unwrap_or("?").to_string();
+    let top = diag["effects"].get(0).cloned().unwrap_or(Value::Null);
+    let found = verdict == withheld;
+    merge(
+        &mut diagnose_json,
+        json!({
+            "report": path_arg(&report),
+            "verdict": verdict,
+            "found_withheld": found,
+            "best_effect": top["name"],
+            "best_shrink_pct": top["shrink_pct"],
+            "rms_before_um": top["rms_before"],
+            "rms_after_um": top["rms_after"],
+            "holdout_from_t_s": diag["holdout_from_t_s"],
+            "gap_dz_rms_um": diag["gap"][TARGET]["rms"],
+            "result": diag,
+        }),
+    );
+    let figures = format!(
+        "verdict {verdict} ({}); best {} shrinks the held-out dz gap {:.1} % ({:.2} -> {:.2} um rms)",
+        if found {
+            "the withheld effect: found"
+        } else {
+            "not the withheld effect"
+        },
+        top["name"].as_str().unwrap_or("?"),
+        num(&top["shrink_pct"]),
+        num(&top["rms_before"]),
+        num(&top["rms_after"])
+    );
+    let t = p.end(&figures);
+    merge(&mut diagnose_json, json!({"elapsed_s": t}));
+
+    // Everything written.
+    // What this run wrote (not whatever else the folder holds): the known
+    // files, and whatever diagnose put in its report folder.
+    let mut files: Vec<String> = [
+        &cal, &val, &model_bin, &model_txt, &candump, &trace, &sim_csv, &real_csv,
+    ]
+    .into_iter()
+    .cloned()
+    .chain(fitted.iter().map(|(_, _, b)| b.clone()))
+    .map(|f| f.strip_prefix(dir).unwrap_or(&f).display().to_string())
+    .collect();
+    if report.is_dir() {
+        list_files(dir, &report, &mut files)?;
+    }
+    files.sort();
+    let elapsed_s = p.started.elapsed().as_secs_f64();
+    eprintln!(
+        "done in {elapsed_s:.1} s: {} files in {}",
+        files.len(),
+        shown.display()
+    );
+    Ok(json!({
+        "out": path_arg(dir),
+        "quick": a.quick,
+        "hours": budget.hours,
+        "dt_s": budget.dt_s,
+        "target": TARGET,
+        "simulate": simulate_json,
+        "select": select_json,
+        "fit": fit_json,
+        "export": export_json,
+        "replay": replay_json,
+        "diagnose": diagnose_json,
+        "files": files,
+        "elapsed_s": elapsed_s,
+    }))
+}
+
+/// The "real" machine's front bearing makes this much more heat than the
+/// twin's nominal value: a 5 % error, well inside what a bearing-loss
+/// estimate (Palmgren's moment, preload) gets right.
+const MISMATCH_FRONT_BEARING: f64 = 1.05;
+
+/// Half the resolution of an offset in a CAN frame (0.1 um, docs/wire-format.md).
+pub const FRAME_HALF_STEP_UM: f64 = 0.05;
+
+/// The call into `diagnose` (CONTRACT.md's diagnose JSON), kept behind one
+/// small function so the demo depends on nothing else of that module.
+fn diagnose_call(
+    sim: &Path,
+    real: &Path,
+    holdout_from_s: Option<f64>,
+    report: Option<&Path>,
+) -> Result<Value> {
+    crate::diagnose::diagnose_files(sim, real, holdout_from_s, report)
+}
+
+/// One simulated run written to `out`; its figures.
+fn simulate_run(
+    machine: &Machine,
+    profile: &Profile,
+    budget: &Budget,
+    seed: u64,
+    effects: EffectSet,
+    out: &Path,
+) -> Result<Value> {
+    let schedule = profile::schedule(
+        profile,
+        machine.max_rpm,
+        Some(budget.hours),
+        budget.dt_s,
+        seed,
+    )?;
+    let opts = SimOptions {
+        effects,
+        seed,
+        sensors: None,
+    };
+    let (s, n_sensors) = simulate::write_run(machine, &schedule, &opts, out)?;
+    Ok(json!({
+        "file": path_arg(out),
+        "profile": profile.label(),
+        "seed": seed,
+        "hours": budget.hours,
+        "dt_s": budget.dt_s,
+        "rows": s.rows,
+        "sensors": n_sensors,
+        "max_abs_dz_um": s.max_abs_dz_um,
+        "max_rise_c": s.max_rise_c.0,
+        "command": format!(
+            "thermcomp simulate --out {} --hours {} --profile {} --seed {seed} --dt-s {}",
+            out.display(), budget.hours, profile.label(), budget.dt_s
+        ),
+    }))
+}
+
+/// How the offsets the hub sent compare with the host's model.
+struct Agreement {
+    /// Samples replayed.
+    samples: usize,
+    /// Samples where a limiter, spike filter or fault acted (flags set) or
+    /// the hub was not running: left out of the comparison.
+    limited: usize,
+    /// Samples compared.
+    compared: usize,
+    /// max |sent - model| with the model run on the hub's own readings, um.
+    max_on_readings_um: f64,
+    /// max |sent - model| with the model run on the run file, um.
+    max_on_file_um: f64,
+}
+
+/// Compares the trace's `<target>_sent` with the host model, run once on
+/// the inputs as the hub read them (the trace's columns) and once on the
+/// run file (matched by time).
+fn replay_agreement(model: &ValidModel, trace: &Path, data: &Path) -> Result<Agreement> {
+    let all = ReadOptions {
+        skip_bad_rows: false,
+        only: None,
+    };
+    let tr = RunFile::read(trace, &all)?;
+    let sent_col = format!("{TARGET}_sent");
+    let sent = tr
+        .column(&sent_col)
+        .ok_or_else(|| anyhow!("{}: no column {sent_col}", trace.display()))?;
+    let state = tr
+        .column("state")
+        .ok_or_else(|| anyhow!("{}: no column state", trace.display()))?;
+    let flags = tr
+        .column("flags")
+        .ok_or_else(|| anyhow!("{}: no column flags", trace.display()))?;
+    let k = model
+        .outputs()
+        .iter()
+        .position(|o| o.as_str() == TARGET)
+        .ok_or_else(|| anyhow!("the model has no output {TARGET}"))?;
+    let map = ColumnMap::default();
+    let on_readings = runner::predict(model, &tr, &map)?;
+    let file = RunFile::read(data, &all)?;
+    let on_file = runner::predict(model, &file, &map)?;
+    let running = f64::from(firmware::report::HubState::Running.code());
+    let mut a = Agreement {
+        samples: tr.len(),
+        limited: 0,
+        compared: 0,
+        max_on_readings_um: 0.0,
+        max_on_file_um: 0.0,
+    };
+    let mut j = 0;
+    for row in 0..tr.len() {
+        let (Some(s), Some(st), Some(fl)) = (sent[row], state[row], flags[row]) else {
+            a.limited += 1;
+            continue;
+        };
+        if st != running || fl != 0.0 {
+            a.limited += 1;
+            continue;
+        }
+        let Some(yhat) = on_readings.values[k][row] else {
+            continue;
+        };
+        a.compared += 1;
+        a.max_on_readings_um = a.max_on_readings_um.max((s - yhat).abs());
+        // The hub's grid may be finer than the file's: compare where the times meet.
+        let t = tr.t_s[row];
+        while j + 1 < file.t_s.len() && file.t_s[j] < t - 1e-6 {
+            j += 1;
+        }
+        if (file.t_s[j] - t).abs() <= 1e-6 {
+            if let Some(y) = on_file.values[k][j] {
+                a.max_on_file_um = a.max_on_file_um.max((s - y).abs());
+            }
+        }
+    }
+    if a.compared == 0 {
+        bail!(
+            "{}: no sample where the hub ran unlimited: nothing to compare",
+            trace.display()
+        );
+    }
+    Ok(a)
+}
+
+fn kind_name(k: FitKind) -> &'static str {
+    match k {
+        FitKind::Mlr => "mlr",
+        FitKind::Pcr => "pcr",
+        FitKind::Arx => "arx",
+        FitKind::Tf => "tf",
+        FitKind::Gain => "gain",
+        FitKind::Bp => "bp",
+        FitKind::Gabp => "gabp",
+        FitKind::Arma => "arma",
+    }
+}
+
+/// The figures the summary needs from eval's metrics object.
+fn pick_metrics(m: &Value) -> Value {
+    let mut out = Map::new();
+    for key in [
+        "n",
+        "rmse_um",
+        "fit_pct",
+        "r2",
+        "max_abs_um",
+        "reduction_pct",
+    ] {
+        out.insert(key.into(), m[key].clone());
+    }
+    Value::Object(out)
+}
+
+fn num(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+fn list_of(v: &Value) -> String {
+    v.as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(Value::as_str)
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .unwrap_or_default()
+}
+
+fn input_names(described: &Value) -> Vec<String> {
+    described["inputs"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|i| i["name"].as_str().map(str::to_string))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn merge(into: &mut Value, from: Value) {
+    if let (Value::Object(a), Value::Object(b)) = (into, from) {
+        a.extend(b);
+    }
+}
+
+/// Every file under `dir`, relative to `root`.
+fn list_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
+    let entries =
+        std::fs::read_dir(dir).with_context(|| format!("cannot list {}", dir.display()))?;
+    for e in entries {
+        let path = e?.path();
+        if path.is_dir() {
+            list_files(root, &path, out)?;
+        } else {
+            let rel = path.strip_prefix(root).unwrap_or(&path);
+            out.push(rel.display().to_string());
+        }
+    }
+    Ok(())
+}
+
+/// The summary `demo` prints without `--json`.
+pub fn summary_text(d: &Value) -> String {
+    let mut s = String::new();
+    let sim = &d["simulate"];
+    let _ = writeln!(
+        s,
+        "thermcomp demo: built-in machine \"{}\", target {TARGET}, runs of {} h at {} s{}",
+        sim["machine"].as_str().unwrap_or("?"),
+        d["hours"],
+        d["dt_s"],
+        if d["quick"] == json!(true) {
+            " (--quick)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        s,
+        "1 simulate   calibration spectrum seed 1 (max |dz| {:.1} um), validation steps seed 2 (max |dz| {:.1} um)",
+        num(&sim["calibration"]["max_abs_dz_um"]),
+        num(&sim["validation"]["max_abs_dz_um"])
+    );
+    let sel = &d["select"];
+    let _ = writeln!(
+        s,
+        "2 select     maxtree {}, grey {} -> inputs {}",
+        list_of(&sel["methods"]["maxtree"]),
+        list_of(&sel["methods"]["grey"]),
+        list_of(&sel["selected"])
+    );
+    let _ = writeln!(
+        s,
+        "3 fit        held-out on the validation run:\n  {:<6} {:>9} {:>9} {:>10} {:>10}",
+        "kind", "rmse_um", "fit_%", "max|r|_um", "reduce_%"
+    );
+    let best = d["fit"]["best"].as_str().unwrap_or("");
+    for m in d["fit"]["models"]
+        .as_array()
+        .map(Vec::as_slice)
+        .unwrap_or(&[])
+    {
+        let v = &m["validation"];
+        let kind = m["kind"].as_str().unwrap_or("?");
+        let note = if m["forecaster"] == json!(true) {
+            "  forecaster: needs the measured dz_um, not a compensation model"
+        } else if kind == best {
+            "  <- best"
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            s,
+            "  {:<6} {:>9.3} {:>9.2} {:>10.3} {:>10.2}{note}",
+            kind,
+            num(&v["rmse_um"]),
+            num(&v["fit_pct"]),
+            num(&v["max_abs_um"]),
+            num(&v["reduction_pct"])
+        );
+    }
+    let ex = &d["export"];
+    let _ = writeln!(
+        s,
+        "4 export     model.bin: the {} fit (a {} blob), {} bytes, CRC {}, inputs {}",
+        ex["kind"].as_str().unwrap_or("?"),
+        ex["blob_kind"].as_str().unwrap_or("?"),
+        ex["bytes"],
+        ex["crc32"].as_str().unwrap_or("?"),
+        list_of(&ex["inputs"])
+    );
+    let r = &d["replay"];
+    let st = &r["states"];
+    let _ = writeln!(
+        s,
+        "5 replay     {} frames over {} samples every {} s (running {}, holding {}, ramping {}, zeroed {})",
+        r["frames"],
+        r["samples"],
+        r["sample_period_s"],
+        st["running"],
+        st["holding"],
+        st["ramping"],
+        st["zeroed"]
+    );
+    let _ = writeln!(
+        s,
+        "             max |sent - model| {:.3} um on the hub's readings ({} samples without a limiter; frames carry 0.1 um), \
+         {:.3} um on the logged temperatures (adds PT100 quantisation)",
+        num(&r["max_abs_sent_minus_model_um"]),
+        r["compared_samples"],
+        num(&r["max_abs_sent_minus_model_on_file_um"])
+    );
+    let g = &d["diagnose"];
+    let _ = writeln!(
+        s,
+        "6 diagnose   withheld {}: verdict {} ({}), best {} shrinks the held-out gap {:.1} % ({:.2} -> {:.2} um rms)",
+        g["withheld"].as_str().unwrap_or("?"),
+        g["verdict"].as_str().unwrap_or("?"),
+        if g["found_withheld"] == json!(true) {
+            "found"
+        } else {
+            "missed"
+        },
+        g["best_effect"].as_str().unwrap_or("?"),
+        num(&g["best_shrink_pct"]),
+        num(&g["rms_before_um"]),
+        num(&g["rms_after_um"])
+    );
+    let _ = writeln!(
+        s,
+        "{} files in {} ({:.1} s); --json for every figure",
+        d["files"].as_array().map_or(0, Vec::len),
+        d["out"].as_str().unwrap_or("?"),
+        num(&d["elapsed_s"])
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn demo_arguments_parse_with_cli_defaults() {
+        let argv: Vec<String> = [
+            "--data", "a.csv", "--target", "dz_um", "--model", "gabp", "--out", "m.bin",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let a: Result<FitArgs> = parse_args("fit", &argv);
+        assert!(a.is_ok_and(|a| a.model == FitKind::Gabp && a.bp.ga_population == 40));
+        let bad: Result<FitArgs> = parse_args("fit", &["--model".to_string(), "nope".into()]);
+        assert!(bad.is_err());
+    }
+
+    #[test]
+    fn command_lines_quote_what_a_shell_would_split() {
+        let line = command_line("fit", &["--out".into(), "a b/m.bin".into()]);
+        assert_eq!(line, "thermcomp fit --out 'a b/m.bin'");
+    }
+}

@@ -1,0 +1,180 @@
+//! Linear least squares over fixed regressors, solved by SVD (never the
+//! normal equations), and the first-order low-pass that turns an input into
+//! a thermal response.
+
+use nalgebra::{DMatrix, DVector};
+
+/// First-order response `tau dy/dt = u - y` of `u` sampled at `t_s`,
+/// discretised exactly for an input held over each step (zero-order hold,
+/// as the twin does): `y_k = a y_(k-1) + (1 - a) u_(k-1)`,
+/// `a = exp(-(t_k - t_(k-1)) / tau)`. Irregular sampling is fine. `y0` is the
+/// state at the first sample (0 for a heat input on a cold machine, `u_0`
+/// for a boundary temperature the machine was in equilibrium with).
+pub fn lowpass(t_s: &[f64], u: &[f64], tau_s: f64, y0: f64) -> Vec<f64> {
+    let mut y = Vec::with_capacity(u.len());
+    let mut state = y0;
+    for k in 0..u.len() {
+        if k > 0 {
+            let a = (-(t_s[k] - t_s[k - 1]) / tau_s).exp();
+            state = a * state + (1.0 - a) * u[k - 1];
+        }
+        y.push(state);
+    }
+    y
+}
+
+/// A least-squares fit on the first `n_fit` rows, applied to every row.
+#[derive(Debug, Clone)]
+pub struct LinearFit {
+    /// One coefficient per regressor (0 for a regressor that is zero on the
+    /// fit rows).
+    pub coef: Vec<f64>,
+    /// Prediction on every row.
+    pub pred: Vec<f64>,
+    /// Sum of squared residuals on the fit rows.
+    pub sse_fit: f64,
+}
+
+/// Fits `y ~ sum_j coef_j cols_j` on rows `0..n_fit` by SVD and predicts
+/// every row. Columns are scaled to unit rms on the fit rows first (so the
+/// rank tolerance means the same for um, K and kW); columns that are
+/// (numerically) zero there get coefficient 0. `None` if there are fewer fit
+/// rows than columns or the SVD fails.
+pub fn fit(cols: &[Vec<f64>], y: &[f64], n_fit: usize) -> Option<LinearFit> {
+    let n = y.len();
+    if n_fit == 0 || n_fit > n || cols.iter().any(|c| c.len() != n) {
+        return None;
+    }
+    let scales: Vec<f64> = cols
+        .iter()
+        .map(|c| (c[..n_fit].iter().map(|v| v * v).sum::<f64>() / n_fit as f64).sqrt())
+        .collect();
+    let live: Vec<usize> = (0..cols.len())
+        .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
+        .collect();
+    if live.len() > n_fit {
+        return None;
+    }
+    // R-SVD: a Householder QR of the tall scaled matrix, then the SVD of
+    // the small triangular factor solves with a rank tolerance. Same
+    // solution as an SVD of A; the QR does the O(n k^2) work once, without
+    // forming U (n x k).
+    let a = DMatrix::from_fn(n_fit, live.len(), |i, j| cols[live[j]][i] / scales[live[j]]);
+    let mut b = DVector::from_column_slice(&y[..n_fit]);
+    let qr = a.qr();
+    qr.q_tr_mul(&mut b);
+    let k = live.len();
+    let r = qr.r();
+    let qtb = b.rows(0, k).into_owned();
+    let svd = r.svd(true, true);
+    let smax = svd.singular_values.max();
+    let x = svd.solve(&qtb, smax * 1e-10).ok()?;
+    let mut coef = vec![0.0; cols.len()];
+    for (k, &j) in live.iter().enumerate() {
+        coef[j] = x[k] / scales[j];
+    }
+    let pred: Vec<f64> = (0..n)
+        .map(|i| cols.iter().zip(&coef).map(|(c, w)| c[i] * w).sum())
+        .collect();
+    let sse_fit = (0..n_fit).map(|i| (y[i] - pred[i]).powi(2)).sum();
+    coef.iter().all(|c| c.is_finite()).then_some(LinearFit {
+        coef,
+        pred,
+        sse_fit,
+    })
+}
+
+/// Root mean square of `x` (0 for an empty slice).
+pub fn rms(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        0.0
+    } else {
+        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+    }
+}
+
+/// White-noise level of a series from its first differences, robustly:
+/// `median|x_k - x_(k-1)| / 0.6745 / sqrt 2` (the MAD of a Gaussian; slow
+/// signal and the odd step barely move a median).
+pub fn noise_sigma(x: &[f64]) -> f64 {
+    if x.len() < 3 {
+        return 0.0;
+    }
+    let mut d: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2] / 0.6745 / std::f64::consts::SQRT_2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lowpass_matches_the_closed_form_step_response() {
+        let t: Vec<f64> = (0..200).map(|k| 7.0 * k as f64).collect();
+        let u = vec![2.0; 200];
+        let y = lowpass(&t, &u, 300.0, 0.0);
+        for (tk, yk) in t.iter().zip(&y) {
+            let want = 2.0 * (1.0 - (-tk / 300.0).exp());
+            assert!((yk - want).abs() < 1e-12, "{tk} {yk} {want}");
+        }
+    }
+
+    #[test]
+    fn fit_recovers_exact_coefficients_and_ignores_zero_columns() {
+        let n = 50;
+        let x1: Vec<f64> = (0..n).map(|k| (k as f64 * 0.3).sin()).collect();
+        let x2: Vec<f64> = (0..n).map(|k| 1e4 * k as f64).collect();
+        let y: Vec<f64> = (0..n).map(|k| 3.0 * x1[k] - 2e-5 * x2[k] + 0.5).collect();
+        let cols = vec![vec![1.0; n], x1, x2, vec![0.0; n]];
+        let f = fit(&cols, &y, 30).expect("fit");
+        for (c, want) in f.coef.iter().zip([0.5, 3.0, -2e-5, 0.0]) {
+            assert!((c - want).abs() <= 1e-9 * want.abs().max(1.0), "{c} {want}");
+        }
+        assert!(f.sse_fit < 1e-18);
+        assert!((f.pred[n - 1] - y[n - 1]).abs() < 1e-9);
+    }
+
+    #[test]
+    fn qr_then_svd_agrees_with_a_direct_svd_on_collinear_responses() {
+        // Two first-order responses with close time constants: the
+        // ill-conditioned case of every candidate.
+        let t: Vec<f64> = (0..400).map(|k| 60.0 * k as f64).collect();
+        let u: Vec<f64> = (0..400).map(|k| ((k / 37) % 3) as f64).collect();
+        let a = lowpass(&t, &u, 3600.0, 0.0);
+        let b = lowpass(&t, &u, 7200.0, 0.0);
+        let y: Vec<f64> = (0..400)
+            .map(|k| 2.0 * a[k] - 0.7 * b[k] + 0.01 * ((k * 7919) % 13) as f64)
+            .collect();
+        let cols = vec![vec![1.0; 400], a.clone(), b.clone()];
+        let f = fit(&cols, &y, 300).expect("fit");
+        let m = DMatrix::from_fn(300, 3, |i, j| cols[j][i]);
+        let direct = m
+            .svd(true, true)
+            .solve(&DVector::from_column_slice(&y[..300]), 1e-14)
+            .expect("svd");
+        for j in 0..3 {
+            assert!(
+                (f.coef[j] - direct[j]).abs() < 1e-8 * direct[j].abs().max(1.0),
+                "{j}"
+            );
+        }
+    }
+
+    #[test]
+    fn noise_sigma_of_white_noise() {
+        // Deterministic pseudo-noise: a uniform LCG, sigma 1/sqrt(12).
+        let mut s = 12345u64;
+        let x: Vec<f64> = (0..20_000)
+            .map(|_| {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        let sd = noise_sigma(&x);
+        // Uniform, not Gaussian: the MAD rule is within ~10 %.
+        assert!((sd / (1.0 / 12f64.sqrt()) - 1.0).abs() < 0.12, "{sd}");
+    }
+}

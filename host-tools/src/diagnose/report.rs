@@ -1,0 +1,267 @@
+//! `--report DIR`: `DIR/index.html`, one self-contained page with inline SVG
+//! plots (drawn here: text in SVG needs no font files, so the report needs
+//! no system libraries) and the JSON.
+
+use super::align::Aligned;
+use super::candidates::Scored;
+use anyhow::{Context, Result};
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::Path;
+
+const W: f64 = 1100.0;
+const COLORS: [&str; 4] = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd"];
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// A time-series chart: x in hours, several series, optional vertical
+/// line (the hold-out start).
+fn line_chart(
+    title: &str,
+    t_h: &[f64],
+    series: &[(&str, &[f64])],
+    vline_h: Option<f64>,
+    h: f64,
+) -> String {
+    let (l, r, top, bot) = (70.0, 20.0, 28.0, 32.0);
+    let (x0, x1) = (
+        t_h.first().copied().unwrap_or(0.0),
+        t_h.last().copied().unwrap_or(1.0).max(1e-9),
+    );
+    let (mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (_, s) in series {
+        for &v in *s {
+            y0 = y0.min(v);
+            y1 = y1.max(v);
+        }
+    }
+    if y1.partial_cmp(&y0) != Some(std::cmp::Ordering::Greater) {
+        y0 -= 1.0;
+        y1 += 1.0;
+    }
+    let pad = 0.05 * (y1 - y0);
+    let (y0, y1) = (y0 - pad, y1 + pad);
+    let px = |x: f64| l + (x - x0) / (x1 - x0).max(1e-12) * (W - l - r);
+    let py = |y: f64| top + (y1 - y) / (y1 - y0) * (h - top - bot);
+    let mut s = format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{h}" font-family="sans-serif" font-size="12">"##
+    );
+    let _ = write!(
+        s,
+        r##"<rect x="{l}" y="{top}" width="{}" height="{}" fill="none" stroke="#888"/>"##,
+        W - l - r,
+        h - top - bot
+    );
+    let _ = write!(
+        s,
+        r##"<text x="{l}" y="18" font-size="14" font-weight="bold">{}</text>"##,
+        esc(title)
+    );
+    for k in 0..=4 {
+        let y = y0 + (y1 - y0) * k as f64 / 4.0;
+        let _ = write!(
+            s,
+            r##"<text x="{}" y="{}" text-anchor="end">{:.2}</text><line x1="{l}" x2="{}" y1="{2}" y2="{2}" stroke="#eee"/>"##,
+            l - 4.0,
+            py(y) + 4.0,
+            y,
+            W - r
+        );
+        let x = x0 + (x1 - x0) * k as f64 / 4.0;
+        let _ = write!(
+            s,
+            r##"<text x="{}" y="{}" text-anchor="middle">{:.1} h</text>"##,
+            px(x),
+            h - bot + 16.0,
+            x
+        );
+    }
+    if let Some(v) = vline_h {
+        let _ = write!(
+            s,
+            r##"<line x1="{0}" x2="{0}" y1="{top}" y2="{1}" stroke="#555" stroke-dasharray="5,4"/><text x="{2}" y="{3}">hold-out</text>"##,
+            px(v),
+            h - bot,
+            px(v) + 4.0,
+            top + 14.0
+        );
+    }
+    let stride = (t_h.len() / 1500).max(1);
+    for (i, (name, ys)) in series.iter().enumerate() {
+        let c = COLORS[i % COLORS.len()];
+        let pts: String = (0..t_h.len().min(ys.len()))
+            .step_by(stride)
+            .map(|k| format!("{:.1},{:.1} ", px(t_h[k]), py(ys[k])))
+            .collect();
+        let _ = write!(
+            s,
+            r##"<polyline fill="none" stroke="{c}" stroke-width="1.2" points="{pts}"/>"##
+        );
+        let _ = write!(
+            s,
+            r##"<text x="{}" y="18" fill="{c}">{}</text>"##,
+            W - r - 130.0 * (series.len() - i) as f64,
+            esc(name)
+        );
+    }
+    s.push_str("</svg>");
+    s
+}
+
+/// Horizontal bars (label, value in %), values may be negative.
+fn bar_chart(title: &str, items: &[(String, f64)]) -> String {
+    let row = 22.0;
+    let h = 40.0 + row * items.len() as f64;
+    let (l, r) = (260.0, 80.0);
+    let lo = items.iter().fold(0.0f64, |a, i| a.min(i.1));
+    let hi = items.iter().fold(0.0f64, |a, i| a.max(i.1)).max(1.0);
+    let px = |v: f64| l + (v - lo) / (hi - lo) * (W - l - r);
+    let mut s = format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{h}" font-family="sans-serif" font-size="12">"##
+    );
+    let _ = write!(
+        s,
+        r##"<text x="10" y="18" font-size="14" font-weight="bold">{}</text>"##,
+        esc(title)
+    );
+    for (i, (label, v)) in items.iter().enumerate() {
+        let y = 30.0 + row * i as f64;
+        let (a, b) = (px(0.0).min(px(*v)), px(0.0).max(px(*v)));
+        let c = if *v >= 0.0 { COLORS[0] } else { COLORS[1] };
+        let _ = write!(
+            s,
+            r##"<text x="{}" y="{}" text-anchor="end">{}</text><rect x="{a}" y="{y}" width="{}" height="{}" fill="{c}"/><text x="{}" y="{}">{v:.1} %</text>"##,
+            l - 6.0,
+            y + 14.0,
+            esc(label),
+            (b - a).max(0.5),
+            row - 6.0,
+            b + 4.0,
+            y + 14.0
+        );
+    }
+    s.push_str("</svg>");
+    s
+}
+
+/// Writes `dir/index.html`.
+pub fn write(
+    dir: &Path,
+    al: &Aligned,
+    main: usize,
+    n_fit: usize,
+    scored: &[Scored],
+    v: &Value,
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let t0 = al.t_s[0];
+    let t_h: Vec<f64> = al.t_s.iter().map(|t| (t - t0) / 3600.0).collect();
+    let hold_h = t_h.get(n_fit).copied();
+    let mut html = String::from("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>thermcomp diagnose</title><style>body{font-family:sans-serif;margin:20px;max-width:1150px}pre{background:#f6f6f6;padding:8px;font-size:11px;white-space:pre-wrap}</style></head><body>");
+    let _ = write!(
+        html,
+        "<h1>Sim-to-real gap diagnosis</h1><p>Verdict: <b>{}</b> &mdash; main channel <b>{}</b>, candidates fitted before t = {} s and scored after it. {}</p>",
+        esc(v["verdict"].as_str().unwrap_or("none")),
+        esc(v["main_channel"].as_str().unwrap_or("")),
+        v["holdout_from_t_s"],
+        esc(v["rule"].as_str().unwrap_or(""))
+    );
+    html.push_str("<h2>How far each candidate shrinks the held-out gap</h2>");
+    let bars: Vec<(String, f64)> = scored
+        .iter()
+        .map(|s| {
+            (
+                format!("{} (rms {:.3} -> {:.3})", s.name, s.rms_before, s.rms_after),
+                s.shrink_pct,
+            )
+        })
+        .collect();
+    html.push_str(&bar_chart(
+        "held-out shrink of the main channel's rms, %",
+        &bars,
+    ));
+    let ch = &al.channels[main];
+    if let Some(best) = scored.first() {
+        let after: Vec<f64> = ch
+            .resid
+            .iter()
+            .zip(&best.pred)
+            .map(|(r, p)| r - p)
+            .collect();
+        html.push_str(&line_chart(
+            &format!(
+                "{}: residual, best candidate ({}) and what is left",
+                ch.name, best.name
+            ),
+            &t_h,
+            &[
+                ("residual", &ch.resid),
+                (&best.name, &best.pred),
+                ("left", &after),
+            ],
+            hold_h,
+            300.0,
+        ));
+    }
+    html.push_str("<h2>Where: regime segments</h2>");
+    let seg: Vec<(String, f64)> = v["where"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|w| {
+            (
+                format!(
+                    "{} {} {:.1}-{:.1} h",
+                    w["channel"].as_str().unwrap_or(""),
+                    w["regime"].as_str().unwrap_or(""),
+                    (w["from_t_s"].as_f64().unwrap_or(0.0) - t0) / 3600.0,
+                    (w["to_t_s"].as_f64().unwrap_or(0.0) - t0) / 3600.0
+                ),
+                w["share_pct"].as_f64().unwrap_or(0.0),
+            )
+        })
+        .collect();
+    html.push_str(&bar_chart(
+        "share of the residual energy (sum r^2), largest segments",
+        &seg,
+    ));
+    let _ = write!(
+        html,
+        "<p>Frequency bands: <code>{}</code></p>",
+        esc(&v["bands"].to_string())
+    );
+    html.push_str("<h2>Sim vs real</h2>");
+    for c in al.channels.iter().filter(|c| c.is_displacement()) {
+        html.push_str(&line_chart(
+            &format!("{} (um)", c.name),
+            &t_h,
+            &[("sim", &c.sim), ("real", &c.real)],
+            hold_h,
+            220.0,
+        ));
+    }
+    html.push_str("<h2>Residual real - sim per channel</h2>");
+    for c in al.channels.iter().filter(|c| !c.name.starts_with('S')) {
+        let unit = if c.is_displacement() { "um" } else { "K" };
+        html.push_str(&line_chart(
+            &format!("{} residual ({unit})", c.name),
+            &t_h,
+            &[("real - sim", &c.resid)],
+            hold_h,
+            160.0,
+        ));
+    }
+    let pretty = serde_json::to_string_pretty(v).unwrap_or_default();
+    let _ = write!(
+        html,
+        "<h2>JSON</h2><pre>{}</pre></body></html>",
+        esc(&pretty)
+    );
+    let path = dir.join("index.html");
+    std::fs::write(&path, html).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
