@@ -153,6 +153,22 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, col)
 }
 
+/// Deserialises TOML text; a syntax or field error is one line naming
+/// `file:line:column` (the parser's message may span lines: "invalid
+/// array\nexpected `]`", joined with "; ").
+pub fn from_toml<T: serde::de::DeserializeOwned>(file: &str, text: &str) -> Result<T> {
+    toml::from_str(text).map_err(|e| {
+        let (l, c) = e.span().map_or((1, 1), |s| line_col(text, s.start));
+        let msg: Vec<&str> = e
+            .message()
+            .lines()
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .collect();
+        anyhow!("{file}:{l}:{c}: {}", msg.join("; "))
+    })
+}
+
 /// Collects input channels and output names while a spec is translated.
 struct Builder<'a> {
     file: &'a str,
@@ -244,17 +260,7 @@ pub fn load(path: &Path) -> Result<ValidModel> {
 
 /// Parses and validates spec text; `file` names it in errors.
 pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
-    let spec: SpecFile = toml::from_str(text).map_err(|e| {
-        let (l, c) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-        // The parser's message may span lines ("invalid array\nexpected `]`").
-        let msg: Vec<&str> = e
-            .message()
-            .lines()
-            .map(str::trim)
-            .filter(|s| !s.is_empty())
-            .collect();
-        anyhow!("{file}:{l}:{c}: {}", msg.join("; "))
-    })?;
+    let spec: SpecFile = from_toml(file, text)?;
     let mut b = Builder {
         file,
         text,

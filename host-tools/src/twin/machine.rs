@@ -7,7 +7,7 @@
 //! commented TOML that `thermcomp simulate --print-machine` prints, so the
 //! printed file and the built-in machine cannot disagree.
 
-use crate::spec::line_col;
+use crate::spec::{from_toml, line_col};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Deserialize;
 use std::path::Path;
@@ -413,16 +413,7 @@ impl Machine {
 
 /// Parses and validates machine-file text; `file` names it in errors.
 pub fn parse(file: &str, text: &str) -> Result<Machine> {
-    let spec: MachineSpec = toml::from_str(text).map_err(|e| {
-        let (l, c) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-        let msg: Vec<&str> = e
-            .message()
-            .lines()
-            .map(str::trim)
-            .filter(|s| !s.is_empty())
-            .collect();
-        anyhow!("{file}:{l}:{c}: {}", msg.join("; "))
-    })?;
+    let spec: MachineSpec = from_toml(file, text)?;
     let at = |s: &Spanned<String>| {
         let (l, c) = line_col(text, s.span().start);
         format!("{file}:{l}:{c}")
