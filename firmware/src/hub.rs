@@ -178,17 +178,10 @@ impl Hub {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{name, vec};
     use model_core::linear::{Coef, Linear, LinearOutput};
     use model_core::tf::TfEntry;
-    use model_core::{Channel, Model, Name, Params, Reference};
-
-    fn name(s: &str) -> Name {
-        Name::try_from(s).unwrap()
-    }
-
-    fn vec<T: Clone, const N: usize>(items: &[T]) -> heapless::Vec<T, N> {
-        heapless::Vec::from_slice(items).unwrap()
-    }
+    use model_core::{Channel, Model, Params, Reference};
 
     fn channel(n: &str, reference: Reference) -> Channel {
         Channel {

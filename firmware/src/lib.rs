@@ -35,6 +35,9 @@ pub mod layout;
 pub mod offsets;
 pub mod protocol;
 pub mod report;
+
+#[cfg(all(test, feature = "model"))]
+mod test_util;
 #[cfg(feature = "model")]
 pub mod upload;
 

@@ -515,25 +515,10 @@ impl Pipeline {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{hub, name, vec};
     use model_core::linear::{Coef, Linear, LinearOutput};
     use model_core::tf::TfEntry;
-    use model_core::{Channel, Model, Name, Params, Reference, ValidModel};
-
-    fn name(s: &str) -> Name {
-        Name::try_from(s).unwrap()
-    }
-
-    fn vec<T: Clone, const N: usize>(items: &[T]) -> heapless::Vec<T, N> {
-        heapless::Vec::from_slice(items).unwrap()
-    }
-
-    fn hub(model: &ValidModel) -> Hub {
-        let mut blob = [0u8; 4096];
-        let n = model_core::encode(model, &mut blob).unwrap();
-        let hub = Hub::load(&blob[..n]);
-        assert!(hub.model().is_some());
-        hub
-    }
+    use model_core::{Channel, Model, Params, Reference, ValidModel};
 
     /// dz_um = 10 * (T1 - 20) + 2 * tool_mm.
     fn tool_model() -> ValidModel {

@@ -3,9 +3,10 @@
 //! the flash holds).
 
 use super::*;
+use crate::test_util::{name, vec};
 use embedded_storage::nor_flash::{check_erase, check_read, check_write, ErrorType, ReadNorFlash};
 use model_core::linear::{Coef, Linear, LinearOutput};
-use model_core::{Channel, Model, Name, Params, Reference, ValidModel};
+use model_core::{Channel, Model, Params, Reference, ValidModel};
 
 const SLOT: u32 = 128 * 1024;
 
@@ -90,14 +91,6 @@ fn slots(f: &MemFlash) -> (&[u8], &[u8]) {
 fn reboot(f: &MemFlash) -> Option<Slot> {
     let (a, b) = slots(f);
     select_boot_slot(a, b)
-}
-
-fn name(s: &str) -> Name {
-    Name::try_from(s).unwrap()
-}
-
-fn vec<T: Clone, const N: usize>(items: &[T]) -> heapless::Vec<T, N> {
-    heapless::Vec::from_slice(items).unwrap()
 }
 
 const N_IN: usize = 12;
