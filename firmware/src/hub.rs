@@ -98,8 +98,13 @@ impl Hub {
     /// reports zero offsets, and [`Hub::load_error`] says why.
     pub fn load(slot: &[u8]) -> Self {
         let blob = slot.get(..blob_len(slot)).unwrap_or(&[]);
+        Self::with_model(model_core::decode(blob))
+    }
+
+    /// A hub around an already decoded blob (or why it was refused).
+    pub fn with_model(model: Result<ValidModel, BlobError>) -> Self {
         Self {
-            model: model_core::decode(blob),
+            model,
             state: ModelState::new(),
             offsets: [0.0; MAX_OUTPUTS],
             faults: Faults::default(),

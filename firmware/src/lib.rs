@@ -27,6 +27,8 @@
 //!   `thermcomp.dbc`).
 //! * [`protocol`]: the serial link's COBS/postcard messages.
 //! * `upload` (feature `model`): model upload into the inactive A/B slot.
+//! * `commands` (feature `model`): what each serial command does to the hub.
+//! * `ram_flash` (tests and feature `test-support`): NOR flash in RAM.
 #![cfg_attr(not(test), no_std)]
 
 pub mod board;
@@ -40,6 +42,12 @@ pub mod report;
 mod test_util;
 #[cfg(feature = "model")]
 pub mod upload;
+
+#[cfg(feature = "model")]
+pub mod commands;
+
+#[cfg(all(feature = "model", any(test, feature = "test-support")))]
+pub mod ram_flash;
 
 pub mod config;
 pub mod limiter;

@@ -230,11 +230,6 @@ mod host {
             "Pipeline",
             bytes(size_of::<firmware::pipeline::Pipeline>())
         );
-        println!(
-            "  {:<19} {} (static RAM: upload read-back scratch)",
-            "upload scratch",
-            bytes(MAX_BLOB_LEN)
-        );
     }
 
     #[cfg(not(feature = "model"))]
@@ -248,7 +243,19 @@ mod host {
 #[cfg(target_os = "none")]
 mod rt {
     use defmt_rtt as _;
-    use panic_probe as _;
+
+    /// Panics (none are expected: the library is panic-free by its tests)
+    /// log one line over RTT and stop in a UDF trap: an attached probe-rs
+    /// prints the backtrace (where it happened); unattached, the watchdog
+    /// resets the hub. The panic's message and location are not logged:
+    /// keeping them costs 4.2 KB of flash (file paths and message pieces of
+    /// every panic site, and `core::fmt` if formatted, as panic-probe's
+    /// `print-defmt` does). `defmt::panic!` logs its own message first.
+    #[panic_handler]
+    fn panic(_: &core::panic::PanicInfo) -> ! {
+        defmt::error!("panic: see the backtrace (probe-rs)");
+        cortex_m::asm::udf()
+    }
 
     // The macro needs an untyped literal; `board` asserts MONO_HZ == 1_000.
     rtic_monotonics::systick_monotonic!(Mono, 1_000);
@@ -335,6 +342,15 @@ mod glue {
     }
 
     #[cfg(feature = "model")]
+    impl firmware::upload::MappedFlash for BoardFlash {
+        /// The memory-mapped flash (the HAL's `FlashExt::read`): the commit
+        /// checks a blob in place, with no 16 KiB copy in RAM.
+        fn mapped(&self) -> &[u8] {
+            FlashExt::read(&self.0)
+        }
+    }
+
+    #[cfg(feature = "model")]
     /// A chip select shared by reference, so a new `SpiDevice` for a chip
     /// can be made after `Max31865::new` failed and dropped the old one.
     #[derive(Clone, Copy)]
@@ -394,9 +410,10 @@ mod glue {
         use core::cell::RefCell;
         use embedded_hal_bus::spi::RefCellDevice;
         use firmware::can_frames::StatusInfo;
+        use firmware::commands::{self, Event, SharedPipeline};
         use firmware::offsets::MAX_INPUTS;
         use firmware::pipeline::{Pipeline, Reading};
-        use firmware::protocol::{Command, CommandKind, ErrorCode, HubMessage, PROTOCOL_VERSION};
+        use firmware::protocol::{Command, HubMessage};
         use firmware::rtd::Converter;
         use firmware::upload::Uploader;
         use firmware::{board, hub};
@@ -455,16 +472,16 @@ mod glue {
                 if ch.is_up() {
                     if let Err(f) = ch.check() {
                         defmt::warn!(
-                            "RTD{=usize}: lost its configuration ({}), retrying",
+                            "RTD{=usize}: lost its configuration ({=str}), retrying",
                             k + 1,
-                            defmt::Debug2Format(&f)
+                            f.name()
                         );
                     }
                 } else if let Some(dev) = device(bus, cs, k) {
                     match ch.start(dev, RTD_CONFIG) {
                         Ok(()) => defmt::info!("RTD{=usize}: up", k + 1),
                         Err(f) => {
-                            defmt::debug!("RTD{=usize}: down ({})", k + 1, defmt::Debug2Format(&f))
+                            defmt::debug!("RTD{=usize}: down ({=str})", k + 1, f.name())
                         }
                     }
                 }
@@ -514,67 +531,47 @@ mod glue {
             p.sample_period_ms()
         }
 
-        /// Carries out one command; the reply. Uploads: `feed` right before
-        /// the erase; on commit the new hub is swapped in under the lock.
+        /// The RTIC lock on the shared pipeline, for `firmware::commands`.
+        struct Locked<'m, M>(&'m mut M);
+
+        impl<M: rtic::Mutex<T = &'static mut Pipeline>> SharedPipeline for Locked<'_, M> {
+            fn with<R>(&mut self, f: impl FnOnce(&mut Pipeline) -> R) -> R {
+                self.0.lock(|p| f(p))
+            }
+        }
+
+        /// Carries out one command (`firmware::commands`, tested on the
+        /// host) and logs what it did; the reply. `feed` runs right before
+        /// an upload's erase.
         pub fn command(
             core: &mut impl rtic::Mutex<T = &'static mut Pipeline>,
             uploader: &mut Upload,
-            scratch: &mut [u8],
             feed: impl FnOnce(),
             cmd: &Command,
         ) -> HubMessage {
-            match cmd {
-                Command::Ping => HubMessage::Pong {
-                    protocol: PROTOCOL_VERSION,
-                },
-                Command::SetToolLength { mm } => {
-                    match core.lock(|p| p.set_tool_length_mm(f64::from(*mm))) {
-                        Ok(()) => HubMessage::Ack(CommandKind::SetToolLength),
-                        Err(_) => HubMessage::Nack {
-                            command: CommandKind::SetToolLength,
-                            error: ErrorCode::OutOfRange,
-                        },
-                    }
-                }
-                _ => {
-                    if let Command::UploadBegin { len, .. } = cmd {
-                        defmt::info!(
-                            "upload of {=u32} B: erasing slot (CPU stalls up to {=u32} ms)",
-                            *len,
-                            board::FLASH_SECTOR_ERASE_MAX_MS
-                        );
-                        core.lock(|p| p.set_uploading(true));
-                        feed();
-                    }
-                    let (reply, committed) = uploader.handle(cmd, scratch).unwrap_or((
-                        HubMessage::Nack {
-                            command: CommandKind::Unknown,
-                            error: ErrorCode::Unsupported,
-                        },
-                        None,
-                    ));
-                    let uploading = uploader.is_uploading();
-                    let swapped = committed.map(|c| {
-                        let slot = c.slot;
-                        (
-                            slot,
-                            core.lock(|p| {
-                                p.set_uploading(uploading);
-                                p.swap_model(c.hub).map(|()| log_model(p.hub()))
-                            }),
-                        )
-                    });
-                    core.lock(|p| p.set_uploading(uploading));
-                    match swapped {
-                        Some((_, Ok(()))) => defmt::info!("upload committed, new model running"),
-                        Some((_, Err(_))) => {
-                            defmt::error!("committed model refused by the pipeline")
-                        }
-                        None => {}
-                    }
-                    reply
-                }
+            if let Command::UploadBegin { len, .. } = cmd {
+                defmt::info!(
+                    "upload of {=u32} B: erasing slot (CPU stalls up to {=u32} ms)",
+                    *len,
+                    board::FLASH_SECTOR_ERASE_MAX_MS
+                );
             }
+            let mut shared = Locked(core);
+            let (reply, event) = commands::execute(&mut shared, uploader, feed, cmd);
+            match event {
+                Event::Swapped { slot } => {
+                    defmt::info!(
+                        "upload committed to slot {=str}, new model running",
+                        slot.name()
+                    );
+                    shared.with(|p| log_model(p.hub()));
+                }
+                Event::SwapRefused { .. } => {
+                    defmt::error!("committed model refused by the pipeline")
+                }
+                Event::Erased { .. } | Event::None => {}
+            }
+            reply
         }
 
         /// Boot log of the model: what was loaded, or why nothing was.
@@ -646,7 +643,6 @@ mod glue {
         pub fn command(
             _core: &mut impl rtic::Mutex<T = &'static mut u32>,
             _uploader: &mut (),
-            _scratch: &mut [u8],
             _feed: impl FnOnce(),
             cmd: &Command,
         ) -> HubMessage {
@@ -859,7 +855,7 @@ mod app {
         };
         let (a, b) = (region(layout::MODEL_A), region(layout::MODEL_B));
         let active = select_boot_slot(a, b);
-        defmt::info!("boot slot: {}", defmt::Debug2Format(&active));
+        defmt::info!("boot slot: {=str}", active.map_or("none", Slot::name));
         // No bootable slot: load A anyway, so the log says why it failed.
         let hub = Hub::load(if active == Some(Slot::B) { b } else { a });
         // Hub (11.4 KiB) and Pipeline (~13 KiB) pass through init's stack once
@@ -867,7 +863,7 @@ mod app {
         let pipeline = match Pipeline::new(hub, PipelineConfig::DEFAULT) {
             Ok(p) => slot.write(p),
             // The default config is checked by the library's tests.
-            Err(e) => defmt::panic!("pipeline config: {}", defmt::Debug2Format(&e)),
+            Err(_) => defmt::panic!("default pipeline config refused"),
         };
         glue::log_model(pipeline.hub());
         let flash = glue::BoardFlash(stm32f4xx_hal::flash::LockedFlash::new(flash));
@@ -1008,7 +1004,7 @@ mod app {
 
     /// Serial commands, lowest priority: uploads (the erase stalls the CPU),
     /// tool length, ping. One reply per command.
-    #[task(priority = 1, shared = [core, watchdog, tx], local = [cmd_rx, uploader, scratch: [u8; model_scratch::LEN] = [0; model_scratch::LEN]])]
+    #[task(priority = 1, shared = [core, watchdog, tx], local = [cmd_rx, uploader])]
     async fn command(mut cx: command::Context) {
         while let Ok(incoming) = cx.local.cmd_rx.recv().await {
             let reply = match incoming {
@@ -1017,7 +1013,6 @@ mod app {
                     glue::command(
                         &mut cx.shared.core,
                         cx.local.uploader,
-                        cx.local.scratch,
                         || watchdog.lock(|w| w.feed()),
                         &cmd,
                     )
@@ -1029,14 +1024,6 @@ mod app {
             };
             send(&mut cx.shared.tx, &reply);
         }
-    }
-
-    /// The upload's read-back buffer: a whole blob (none without the model).
-    mod model_scratch {
-        #[cfg(feature = "model")]
-        pub const LEN: usize = model_core::blob::MAX_BLOB_LEN;
-        #[cfg(not(feature = "model"))]
-        pub const LEN: usize = 0;
     }
 
     /// One message as a COBS frame on USART2 (blocking: ~13 ms for the

@@ -82,6 +82,20 @@ pub enum ChannelFault {
     Converter,
 }
 
+impl ChannelFault {
+    /// A short name, for logs (the board logs with defmt, without
+    /// `core::fmt`, which would cost kilobytes of flash).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Open => "open",
+            Self::Short => "short",
+            Self::OutOfRange => "out of range",
+            Self::Bus => "bus",
+            Self::Converter => "converter",
+        }
+    }
+}
+
 impl From<RtdError> for ChannelFault {
     fn from(e: RtdError) -> Self {
         match e {

@@ -9,9 +9,11 @@
 //! 2. `UploadChunk`s, strictly in order, written straight to flash, except
 //!    the blob's first bytes (its magic), held back in RAM: until commit the
 //!    slot holds no blob, so an interrupted upload can never look valid.
-//! 3. `UploadCommit`: read the blob back from flash, check the announced
-//!    CRC, decode it exactly as [`Hub::load`] does (magic, version, length,
-//!    CRC, kind, body, model validation), and only then write the magic and
+//! 3. `UploadCommit`: check the blob where it lies (the flash is
+//!    memory-mapped, [`MappedFlash`]; the held-back magic joins it from
+//!    RAM, so no 16 KiB copy): the announced CRC, then a decode exactly as
+//!    [`Hub::load`] does (magic, version, length, CRC, kind, body, model
+//!    validation), and only then write the magic and
 //!    then the record, with a generation one above any seen. The new [`Hub`] is returned for
 //!    the pipeline to swap in between two samples.
 //!
@@ -41,12 +43,22 @@
 //! under a lock: a whole-value swap, so a sample never sees half a model.
 
 use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
-use model_core::blob::{check_frame, crc32, HEADER_LEN, MAX_BLOB_LEN, TRAILER_LEN};
+use model_core::blob::{
+    check_frame_split, crc32, decode_split, Crc32, HEADER_LEN, MAX_BLOB_LEN, TRAILER_LEN,
+};
 use model_core::BlobError;
 
 use crate::hub::{blob_len, Hub};
 use crate::layout::{FLASH_BASE, MODEL_A, MODEL_B};
 use crate::protocol::{Command, ErrorCode, HubMessage, CHUNK_MAX};
+
+/// Flash whose contents can also be read in place, as the STM32's
+/// memory-mapped flash can: the commit checks an uploaded blob where it
+/// lies instead of copying it into a blob-sized buffer (16 KiB of RAM).
+pub trait MappedFlash: NorFlash {
+    /// The whole device; byte `k` is what `read` at offset `k` gives.
+    fn mapped(&self) -> &[u8];
+}
 
 /// A model slot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,6 +70,14 @@ pub enum Slot {
 }
 
 impl Slot {
+    /// "A" or "B", for logs.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::A => "A",
+            Self::B => "B",
+        }
+    }
+
     /// The other slot.
     pub const fn other(self) -> Self {
         match self {
@@ -213,10 +233,9 @@ pub enum UploadError {
     /// The flash failed (erase, write, or a read-back that differs).
     Flash(NorFlashErrorKind),
     /// The flash's write size does not divide [`CHUNK_MAX`] and
-    /// [`RECORD_LEN`], or the slot map does not fit the flash.
+    /// [`RECORD_LEN`] or is wider than the blob header, or the slot map
+    /// does not fit the flash (or its mapped view).
     Unsupported,
-    /// The caller's scratch buffer cannot hold the blob.
-    ScratchTooSmall,
     /// Generation counter at `u32::MAX` (4e9 uploads).
     GenerationExhausted,
 }
@@ -238,7 +257,6 @@ impl core::fmt::Display for UploadError {
             Self::Blob(e) => write!(f, "blob refused: {e}"),
             Self::Flash(e) => write!(f, "flash error: {e:?}"),
             Self::Unsupported => write!(f, "flash geometry not supported"),
-            Self::ScratchTooSmall => write!(f, "scratch buffer too small"),
             Self::GenerationExhausted => write!(f, "generation counter exhausted"),
         }
     }
@@ -275,7 +293,7 @@ impl From<UploadError> for ErrorCode {
             UploadError::Blob(b) => Self::BadBlob {
                 reason: blob_reason(&b),
             },
-            UploadError::Flash(_) | UploadError::ScratchTooSmall => Self::Flash,
+            UploadError::Flash(_) => Self::Flash,
             UploadError::Unsupported | UploadError::GenerationExhausted => Self::Unsupported,
         }
     }
@@ -322,7 +340,7 @@ fn flash_err<E: NorFlashError>(e: E) -> UploadError {
     UploadError::Flash(e.kind())
 }
 
-impl<F: NorFlash> Uploader<F> {
+impl<F: MappedFlash> Uploader<F> {
     /// An idle uploader; `active` is the slot the running hub was loaded from
     /// ([`select_boot_slot`]'s answer), never written.
     pub fn new(flash: F, map: SlotMap, active: Option<Slot>) -> Self {
@@ -373,13 +391,15 @@ impl<F: NorFlash> Uploader<F> {
     pub fn begin(&mut self, len: u32, crc32: u32) -> Result<(), UploadError> {
         self.state = State::Idle;
         let w = F::WRITE_SIZE;
+        let limit = self.flash.capacity().min(self.flash.mapped().len());
         let fits = [self.map.a, self.map.b]
             .iter()
-            .all(|&o| (o as usize).saturating_add(self.map.len as usize) <= self.flash.capacity());
+            .all(|&o| (o as usize).saturating_add(self.map.len as usize) <= limit);
         if w == 0
             || !CHUNK_MAX.is_multiple_of(w)
             || !RECORD_LEN.is_multiple_of(w)
             || !HEAD_LEN.is_multiple_of(w)
+            || Self::held() > HEADER_LEN
             || !fits
         {
             return Err(UploadError::Unsupported);
@@ -475,11 +495,10 @@ impl<F: NorFlash> Uploader<F> {
         Ok(())
     }
 
-    /// Checks the uploaded blob in flash and, if good, commits it. `scratch`
-    /// (at least the blob's length; [`MAX_BLOB_LEN`] always does) receives
-    /// the blob read back from flash. Any refusal but `Incomplete` ends the
-    /// upload; the running slot stays active in every case.
-    pub fn commit(&mut self, scratch: &mut [u8]) -> Result<Committed, UploadError> {
+    /// Checks the uploaded blob in flash and, if good, commits it. Any
+    /// refusal but `Incomplete` ends the upload; the running slot stays
+    /// active in every case.
+    pub fn commit(&mut self) -> Result<Committed, UploadError> {
         let State::Receiving {
             slot,
             len,
@@ -495,21 +514,16 @@ impl<F: NorFlash> Uploader<F> {
             return Err(UploadError::Incomplete { received: next });
         }
         self.state = State::Idle;
-        let n = len as usize;
-        let read_len = n.div_ceil(F::READ_SIZE.max(1)) * F::READ_SIZE.max(1);
-        let buf = scratch
-            .get_mut(..read_len)
-            .ok_or(UploadError::ScratchTooSmall)?;
-        self.flash
-            .read(self.map.offset(slot), buf)
-            .map_err(flash_err)?;
         let held = Self::held();
         let head = head.get(..held).ok_or(UploadError::Unsupported)?;
-        buf.get_mut(..held)
-            .ok_or(UploadError::ScratchTooSmall)?
-            .copy_from_slice(head);
-        let blob = buf.get(..n).ok_or(UploadError::ScratchTooSmall)?;
-        let computed = crc32(blob);
+        // The rest of the blob, in place (begin checked the map fits).
+        let blob_at = self.map.offset(slot) as usize;
+        let tail = self
+            .flash
+            .mapped()
+            .get(blob_at + held..blob_at + len as usize)
+            .ok_or(UploadError::Unsupported)?;
+        let computed = Crc32::new().update(head).update(tail).finish();
         if computed != crc {
             return Err(UploadError::CrcMismatch {
                 expected: crc,
@@ -518,8 +532,8 @@ impl<F: NorFlash> Uploader<F> {
         }
         // Exactly these bytes must be one blob (no trailing bytes), then
         // decode as the hub does.
-        let (header, _) = check_frame(blob).map_err(UploadError::Blob)?;
-        let hub = Hub::load(blob);
+        let (header, _) = check_frame_split(head, tail).map_err(UploadError::Blob)?;
+        let hub = Hub::with_model(decode_split(head, tail));
         if let Some(e) = hub.load_error() {
             return Err(UploadError::Blob(e));
         }
@@ -560,16 +574,12 @@ impl<F: NorFlash> Uploader<F> {
     /// Carries out an upload command and gives the reply; `None` for
     /// commands that are not about uploads (`Ping`, `SetToolLength`).
     /// On a successful commit, the [`Committed`] hub to swap in.
-    pub fn handle(
-        &mut self,
-        command: &Command,
-        scratch: &mut [u8],
-    ) -> Option<(HubMessage, Option<Committed>)> {
+    pub fn handle(&mut self, command: &Command) -> Option<(HubMessage, Option<Committed>)> {
         let kind = command.kind();
         let result = match command {
             Command::UploadBegin { len, crc32 } => self.begin(*len, *crc32).map(|()| None),
             Command::UploadChunk { offset, bytes } => self.chunk(*offset, bytes).map(|()| None),
-            Command::UploadCommit => self.commit(scratch).map(Some),
+            Command::UploadCommit => self.commit().map(Some),
             Command::UploadAbort => {
                 self.abort();
                 Ok(None)

@@ -17,15 +17,12 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use embedded_storage::nor_flash::{
-    check_erase, check_read, check_write, ErrorType, NorFlash, NorFlashErrorKind, ReadNorFlash,
-};
 use firmware::protocol::{
     encode, Command, CommandKind, ErrorCode, FrameReader, HubMessage, Telemetry, COMMAND_FRAME_MAX,
     HUB_FRAME_MAX, PROTOCOL_VERSION,
 };
+use firmware::ram_flash::RamFlash;
 use firmware::upload::{select_boot_slot, slot_generation, CommitRecord, Slot, SlotMap, Uploader};
-use model_core::blob::MAX_BLOB_LEN;
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::pty::openpty;
@@ -36,57 +33,14 @@ use common::{fails_one_line, ok, p, run};
 /// One model slot: a 128 KiB sector of the F446 (sectors 6 and 7).
 const SLOT: usize = 128 * 1024;
 
-/// NOR flash in RAM: erase sets 0xFF; a write can only clear bits.
-struct MemFlash {
-    data: Box<[u8; 2 * SLOT]>,
+/// The board's two model slots in the firmware's in-memory NOR flash.
+fn board_flash() -> RamFlash {
+    RamFlash::new(2 * SLOT)
 }
 
-impl MemFlash {
-    fn new() -> Self {
-        let data: Box<[u8; 2 * SLOT]> = vec![0xFF; 2 * SLOT].try_into().unwrap();
-        Self { data }
-    }
-
-    fn slots(&self) -> (&[u8], &[u8]) {
-        self.data.split_at(SLOT)
-    }
-}
-
-impl ErrorType for MemFlash {
-    type Error = NorFlashErrorKind;
-}
-
-impl ReadNorFlash for MemFlash {
-    const READ_SIZE: usize = 1;
-    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
-        check_read(self, offset, bytes.len())?;
-        let o = offset as usize;
-        bytes.copy_from_slice(&self.data[o..o + bytes.len()]);
-        Ok(())
-    }
-    fn capacity(&self) -> usize {
-        self.data.len()
-    }
-}
-
-impl NorFlash for MemFlash {
-    const WRITE_SIZE: usize = 4;
-    const ERASE_SIZE: usize = SLOT;
-    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
-        check_erase(self, from, to)?;
-        self.data[from as usize..to as usize].fill(0xFF);
-        Ok(())
-    }
-    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
-        check_write(self, offset, bytes.len())?;
-        for (cell, b) in self.data[offset as usize..].iter_mut().zip(bytes) {
-            if b & !*cell != 0 {
-                return Err(NorFlashErrorKind::Other); // 0 -> 1 without erase
-            }
-            *cell &= b;
-        }
-        Ok(())
-    }
+/// Slot A and slot B.
+fn slots(f: &RamFlash) -> (&[u8], &[u8]) {
+    f.bytes().split_at(SLOT)
 }
 
 const MAP: SlotMap = SlotMap {
@@ -110,7 +64,7 @@ struct Sim {
 
 /// What the hub saw.
 struct Seen {
-    flash: MemFlash,
+    flash: RamFlash,
     commands: Vec<Command>,
     /// Bytes that arrived while the flash was erasing (lost on a board).
     during_erase: usize,
@@ -124,7 +78,7 @@ struct Hub {
 }
 
 impl Hub {
-    fn start(sim: Sim, flash: MemFlash) -> Self {
+    fn start(sim: Sim, flash: RamFlash) -> Self {
         let pty = openpty(None, None).expect("openpty");
         let mut t = tcgetattr(&pty.slave).unwrap();
         cfmakeraw(&mut t);
@@ -167,11 +121,10 @@ fn send(mut f: &File, msg: &HubMessage) {
     let _ = f.write_all(&buf[..n]);
 }
 
-fn serve(master: File, sim: Sim, flash: MemFlash, stop: &AtomicBool) -> Seen {
-    let (a, b) = flash.slots();
+fn serve(master: File, sim: Sim, flash: RamFlash, stop: &AtomicBool) -> Seen {
+    let (a, b) = slots(&flash);
     let active = select_boot_slot(a, b);
     let mut up = Uploader::new(flash, MAP, active);
-    let mut scratch = vec![0u8; MAX_BLOB_LEN];
     let mut reader = FrameReader::<COMMAND_FRAME_MAX>::new();
     let mut commands = Vec::new();
     let (mut during_erase, mut seq) = (0, 0u32);
@@ -251,7 +204,7 @@ fn serve(master: File, sim: Sim, flash: MemFlash, stop: &AtomicBool) -> Seen {
                     error: ErrorCode::OutOfRange,
                 },
                 c => {
-                    let (reply, _) = up.handle(c, &mut scratch).expect("an upload command");
+                    let (reply, _) = up.handle(c).expect("an upload command");
                     if matches!(c, Command::UploadBegin { .. }) {
                         // The CPU stalls while the sector erases: whatever
                         // arrives meanwhile is lost (overrun).
@@ -283,17 +236,17 @@ fn build(dir: &Path, spec: &str) -> (String, Vec<u8>) {
 }
 
 /// A flash whose slot A holds `blob`, committed at generation 3.
-fn flash_with(blob: &[u8]) -> MemFlash {
-    let mut f = MemFlash::new();
-    f.data[..blob.len()].copy_from_slice(blob);
+fn flash_with(blob: &[u8]) -> RamFlash {
+    let mut f = board_flash();
+    f.bytes_mut()[..blob.len()].copy_from_slice(blob);
     let blob_crc = u32::from_le_bytes(blob[blob.len() - 4..].try_into().unwrap());
     let record = CommitRecord {
         generation: 3,
         blob_crc,
     }
     .to_bytes();
-    f.data[SLOT - 16..SLOT].copy_from_slice(&record);
-    assert_eq!(select_boot_slot(f.slots().0, f.slots().1), Some(Slot::A));
+    f.bytes_mut()[SLOT - 16..SLOT].copy_from_slice(&record);
+    assert_eq!(select_boot_slot(slots(&f).0, slots(&f).1), Some(Slot::A));
     f
 }
 
@@ -325,7 +278,7 @@ fn upload_commits_the_blob_in_the_inactive_slot() {
         "no progress bar off a terminal: {se}"
     );
 
-    let (a, b) = seen.flash.slots();
+    let (a, b) = slots(&seen.flash);
     assert_eq!(&b[..new.len()], &new[..], "slot B holds the file's bytes");
     assert_eq!(&a[..old.len()], &old[..], "slot A untouched");
     assert_eq!(slot_generation(Slot::B, b), Some(4));
@@ -357,13 +310,13 @@ fn a_lost_chunk_is_resent_once() {
         lose_chunk: Some(128),
         ..Sim::default()
     };
-    let hub = Hub::start(sim, MemFlash::new());
+    let hub = Hub::start(sim, board_flash());
     let args = ["hub", "upload", "--port", hub.port(), "--model", &model];
     let (_, se) = ok(&[&args[..], &["--timeout-s", "1"]].concat());
     let seen = hub.finish();
     assert!(se.contains("1 resent"), "{se}");
     assert_eq!(chunks_at(&seen.commands, 128), 2);
-    let (a, b) = seen.flash.slots();
+    let (a, b) = slots(&seen.flash);
     assert_eq!(&a[..new.len()], &new[..]);
     assert_eq!(select_boot_slot(a, b), Some(Slot::A));
     assert_eq!(slot_generation(Slot::A, a), Some(1));
@@ -376,7 +329,7 @@ fn a_corrupt_blob_is_refused_before_anything_is_sent() {
     let mid = bytes.len() / 2;
     bytes[mid] ^= 0x40;
     std::fs::write(&model, &bytes).unwrap();
-    let hub = Hub::start(Sim::default(), MemFlash::new());
+    let hub = Hub::start(Sim::default(), board_flash());
     let se = fails_one_line(&["hub", "upload", "--port", hub.port(), "--model", &model]);
     let seen = hub.finish();
     assert!(se.contains("CRC"), "{se}");
@@ -403,7 +356,7 @@ fn a_nack_fails_the_upload_with_the_hubs_error() {
         "{se}"
     );
     assert_eq!(seen.commands.last(), Some(&Command::UploadAbort));
-    let (a, b) = seen.flash.slots();
+    let (a, b) = slots(&seen.flash);
     assert_eq!(
         select_boot_slot(a, b),
         Some(Slot::A),
@@ -421,7 +374,7 @@ fn a_refused_commit_names_the_reason() {
         }),
         ..Sim::default()
     };
-    let hub = Hub::start(sim, MemFlash::new());
+    let hub = Hub::start(sim, board_flash());
     let se = fails_one_line(&["hub", "upload", "--port", hub.port(), "--model", &model]);
     hub.finish();
     assert!(se.contains("BadBlob (reason 9: invalid model)"), "{se}");
@@ -429,7 +382,7 @@ fn a_refused_commit_names_the_reason() {
 
 #[test]
 fn set_tool_arrives_as_set_tool_length() {
-    let hub = Hub::start(Sim::default(), MemFlash::new());
+    let hub = Hub::start(Sim::default(), board_flash());
     ok(&["hub", "set-tool", "--port", hub.port(), "--mm", "123.4"]);
     let refused = fails_one_line(&["hub", "set-tool", "--port", hub.port(), "--mm", "-1"]);
     let seen = hub.finish();
@@ -443,7 +396,7 @@ fn ping_and_monitor() {
         telemetry: Some(Duration::from_millis(20)),
         ..Sim::default()
     };
-    let hub = Hub::start(sim, MemFlash::new());
+    let hub = Hub::start(sim, board_flash());
     let (so, _) = ok(&["hub", "ping", "--port", hub.port(), "--json"]);
     let v: serde_json::Value = serde_json::from_str(&so).unwrap();
     assert_eq!(v["protocol"], PROTOCOL_VERSION);

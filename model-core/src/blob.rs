@@ -110,6 +110,22 @@ impl From<ModelError> for BlobError {
 /// CRC-32/ISO-HDLC (reflected polynomial 0xEDB88320, init and xorout
 /// 0xFFFFFFFF): the zlib/PNG CRC, so any tool can check a blob.
 pub fn crc32(bytes: &[u8]) -> u32 {
+    Crc32::new().update(bytes).finish()
+}
+
+/// [`crc32`] over bytes that arrive in pieces: the hub checks an upload
+/// whose first bytes are still in RAM and the rest in flash, without
+/// copying it into one buffer.
+#[derive(Clone, Copy, Debug)]
+pub struct Crc32(u32);
+
+impl Default for Crc32 {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Crc32 {
     const TABLE: [u32; 256] = {
         let mut table = [0u32; 256];
         let mut i = 0;
@@ -129,12 +145,26 @@ pub fn crc32(bytes: &[u8]) -> u32 {
         }
         table
     };
-    let mut crc = 0xFFFF_FFFFu32;
-    for b in bytes {
-        let idx = usize::from((crc as u8) ^ b);
-        crc = TABLE.get(idx).copied().unwrap_or(0) ^ (crc >> 8);
+
+    /// No bytes yet.
+    pub const fn new() -> Self {
+        Self(0xFFFF_FFFF)
     }
-    !crc
+
+    /// Adds `bytes` after those seen so far.
+    #[must_use]
+    pub fn update(mut self, bytes: &[u8]) -> Self {
+        for b in bytes {
+            let idx = usize::from((self.0 as u8) ^ b);
+            self.0 = Self::TABLE.get(idx).copied().unwrap_or(0) ^ (self.0 >> 8);
+        }
+        self
+    }
+
+    /// The CRC of every byte added.
+    pub fn finish(self) -> u32 {
+        !self.0
+    }
 }
 
 /// The fixed-size fields of a blob, readable without decoding the body.
@@ -167,35 +197,59 @@ fn le_u32(b: &[u8], at: usize) -> Option<u32> {
 
 /// Checks framing, version and CRC; returns the header and the body bytes.
 pub fn check_frame(bytes: &[u8]) -> Result<(Header, &[u8]), BlobError> {
-    if bytes.len() > MAX_BLOB_LEN {
+    check_frame_split(&[], bytes)
+}
+
+/// [`check_frame`] of the blob `head ++ tail`, with `head` at most
+/// [`HEADER_LEN`] bytes: the body and CRC must lie in `tail`, which is
+/// where they are during an upload (the magic is held in RAM until the
+/// blob is checked, the rest is already in flash). A longer `head` is
+/// refused as [`BlobError::Malformed`].
+pub fn check_frame_split<'t>(head: &[u8], tail: &'t [u8]) -> Result<(Header, &'t [u8]), BlobError> {
+    let total = head.len().saturating_add(tail.len());
+    if total > MAX_BLOB_LEN {
         return Err(BlobError::TooLong);
     }
-    if bytes.len() < HEADER_LEN + TRAILER_LEN {
+    if total < HEADER_LEN + TRAILER_LEN {
         return Err(BlobError::TooShort);
     }
-    if bytes.get(..4) != Some(&MAGIC[..]) {
+    // The header, assembled from both pieces.
+    let split = HEADER_LEN
+        .checked_sub(head.len())
+        .ok_or(BlobError::Malformed)?;
+    let mut header = [0u8; HEADER_LEN];
+    for (h, b) in header
+        .iter_mut()
+        .zip(head.iter().chain(tail.get(..split).unwrap_or(&[])))
+    {
+        *h = *b;
+    }
+    if header.get(..4) != Some(&MAGIC[..]) {
         return Err(BlobError::BadMagic);
     }
-    let version = le_u16(bytes, 4).ok_or(BlobError::TooShort)?;
+    let version = le_u16(&header, 4).ok_or(BlobError::TooShort)?;
     if version != FORMAT_VERSION {
         return Err(BlobError::UnsupportedVersion { found: version });
     }
-    let kind_code = bytes.get(6).copied().ok_or(BlobError::TooShort)?;
-    let body_len = le_u32(bytes, 8).ok_or(BlobError::TooShort)?;
-    let actual = bytes.len() - HEADER_LEN - TRAILER_LEN;
+    let kind_code = header.get(6).copied().ok_or(BlobError::TooShort)?;
+    let body_len = le_u32(&header, 8).ok_or(BlobError::TooShort)?;
+    let actual = total - HEADER_LEN - TRAILER_LEN;
     if usize::try_from(body_len).ok() != Some(actual) {
         return Err(BlobError::LengthMismatch {
             declared: body_len,
             actual: u32::try_from(actual).unwrap_or(u32::MAX),
         });
     }
-    let crc_at = HEADER_LEN + actual;
-    let stored = le_u32(bytes, crc_at).ok_or(BlobError::TooShort)?;
-    let computed = crc32(bytes.get(..crc_at).ok_or(BlobError::TooShort)?);
+    let crc_at = split + actual;
+    let stored = le_u32(tail, crc_at).ok_or(BlobError::TooShort)?;
+    let computed = Crc32::new()
+        .update(&header)
+        .update(tail.get(split..crc_at).ok_or(BlobError::TooShort)?)
+        .finish();
     if stored != computed {
         return Err(BlobError::BadCrc { stored, computed });
     }
-    let body = bytes.get(HEADER_LEN..crc_at).ok_or(BlobError::TooShort)?;
+    let body = tail.get(split..crc_at).ok_or(BlobError::TooShort)?;
     Ok((
         Header {
             version,
@@ -209,7 +263,12 @@ pub fn check_frame(bytes: &[u8]) -> Result<(Header, &[u8]), BlobError> {
 
 /// Decodes and validates a blob.
 pub fn decode(bytes: &[u8]) -> Result<ValidModel, BlobError> {
-    let (header, body) = check_frame(bytes)?;
+    decode_split(&[], bytes)
+}
+
+/// [`decode`] of the blob `head ++ tail` (see [`check_frame_split`]).
+pub fn decode_split(head: &[u8], tail: &[u8]) -> Result<ValidModel, BlobError> {
+    let (header, body) = check_frame_split(head, tail)?;
     let kind = ModelKind::from_code(header.kind_code).ok_or(BlobError::BadKind {
         code: header.kind_code,
     })?;

@@ -1086,3 +1086,47 @@ fn arma_state_stays_finite_after_extreme_input() {
             .expect("an ordinary sample after an extreme one is accepted");
     }
 }
+
+/// The blob in two pieces, split anywhere in the header (how the hub checks
+/// an upload: magic in RAM, the rest in flash), decodes exactly as the
+/// whole, and a change in either piece gives the same error as in the whole.
+#[test]
+fn split_decode_agrees_with_whole_decode_at_every_header_split() {
+    for (label, model) in models() {
+        let good = blob_of(&valid(model));
+        let whole = decode(&good).expect("decodes");
+        for split in 0..=HEADER_LEN {
+            let (head, tail) = good.split_at(split);
+            let parts = blob::decode_split(head, tail).expect("split decodes");
+            assert_eq!(parts.model(), whole.model(), "{label}: split at {split}");
+            for at in [0, 5, 9, 11, 12, good.len() / 2, good.len() - 1] {
+                let mut bad = good.clone();
+                bad[at] ^= 0x5A;
+                let (h, t) = bad.split_at(split);
+                assert_eq!(
+                    blob::decode_split(h, t).map(|_| ()),
+                    decode(&bad).map(|_| ()),
+                    "{label}: split at {split}, byte {at} changed"
+                );
+            }
+        }
+        // A head longer than the header cannot be one of the hub's pieces.
+        let (head, tail) = good.split_at(HEADER_LEN + 1);
+        assert_eq!(
+            blob::decode_split(head, tail).map(|_| ()),
+            Err(BlobError::Malformed),
+            "{label}"
+        );
+    }
+}
+
+/// CRC fed in pieces equals the CRC of the whole, for every split point.
+#[test]
+fn streaming_crc_equals_one_shot_crc() {
+    let bytes: Vec<u8> = (0..=255u8).cycle().take(700).collect();
+    for split in 0..bytes.len() {
+        let (a, b) = bytes.split_at(split);
+        let streamed = blob::Crc32::new().update(a).update(b).finish();
+        assert_eq!(streamed, crc32(&bytes), "split at {split}");
+    }
+}

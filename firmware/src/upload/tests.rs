@@ -3,76 +3,12 @@
 //! the flash holds).
 
 use super::*;
+use crate::ram_flash::RamFlash;
 use crate::test_util::{name, vec};
-use embedded_storage::nor_flash::{check_erase, check_read, check_write, ErrorType, ReadNorFlash};
 use model_core::linear::{Coef, Linear, LinearOutput};
 use model_core::{Channel, Model, Params, Reference, ValidModel};
 
 const SLOT: u32 = 128 * 1024;
-
-/// NOR flash in RAM: erase sets 0xFF, a write can only clear bits (writing
-/// a 1 over a 0 is an error, as it would silently fail on chip), and an
-/// optional byte budget simulates a power cut mid-write.
-struct MemFlash {
-    data: std::vec::Vec<u8>,
-    budget: Option<usize>,
-    erases: usize,
-}
-
-impl MemFlash {
-    fn new(len: usize) -> Self {
-        Self {
-            data: vec![0xFF; len],
-            budget: None,
-            erases: 0,
-        }
-    }
-}
-
-impl ErrorType for MemFlash {
-    type Error = NorFlashErrorKind;
-}
-
-impl ReadNorFlash for MemFlash {
-    const READ_SIZE: usize = 1;
-    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
-        check_read(self, offset, bytes.len())?;
-        let o = offset as usize;
-        bytes.copy_from_slice(&self.data[o..o + bytes.len()]);
-        Ok(())
-    }
-    fn capacity(&self) -> usize {
-        self.data.len()
-    }
-}
-
-impl NorFlash for MemFlash {
-    const WRITE_SIZE: usize = 4;
-    const ERASE_SIZE: usize = 4096;
-    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
-        check_erase(self, from, to)?;
-        self.erases += 1;
-        self.data[from as usize..to as usize].fill(0xFF);
-        Ok(())
-    }
-    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
-        check_write(self, offset, bytes.len())?;
-        for (i, b) in bytes.iter().enumerate() {
-            if let Some(left) = &mut self.budget {
-                if *left == 0 {
-                    return Err(NorFlashErrorKind::Other); // power cut
-                }
-                *left -= 1;
-            }
-            let cell = &mut self.data[offset as usize + i];
-            if *b & !*cell != 0 {
-                return Err(NorFlashErrorKind::Other); // 0 -> 1 without erase
-            }
-            *cell &= *b;
-        }
-        Ok(())
-    }
-}
 
 const MAP: SlotMap = SlotMap {
     a: 0,
@@ -80,15 +16,15 @@ const MAP: SlotMap = SlotMap {
     len: SLOT,
 };
 
-fn flash() -> MemFlash {
-    MemFlash::new(2 * SLOT as usize)
+fn flash() -> RamFlash {
+    RamFlash::new(2 * SLOT as usize)
 }
 
-fn slots(f: &MemFlash) -> (&[u8], &[u8]) {
-    f.data.split_at(SLOT as usize)
+fn slots(f: &RamFlash) -> (&[u8], &[u8]) {
+    f.bytes().split_at(SLOT as usize)
 }
 
-fn reboot(f: &MemFlash) -> Option<Slot> {
+fn reboot(f: &RamFlash) -> Option<Slot> {
     let (a, b) = slots(f);
     select_boot_slot(a, b)
 }
@@ -150,7 +86,7 @@ fn reseal(b: &mut [u8]) {
 
 /// Uploads `bytes` in chunks of `chunk` bytes, announcing their true CRC.
 fn upload(
-    u: &mut Uploader<MemFlash>,
+    u: &mut Uploader<RamFlash>,
     bytes: &[u8],
     chunk: usize,
 ) -> Result<Committed, UploadError> {
@@ -158,8 +94,7 @@ fn upload(
     for (i, c) in bytes.chunks(chunk).enumerate() {
         u.chunk((i * chunk) as u32, c)?;
     }
-    let mut scratch = vec![0u8; MAX_BLOB_LEN];
-    u.commit(&mut scratch)
+    u.commit()
 }
 
 fn intercept_of(hub: &Hub) -> f64 {
@@ -227,12 +162,12 @@ fn good_uploads_alternate_slots_with_rising_generations() {
 fn bare_blob_in_a_boots_as_generation_zero() {
     let mut f = flash();
     let b = blob(5.0);
-    f.data[..b.len()].copy_from_slice(&b);
+    f.bytes_mut()[..b.len()].copy_from_slice(&b);
     assert_eq!(reboot(&f), Some(Slot::A));
     assert_eq!(slot_generation(Slot::A, slots(&f).0), Some(0));
     // The same bare blob in B does not boot (an unfinished upload looks so).
     let mut g = flash();
-    g.data[SLOT as usize..SLOT as usize + b.len()].copy_from_slice(&b);
+    g.bytes_mut()[SLOT as usize..SLOT as usize + b.len()].copy_from_slice(&b);
     assert_eq!(reboot(&g), None);
 
     let mut u = Uploader::new(f, MAP, reboot(&g).or(Some(Slot::A)));
@@ -316,11 +251,7 @@ fn transfer_crc_mismatch_is_refused() {
     for (i, c) in b.chunks(CHUNK_MAX).enumerate() {
         u.chunk((i * CHUNK_MAX) as u32, c).unwrap();
     }
-    let mut scratch = vec![0u8; MAX_BLOB_LEN];
-    assert!(matches!(
-        u.commit(&mut scratch),
-        Err(UploadError::CrcMismatch { .. })
-    ));
+    assert!(matches!(u.commit(), Err(UploadError::CrcMismatch { .. })));
     assert_eq!(reboot(&u.flash), None);
 }
 
@@ -336,7 +267,7 @@ fn interrupted_upload_is_ignored_at_reboot() {
     let f = u.into_inner();
     assert_eq!(reboot(&f), Some(Slot::A));
     // The held-back magic: slot B holds no blob yet.
-    assert_eq!(&f.data[SLOT as usize..SLOT as usize + 4], &[0xFF; 4]);
+    assert_eq!(&f.bytes()[SLOT as usize..SLOT as usize + 4], &[0xFF; 4]);
 
     // Every byte written, blob valid, but no record: still A.
     let mut u = Uploader::new(f, MAP, Some(Slot::A));
@@ -355,8 +286,7 @@ fn interrupted_upload_is_ignored_at_reboot() {
             u.chunk((i * CHUNK_MAX) as u32, c).unwrap();
         }
         u.flash.budget = Some(cut);
-        let mut scratch = vec![0u8; MAX_BLOB_LEN];
-        assert!(matches!(u.commit(&mut scratch), Err(UploadError::Flash(_))));
+        assert!(matches!(u.commit(), Err(UploadError::Flash(_))));
         assert_eq!(reboot(&u.flash), Some(Slot::A), "cut at record byte {cut}");
         assert_eq!(u.active(), Some(Slot::A));
     }
@@ -374,11 +304,7 @@ fn abort_leaves_the_running_slot() {
         u.chunk(CHUNK_MAX as u32, &b[CHUNK_MAX..2 * CHUNK_MAX]),
         Err(UploadError::NotUploading)
     );
-    let mut scratch = vec![0u8; MAX_BLOB_LEN];
-    assert!(matches!(
-        u.commit(&mut scratch),
-        Err(UploadError::NotUploading)
-    ));
+    assert!(matches!(u.commit(), Err(UploadError::NotUploading)));
     assert_eq!(reboot(&u.flash), Some(Slot::A));
     // A new begin restarts cleanly into the same slot.
     let c = upload(&mut u, &b, CHUNK_MAX).unwrap();
@@ -417,17 +343,14 @@ fn out_of_order_overlapping_and_overlong_chunks_are_refused() {
     );
     assert_eq!(u.chunk(c, &[]), Err(UploadError::BadChunk));
     assert_eq!(u.chunk(c, &[0; CHUNK_MAX + 4]), Err(UploadError::BadChunk));
-    let mut scratch = vec![0u8; MAX_BLOB_LEN];
-    assert!(
-        matches!(u.commit(&mut scratch), Err(UploadError::Incomplete { received }) if received == c)
-    );
+    assert!(matches!(u.commit(), Err(UploadError::Incomplete { received }) if received == c));
     // Still uploading after refusals; the rest goes through.
     for (i, chunk) in b.chunks(CHUNK_MAX).enumerate().skip(1) {
         u.chunk((i * CHUNK_MAX) as u32, chunk).unwrap();
     }
     // Past the announced length.
     assert_eq!(u.chunk(b.len() as u32, &[0; 4]), Err(UploadError::BadChunk));
-    assert_eq!(u.commit(&mut scratch).unwrap().generation, 1);
+    assert_eq!(u.commit().unwrap().generation, 1);
 }
 
 #[test]
@@ -438,7 +361,7 @@ fn writes_past_the_slot_are_refused() {
         b: 4096,
         len: 4096,
     };
-    let mut u = Uploader::new(MemFlash::new(8192), small, None);
+    let mut u = Uploader::new(RamFlash::new(8192), small, None);
     let max = 4096 - RECORD_LEN as u32 - 4;
     assert_eq!(u.max_len(), max);
     assert_eq!(u.begin(max + 1, 0), Err(UploadError::BadLength { max }));
@@ -452,7 +375,7 @@ fn writes_past_the_slot_are_refused() {
         })
     );
     // A slot map beyond the device.
-    let mut u = Uploader::new(MemFlash::new(4096), small, None);
+    let mut u = Uploader::new(RamFlash::new(4096), small, None);
     assert_eq!(u.begin(100, 0), Err(UploadError::Unsupported));
     // A chunk past the end of the announced blob never reaches the flash.
     let mut u = Uploader::new(flash(), MAP, None);
@@ -461,17 +384,27 @@ fn writes_past_the_slot_are_refused() {
     assert_eq!(u.flash.erases, 1);
 }
 
+/// The commit checks the bytes the flash holds, not those that were sent:
+/// a byte that did not take its value is a CRC mismatch
+/// against the announced CRC, naming the CRC of what is really there.
 #[test]
-fn scratch_too_small_is_an_error_not_a_panic() {
+fn commit_checks_the_bytes_in_flash_not_the_bytes_sent() {
     let mut u = Uploader::new(flash(), MAP, None);
     let b = blob(1.0);
     u.begin(b.len() as u32, crc32(&b)).unwrap();
     for (i, c) in b.chunks(CHUNK_MAX).enumerate() {
         u.chunk((i * CHUNK_MAX) as u32, c).unwrap();
     }
+    let at = b.len() / 2;
+    u.flash.bytes_mut()[at] = !b[at];
+    let mut in_flash = b.clone();
+    in_flash[at] = !b[at];
     assert_eq!(
-        u.commit(&mut [0u8; 8]).unwrap_err(),
-        UploadError::ScratchTooSmall
+        u.commit().unwrap_err(),
+        UploadError::CrcMismatch {
+            expected: crc32(&b),
+            computed: crc32(&in_flash),
+        }
     );
     assert_eq!(reboot(&u.flash), None);
 }
@@ -479,30 +412,23 @@ fn scratch_too_small_is_an_error_not_a_panic() {
 #[test]
 fn handle_answers_commands_over_the_protocol() {
     let mut u = Uploader::new(flash(), MAP, None);
-    let mut scratch = vec![0u8; MAX_BLOB_LEN];
     let b = blob(4.0);
-    assert!(u.handle(&Command::Ping, &mut scratch).is_none());
+    assert!(u.handle(&Command::Ping).is_none());
     let (reply, _) = u
-        .handle(
-            &Command::UploadBegin {
-                len: b.len() as u32,
-                crc32: crc32(&b),
-            },
-            &mut scratch,
-        )
+        .handle(&Command::UploadBegin {
+            len: b.len() as u32,
+            crc32: crc32(&b),
+        })
         .unwrap();
     assert_eq!(
         reply,
         HubMessage::Ack(crate::protocol::CommandKind::UploadBegin)
     );
     let (reply, _) = u
-        .handle(
-            &Command::UploadChunk {
-                offset: 64,
-                bytes: heapless::Vec::from_slice(&b[64..128]).unwrap(),
-            },
-            &mut scratch,
-        )
+        .handle(&Command::UploadChunk {
+            offset: 64,
+            bytes: heapless::Vec::from_slice(&b[64..128]).unwrap(),
+        })
         .unwrap();
     assert_eq!(
         reply,
@@ -516,12 +442,9 @@ fn handle_answers_commands_over_the_protocol() {
             offset: (i * CHUNK_MAX) as u32,
             bytes: heapless::Vec::from_slice(c).unwrap(),
         };
-        assert!(matches!(
-            u.handle(&cmd, &mut scratch),
-            Some((HubMessage::Ack(_), None))
-        ));
+        assert!(matches!(u.handle(&cmd), Some((HubMessage::Ack(_), None))));
     }
-    let (reply, committed) = u.handle(&Command::UploadCommit, &mut scratch).unwrap();
+    let (reply, committed) = u.handle(&Command::UploadCommit).unwrap();
     assert_eq!(
         reply,
         HubMessage::Ack(crate::protocol::CommandKind::UploadCommit)
