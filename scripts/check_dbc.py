@@ -7,8 +7,9 @@
                                               ("(1700000000.000000) can0 181#0102...")
     scripts/check_dbc.py run.log --against trace.csv
                                               decode a `thermcomp replay` log and check
-                                              every HUB_OFFSETS against the replay's
-                                              --trace (exit 1 on any difference)
+                                              every HUB_OFFSETS and HUB_SLOPE against
+                                              the replay's --trace (exit 1 on any
+                                              difference)
 
 Without arguments it checks, with cantools (requirements.txt):
   1. hand-written vectors below (known physical values -> bytes worked out
@@ -121,36 +122,49 @@ def decode_line(db, line):
 def against(db, log, trace):
     """Every HUB_OFFSETS frame of `log`, decoded by cantools, equals the
     offsets `thermcomp replay` recorded as sent at that time (its trace's
-    `<output>_sent` columns, model output order): the DBC reads the frames
-    as the hub meant them."""
+    `<output>_sent` columns, model output order), and every HUB_SLOPE frame
+    the slope recorded for its output (`<output>_slope_um_per_m`): the DBC
+    reads the frames as the hub meant them."""
     import csv
     with open(trace, newline="") as f:
         rows = list(csv.DictReader(f))
     sent_cols = [c for c in rows[0] if c.endswith("_sent")] if rows else []
-    want = {round(float(r["t_s"]), 6): [float(r[c]) for c in sent_cols] for r in rows}
-    n, worst, bad = 0, 0.0, []
+    outputs = [c[: -len("_sent")] for c in sent_cols]
+    by_t = {round(float(r["t_s"]), 6): r for r in rows}
+    n, n_slope, worst, worst_slope, bad = 0, 0, 0.0, 0.0, []
     for i, line in enumerate(Path(log).read_text().splitlines(), 1):
         m = FRAME_RE.match(line.strip())
         if not m:
             bad.append(f"{log}:{i}: not a frame")
             continue
         msg = db.get_message_by_frame_id(int(m["id"], 16))
-        if msg.name != "HUB_OFFSETS":
-            msg.decode(bytes.fromhex(m["data"]))  # every frame must decode
+        sig = msg.decode(bytes.fromhex(m["data"]))  # every frame must decode
+        if msg.name not in ("HUB_OFFSETS", "HUB_SLOPE"):
             continue
-        sig = msg.decode(bytes.fromhex(m["data"]))
-        got = [sig[f"OffsetOut{k + 1}"] for k in range(min(3, len(sent_cols)))]
-        exp = want.get(round(float(m["t"]), 6))
-        if exp is None:
+        row = by_t.get(round(float(m["t"]), 6))
+        if row is None:
             bad.append(f"{log}:{i}: no trace row at t = {m['t']}")
             continue
-        n += 1
-        for g, e in zip(got, exp):
-            worst = max(worst, abs(g - e))
+        if msg.name == "HUB_OFFSETS":
+            got = [sig[f"OffsetOut{k + 1}"] for k in range(min(3, len(sent_cols)))]
+            n += 1
+            for g, c in zip(got, sent_cols):
+                worst = max(worst, abs(g - float(row[c])))
+        else:
+            j = int(sig["SlopeOutput"])
+            col = f"{outputs[j]}_slope_um_per_m" if j < len(outputs) else None
+            if col not in row:
+                bad.append(f"{log}:{i}: SLOPE for output {j}, which the trace has no slope for")
+                continue
+            n_slope += 1
+            worst_slope = max(worst_slope, abs(sig["Slope"] - float(row[col])))
     if worst > 1e-9:
-        bad.append(f"largest difference {worst} um")
-    print(f"{log}: {n} HUB_OFFSETS frames decoded by cantools {cantools.__version__}; "
-          f"largest difference from the replay trace {worst:.2e} um: {'OK' if not bad else 'FAILED'}")
+        bad.append(f"largest offset difference {worst} um")
+    if worst_slope > 1e-9:
+        bad.append(f"largest slope difference {worst_slope} um/m")
+    print(f"{log}: {n} HUB_OFFSETS and {n_slope} HUB_SLOPE frames decoded by cantools "
+          f"{cantools.__version__}; largest difference from the replay trace {worst:.2e} um, "
+          f"{worst_slope:.2e} um/m: {'OK' if not bad else 'FAILED'}")
     for b in bad[:10]:
         print(b, file=sys.stderr)
     return 0 if not bad else 1

@@ -11,7 +11,7 @@
 //! | 0x181 | OFFSETS      | 8   | every sample: outputs 1-3, state, counter |
 //! | 0x281 | STATUS       | 8   | every sample: flags, faulty channels, shape, faults |
 //! | 0x381 | OFFSETS_EXT  | 8   | every sample when the model has a 4th output |
-//! | 0x481 | SLOPE        | 8   | not sent yet: defined for position-dependent models |
+//! | 0x481 | SLOPE        | 8   | every sample, once per positional model output |
 //! | 0x701 | HEARTBEAT    | 1   | every [`Heartbeat`] period (NMT state)   |
 //!
 //! Offsets are signed 16-bit in 0.1 um: thermal offsets are tens of um and
@@ -238,10 +238,10 @@ pub fn encode_status<F: Frame>(report: &Report, info: &StatusInfo) -> Option<F> 
     frame(STATUS_ID, &d)
 }
 
-/// SLOPE (0x481), for position-dependent models: offset + slope x
-/// (position minus reference), as Siemens TEMP_COMP applies it.
-/// **Not sent yet**: the pipeline computes no slope; the frame is frozen so
-/// the CNC side can be written now.
+/// SLOPE (0x481), for position-dependent models: the CNC applies
+/// offset + slope x (position minus reference), as Siemens TEMP_COMP does
+/// (the offset is the output's OFFSETS signal). One frame per positional
+/// output, told apart by byte 6.
 ///
 /// Bytes: 0-3 slope (i32 LE, 0.001 um/m), 4-5 reference position (i16 LE,
 /// 1 mm), 6 output index (0-based, model output order), 7 counter.
@@ -276,10 +276,18 @@ pub fn encode_heartbeat<F: Frame>(state: NmtState) -> Option<F> {
     frame(HEARTBEAT_ID, &[state as u8])
 }
 
-/// The frames of one sample, in sending order: OFFSETS, STATUS, and
-/// OFFSETS_EXT when the model has a 4th output. Empty only if `F` refuses
-/// standard frames.
-pub fn encode_report<F: Frame>(report: &Report, info: &StatusInfo) -> heapless::Vec<F, 3> {
+/// Most frames of one sample: OFFSETS, STATUS, OFFSETS_EXT and one SLOPE
+/// per output.
+pub const REPORT_FRAMES_MAX: usize = 3 + crate::offsets::MAX_OUTPUTS;
+
+/// The frames of one sample, in sending order (ascending ids): OFFSETS,
+/// STATUS, OFFSETS_EXT when the model has a 4th output, and a SLOPE per
+/// positional output (reference position 0 mm, `pipeline`). Empty only if
+/// `F` refuses standard frames.
+pub fn encode_report<F: Frame>(
+    report: &Report,
+    info: &StatusInfo,
+) -> heapless::Vec<F, REPORT_FRAMES_MAX> {
     let mut out = heapless::Vec::new();
     let ext = if report.n_outputs >= 4 {
         encode_offsets_ext(report)
@@ -290,8 +298,23 @@ pub fn encode_report<F: Frame>(report: &Report, info: &StatusInfo) -> heapless::
         .into_iter()
         .flatten()
     {
-        // Capacity 3 holds all three.
+        // Capacity REPORT_FRAMES_MAX holds every frame.
         let _ = out.push(f);
+    }
+    let n_out = usize::from(report.n_outputs).min(crate::offsets::MAX_OUTPUTS);
+    for (j, slope) in report.slopes_um_per_m.iter().enumerate().take(n_out) {
+        if report.positional & (1 << j) == 0 {
+            continue;
+        }
+        let output = u8::try_from(j).unwrap_or(u8::MAX);
+        if let Some(f) = encode_slope(
+            *slope,
+            crate::offsets::POSITION_REFERENCE_MM,
+            output,
+            counter(report),
+        ) {
+            let _ = out.push(f);
+        }
     }
     out
 }

@@ -42,6 +42,8 @@ pub enum ConfigError {
     },
     /// A commanded tool length is not finite or outside its range.
     ToolLength,
+    /// The travel that scales slope limits is not finite and positive.
+    SlopeStroke,
 }
 
 impl fmt::Display for ConfigError {
@@ -66,6 +68,7 @@ impl fmt::Display for ConfigError {
                 write!(f, "clamp of output #{output} must be finite and > 0 um")
             }
             Self::ToolLength => write!(f, "tool length must be finite and within 0..=1000 mm"),
+            Self::SlopeStroke => write!(f, "slope stroke must be finite and > 0 mm"),
         }
     }
 }

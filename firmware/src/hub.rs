@@ -88,6 +88,7 @@ pub struct Hub {
     model: Result<ValidModel, BlobError>,
     state: ModelState,
     offsets: [f64; MAX_OUTPUTS],
+    slopes: [f64; MAX_OUTPUTS],
     faults: Faults,
     last_fault: Option<StepError>,
 }
@@ -107,6 +108,7 @@ impl Hub {
             model,
             state: ModelState::new(),
             offsets: [0.0; MAX_OUTPUTS],
+            slopes: [0.0; MAX_OUTPUTS],
             faults: Faults::default(),
             last_fault: None,
         }
@@ -151,20 +153,40 @@ impl Hub {
         let Ok(model) = &self.model else {
             return Offsets::ZERO;
         };
+        let positional = model.positional_outputs();
         let mut out = [0.0; MAX_OUTPUTS];
-        let result = match model.step(&mut self.state, readings, &mut out) {
-            // `step` already guarantees finite outputs; checked again here
-            // because this is the last stop before the CNC.
-            Ok(()) if out.iter().all(|v| v.is_finite()) => Ok(()),
-            Ok(()) => Err(StepError::NonFiniteOutput),
-            Err(e) => Err(e),
-        };
+        let mut slopes = [0.0; MAX_OUTPUTS];
+        let result = model
+            .step(&mut self.state, readings, &mut out)
+            .and_then(|()| {
+                if positional != 0 {
+                    model.thermal_slopes(&self.state, readings, &mut slopes)?;
+                }
+                // A positional output's thermal part is zero at the
+                // reference position; its geometric part is the CNC's own
+                // pitch compensation. What it needs is the slope.
+                for (j, v) in out.iter_mut().enumerate() {
+                    if positional & (1 << j) != 0 {
+                        *v = 0.0;
+                    }
+                }
+                // `step` already guarantees finite outputs; checked again
+                // here because this is the last stop before the CNC.
+                if out.iter().chain(&slopes).all(|v| v.is_finite()) {
+                    Ok(())
+                } else {
+                    Err(StepError::NonFiniteOutput)
+                }
+            });
         match result {
             Ok(()) => {
                 self.offsets = out;
+                self.slopes = slopes;
                 self.faults.consecutive = 0;
                 Offsets {
                     values: out,
+                    slopes,
+                    positional,
                     fresh: true,
                 }
             }
@@ -173,6 +195,8 @@ impl Hub {
                 self.last_fault = Some(e);
                 Offsets {
                     values: self.offsets,
+                    slopes: self.slopes,
+                    positional,
                     fresh: false,
                 }
             }

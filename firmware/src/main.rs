@@ -175,7 +175,11 @@ mod host {
                 can_frames::OFFSETS_EXT_ID,
                 "every sample with a 4th output",
             ),
-            ("SLOPE", can_frames::SLOPE_ID, "defined, not sent yet"),
+            (
+                "SLOPE",
+                can_frames::SLOPE_ID,
+                "every sample, one per positional output",
+            ),
             (
                 "HEARTBEAT",
                 can_frames::HEARTBEAT_ID,

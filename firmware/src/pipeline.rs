@@ -36,6 +36,19 @@
 //!    finite, within `+-clamp_um` and moves at most `slew_um_per_s * dt_s`
 //!    per sample, whatever the readings (asserted by a property test).
 //!
+//! # Positional outputs
+//!
+//! A positional output (a feed axis' positioning error, seed 003 Eq. 16;
+//! model-core's `position` module) depends on where the axis is, which the
+//! hub does not know. Its position input is fed the reference position
+//! 0 mm, its offset is the thermal part there (zero), and the report
+//! carries its thermal slope instead, for the CNC's position-dependent
+//! temperature compensation (offset + slope x position, as Siemens
+//! TEMP_COMP; the CAN SLOPE frame). The slope goes through the same
+//! follow / hold / ramp and is clamped and slew-limited so that its effect
+//! at [`PipelineConfig::slope_stroke_mm`] of travel obeys the output's
+//! offset limits.
+//!
 //! Without a model the pipeline reports zero offsets, [`HubState::NoModel`]
 //! and [`StatusFlags::NO_MODEL`], and ignores the readings.
 
@@ -46,6 +59,7 @@ use crate::board;
 pub use crate::config::ConfigError;
 use crate::hub::Hub;
 use crate::limiter::{limit, LimiterConfig};
+pub use crate::offsets::POSITION_REFERENCE_MM;
 use crate::offsets::{MAX_INPUTS, MAX_OUTPUTS};
 use crate::report::{HubState, Report, StatusFlags};
 use crate::spike::{SpikeConfig, SpikeState};
@@ -154,6 +168,11 @@ pub struct PipelineConfig {
     pub supervisor: SupervisorConfig,
     /// Slew rate and clamp per output.
     pub limiter: LimiterConfig,
+    /// Axis travel over which a slope's limits follow the offset's, mm: a
+    /// slope may change its effect at this distance from the reference by
+    /// no more than the output's slew rate, and that effect is clamped like
+    /// an offset. 1 m covers the feed axes of most machining centres.
+    pub slope_stroke_mm: f64,
 }
 
 impl PipelineConfig {
@@ -164,6 +183,7 @@ impl PipelineConfig {
         spike: SpikeConfig::DEFAULT,
         supervisor: SupervisorConfig::DEFAULT,
         limiter: LimiterConfig::DEFAULT,
+        slope_stroke_mm: 1000.0,
     };
 
     /// Checks every setting once, and that the ramp to zero is no faster
@@ -176,6 +196,9 @@ impl PipelineConfig {
         self.spike.validate()?;
         self.supervisor.validate()?;
         self.limiter.validate()?;
+        if !crate::config::positive(self.slope_stroke_mm) {
+            return Err(ConfigError::SlopeStroke);
+        }
         for (i, slew) in self.limiter.slew_um_per_s.iter().enumerate() {
             if self.supervisor.ramp_um_per_s > *slew {
                 return Err(ConfigError::RampFasterThanSlew {
@@ -233,6 +256,8 @@ struct Timing {
     hold_samples: u32,
     ramp_step_um: f64,
     slew_step_um: [f64; MAX_OUTPUTS],
+    /// um of offset -> um/m of slope at the configured stroke.
+    per_stroke_m: f64,
 }
 
 impl Timing {
@@ -247,6 +272,7 @@ impl Timing {
             hold_samples: config.supervisor.hold_samples(dt_s),
             ramp_step_um: config.supervisor.ramp_step_um(dt_s),
             slew_step_um,
+            per_stroke_m: 1000.0 / config.slope_stroke_mm,
         }
     }
 }
@@ -260,6 +286,24 @@ fn tool_mask(hub: &Hub) -> u32 {
             .filter(|(_, ch)| ch.name.as_str() == TOOL_INPUT)
             .fold(0, |mask, (j, _)| mask | bit(j))
     })
+}
+
+/// Bit `j` set: model input `j` is a positional output's position.
+fn position_mask(hub: &Hub) -> u32 {
+    hub.model().map_or(0, |m| m.position_inputs())
+}
+
+/// Bit `j` set: output `j` is positional.
+fn positional_outputs(hub: &Hub) -> u8 {
+    hub.model().map_or(0, |m| m.positional_outputs())
+}
+
+/// `1 << j` as a u8 output mask, or 0 past bit 7.
+fn bit8(j: usize) -> u8 {
+    u32::try_from(j)
+        .ok()
+        .and_then(|j| 1u8.checked_shl(j))
+        .unwrap_or(0)
 }
 
 /// `1 << j`, or 0 past bit 31 (cannot happen: `MAX_INPUTS <= 32`).
@@ -281,6 +325,12 @@ pub struct Pipeline {
     /// Inputs filled from `tool_mm` rather than from a reading.
     tool_mask: u32,
     tool_mm: Option<f64>,
+    /// Inputs fed [`POSITION_REFERENCE_MM`].
+    position_mask: u32,
+    /// Outputs reported as slopes.
+    positional: u8,
+    /// The slopes last reported, um/m (zero for other outputs).
+    slopes_um_per_m: [f64; MAX_OUTPUTS],
     supervisor: Supervisor,
     /// The offsets last reported, um (zero past the model's output count).
     offsets_um: [f64; MAX_OUTPUTS],
@@ -297,6 +347,9 @@ impl Pipeline {
         let timing = Timing::new(&config, config.sample_period_s(&hub));
         Ok(Self {
             tool_mask: tool_mask(&hub),
+            position_mask: position_mask(&hub),
+            positional: positional_outputs(&hub),
+            slopes_um_per_m: [0.0; MAX_OUTPUTS],
             hub,
             config,
             timing,
@@ -377,11 +430,24 @@ impl Pipeline {
             return Err(SwapError::NoModel);
         };
         let mut offsets_um = [0.0; MAX_OUTPUTS];
+        let mut slopes_um_per_m = [0.0; MAX_OUTPUTS];
         let mut spike = [SpikeState::NEW; MAX_INPUTS];
+        let positional = new.positional_outputs();
         if let Some(old) = self.hub.model() {
-            for (value, name) in offsets_um.iter_mut().zip(new.outputs()) {
+            for (j, name) in new.outputs().iter().enumerate() {
                 if let Some(k) = old.outputs().iter().position(|n| n == name) {
-                    *value = self.offsets_um.get(k).copied().unwrap_or(0.0);
+                    let carry = |v: &[f64; MAX_OUTPUTS]| v.get(k).copied().unwrap_or(0.0);
+                    if let Some(o) = offsets_um.get_mut(j) {
+                        *o = carry(&self.offsets_um);
+                    }
+                    // A slope carries over only from a positional output.
+                    if let Some(s) = slopes_um_per_m.get_mut(j) {
+                        *s = if positional & self.positional & bit8(j) != 0 {
+                            carry(&self.slopes_um_per_m)
+                        } else {
+                            0.0
+                        };
+                    }
                 }
             }
             for (state, channel) in spike.iter_mut().zip(new.inputs()) {
@@ -392,6 +458,9 @@ impl Pipeline {
         }
         self.timing = Timing::new(&self.config, self.config.sample_period_s(&hub));
         self.tool_mask = tool_mask(&hub);
+        self.position_mask = position_mask(&hub);
+        self.positional = positional;
+        self.slopes_um_per_m = slopes_um_per_m;
         self.offsets_um = offsets_um;
         self.spike = spike;
         self.hub = hub;
@@ -415,6 +484,8 @@ impl Pipeline {
             return Report {
                 seq,
                 offsets: [0.0; MAX_OUTPUTS],
+                slopes_um_per_m: [0.0; MAX_OUTPUTS],
+                positional: 0,
                 n_outputs: 0,
                 state: HubState::NoModel,
                 flags,
@@ -435,6 +506,8 @@ impl Pipeline {
         {
             let reading = if self.tool_mask & bit(j) != 0 {
                 self.tool_mm.map_or(Reading::Stale, Reading::Direct)
+            } else if self.position_mask & bit(j) != 0 {
+                Reading::Direct(POSITION_REFERENCE_MM)
             } else {
                 readings.get(j).copied().unwrap_or(Reading::Stale)
             };
@@ -478,7 +551,7 @@ impl Pipeline {
         if faulty == 0 {
             let out = self.hub.on_sample(inputs.get(..n_in).unwrap_or(&[]));
             if out.fresh {
-                model_out = Some(out.values);
+                model_out = Some((out.values, out.slopes));
             } else {
                 flags.set(StatusFlags::MODEL_FAULT);
             }
@@ -500,7 +573,7 @@ impl Pipeline {
             .enumerate()
         {
             let target = match (phase, &model_out) {
-                (Phase::Follow, Some(values)) => values.get(i).copied().unwrap_or(*offset),
+                (Phase::Follow, Some((values, _))) => values.get(i).copied().unwrap_or(*offset),
                 (Phase::Ramp, _) => ramp_toward_zero(*offset, self.timing.ramp_step_um),
                 _ => *offset,
             };
@@ -515,9 +588,42 @@ impl Pipeline {
             all_zero &= *offset == 0.0;
         }
 
+        // 5. The same for each positional output's slope, at the stroke.
+        let per_m = self.timing.per_stroke_m;
+        for (i, ((slope, step), clamp)) in self
+            .slopes_um_per_m
+            .iter_mut()
+            .zip(&self.timing.slew_step_um)
+            .zip(&self.config.limiter.clamp_um)
+            .take(n_out)
+            .enumerate()
+        {
+            if self.positional & bit8(i) == 0 {
+                *slope = 0.0;
+                continue;
+            }
+            let target = match (phase, &model_out) {
+                // um/mm from the model -> um/m on the wire.
+                (Phase::Follow, Some((_, slopes))) => slopes.get(i).map_or(*slope, |k| k * 1000.0),
+                (Phase::Ramp, _) => ramp_toward_zero(*slope, self.timing.ramp_step_um * per_m),
+                _ => *slope,
+            };
+            let limited = limit(*slope, target, step * per_m, clamp * per_m);
+            *slope = limited.value_um;
+            if limited.clamped {
+                flags.set(StatusFlags::CLAMPED);
+            }
+            if limited.slew_limited {
+                flags.set(StatusFlags::SLEW_LIMITED);
+            }
+            all_zero &= *slope == 0.0;
+        }
+
         Report {
             seq,
             offsets: self.offsets_um,
+            slopes_um_per_m: self.slopes_um_per_m,
+            positional: self.positional,
             n_outputs: u8::try_from(n_out).unwrap_or(u8::MAX),
             state: phase.hub_state(all_zero),
             flags,

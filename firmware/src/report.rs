@@ -86,6 +86,12 @@ pub struct Report {
     /// Offsets in the model's output order, in the output's unit (um);
     /// entries past `n_outputs` are zero. Final (limited, clamped) and finite.
     pub offsets: [f64; MAX_OUTPUTS],
+    /// Thermal slope of each positional output, um/m (zero for the
+    /// others), limited like the offsets (see `pipeline`); finite.
+    pub slopes_um_per_m: [f64; MAX_OUTPUTS],
+    /// Bit `j` set: output `j` is positional (its offset is the value at
+    /// the reference position 0 mm; the CNC adds slope x position).
+    pub positional: u8,
     /// How many entries of `offsets` are model outputs.
     pub n_outputs: u8,
     /// The compensation state.

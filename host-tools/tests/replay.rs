@@ -239,3 +239,114 @@ fn a_corrupted_blob_runs_as_no_model_with_zero_offsets() {
         .iter()
         .all(|f| f[4..16] == *"000000000000" && &f[16..18] == "00"));
 }
+
+/// Seed 003's feed-axis model (README "Positioning error of a feed axis"):
+/// PCR slope k(T) and `poly(P) + (k - k0) P` with P from `y_mm`.
+const SEED003_POSITIONAL: &str = r#"
+kind = "pcr"
+dt_s = 1.0
+
+[[pcr]]
+output = "ey_um"
+inputs = ["T1", "T2", "T5", "T7", "T11"]
+components = [{ intercept = -50.6062, weights = [0.1631, 0.4902, 0.2512, 0.6614, 1.1666] }]
+intercept = -0.3243
+beta = [0.0396]
+position = { input = "y_mm", poly = [-1.6437, 0.0, -0.0144, 1.5173e-4, -5.5207e-7, 6.8499e-10], k0 = -0.0171 }
+"#;
+
+/// A positional model on the hub: no position column needed (the hub does
+/// not know where the axis is), one SLOPE frame per sample, and the CNC's
+/// `poly(P) + slope x P` (its pitch compensation plus TEMP_COMP with the
+/// hub's slope) reproduces `thermcomp predict` at every logged position,
+/// within the slope's 0.001 um/m step over the travel.
+#[test]
+fn positional_model_replays_as_slopes_that_reproduce_predict() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(dir.path(), "s.toml", SEED003_POSITIONAL);
+    let blob = dir.path().join("m.bin");
+    ok(&["model", "build", "--spec", &spec, "--out", p(&blob)]);
+    // 2 h at 1 s: the five sensors warm 22 -> ~23.7 C, the axis wanders
+    // over 0..600 mm (a deterministic pseudo-random walk).
+    let mut run = String::from("t_s,T1,T2,T5,T7,T11,y_mm\n");
+    let mut y = 300.0f64;
+    for k in 0..7200 {
+        let t = f64::from(k);
+        let warm = 22.0 + 2.0 * (1.0 - (-t / 3600.0).exp());
+        y = (y + ((k * 7919 % 97) as f64 - 48.0)).clamp(0.0, 600.0);
+        let temps: Vec<String> = (0..5)
+            .map(|i| format!("{:.4}", warm + 0.1 * f64::from(i)))
+            .collect();
+        run.push_str(&format!("{t},{},{y}\n", temps.join(",")));
+    }
+    let run = write(dir.path(), "run.csv", &run);
+    let no_position = write(
+        dir.path(),
+        "no_y.csv",
+        &std::fs::read_to_string(&run)
+            .unwrap()
+            .lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n")
+            .collect::<String>(),
+    );
+    let (log, trace) = (dir.path().join("out.log"), dir.path().join("trace.csv"));
+    let j = ok_json(&[
+        "replay",
+        "--model",
+        p(&blob),
+        "--data",
+        &no_position,
+        "--candump",
+        p(&log),
+        "--trace",
+        p(&trace),
+        "--json",
+    ]);
+    let r = &j["runs"][0];
+    assert_eq!(r["samples"], 7200);
+    // OFFSETS + STATUS + SLOPE every sample, HEARTBEAT every 1 s.
+    assert_eq!(r["frames"], 4 * 7200);
+    assert_eq!(r["states"]["running"], 7200);
+    let t = read_csv(p(&trace));
+    let slope = &t["ey_um_slope_um_per_m"];
+    assert!(t["ey_um_sent"].iter().all(|v| *v == 0.0), "offset at 0 mm");
+    // The model on the temperatures as the hub read them, at the logged y.
+    let mut inputs = String::from("t_s,T1,T2,T5,T7,T11,y_mm\n");
+    let raw = read_csv(&run);
+    for k in 0..7200 {
+        let temps: Vec<String> = ["T1", "T2", "T5", "T7", "T11"]
+            .iter()
+            .map(|c| format!("{}", t[*c][k]))
+            .collect();
+        inputs.push_str(&format!("{k},{},{}\n", temps.join(","), raw["y_mm"][k]));
+    }
+    let inputs = write(dir.path(), "as_read.csv", &inputs);
+    let pred = dir.path().join("pred.csv");
+    ok(&[
+        "predict",
+        "--model",
+        p(&blob),
+        "--data",
+        &inputs,
+        "--out",
+        p(&pred),
+    ]);
+    let want = &read_csv(p(&pred))["ey_um_pred"];
+    let poly = [-1.6437, 0.0, -0.0144, 1.5173e-4, -5.5207e-7, 6.8499e-10];
+    let flags = &t["flags"];
+    let (mut worst, mut compared) = (0.0f64, 0);
+    for k in 0..7200 {
+        if (flags[k] as u16) & (1 << 5) != 0 {
+            continue; // power-up: the slope climbs at 2 um/m per s
+        }
+        let y = raw["y_mm"][k];
+        let geometric = poly.iter().rev().fold(0.0, |acc, c| acc * y + c);
+        let cnc = geometric + slope[k] / 1000.0 * y;
+        // Half a 0.001 um/m step over y mm, plus f64 rounding.
+        let bound = 0.0005e-3 * y + 1e-9;
+        worst = worst.max((cnc - want[k]).abs() - bound);
+        compared += 1;
+    }
+    assert!(worst <= 0.0, "beyond the slope's resolution by {worst} um");
+    assert!(compared > 6500, "{compared} samples compared");
+}

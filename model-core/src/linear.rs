@@ -40,6 +40,14 @@ impl LinearOutput {
         })
     }
 
+    /// The thermal slope `k - k0` ([`PositionTerm::thermal_slope`]) at the
+    /// (reference-adjusted) inputs `x`, if this output is positional.
+    pub fn slope(&self, x: &[f64]) -> Option<f64> {
+        self.position
+            .as_ref()
+            .map(|pos| pos.thermal_slope(self.regression(x)))
+    }
+
     /// The output for the (reference-adjusted) inputs `x`.
     pub fn evaluate(&self, x: &[f64]) -> f64 {
         let k = self.regression(x);

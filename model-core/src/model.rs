@@ -506,6 +506,115 @@ impl ValidModel {
         self.model
     }
 
+    /// The inputs relative to their references: at the first sample of a
+    /// run a `Reference::First` input is 0 (the sample is its reference).
+    fn adjusted(&self, state: &ModelState, inputs: &[f64]) -> [f64; MAX_CHANNELS] {
+        let mut x = [0.0; MAX_CHANNELS];
+        for (((xi, raw), ch), r) in x
+            .iter_mut()
+            .zip(inputs)
+            .zip(&self.model.inputs)
+            .zip(&state.references)
+        {
+            *xi = match ch.reference {
+                Reference::Absolute => *raw,
+                Reference::Value(v) => raw - v,
+                Reference::First if !state.started => 0.0,
+                Reference::First => raw - r,
+            };
+        }
+        x
+    }
+
+    /// Bit `j` set: output `j` is a positioning error
+    /// ([`PositionTerm`](crate::position::PositionTerm)), sent to a CNC as a
+    /// thermal slope ([`ValidModel::thermal_slopes`]).
+    pub fn positional_outputs(&self) -> u8 {
+        let mut mask = 0u8;
+        let mut mark = |output: u8| mask |= 1u8.checked_shl(u32::from(output)).unwrap_or(0);
+        match &self.model.params {
+            Params::Linear(lin) => lin
+                .outputs
+                .iter()
+                .filter(|eq| eq.position.is_some())
+                .for_each(|eq| mark(eq.output)),
+            Params::Pcr(pcr) => pcr
+                .outputs
+                .iter()
+                .filter(|eq| eq.position.is_some())
+                .for_each(|eq| mark(eq.output)),
+            _ => {}
+        }
+        mask
+    }
+
+    /// Bit `i` set: input `i` is the axis position of a positional output.
+    /// A hub that does not know the position feeds the reference `P0 = 0`
+    /// there and sends slopes instead.
+    pub fn position_inputs(&self) -> u32 {
+        let mut mask = 0u32;
+        let mut mark = |ch: u8| mask |= 1u32.checked_shl(u32::from(ch)).unwrap_or(0);
+        match &self.model.params {
+            Params::Linear(lin) => lin
+                .outputs
+                .iter()
+                .filter_map(|eq| eq.position.as_ref())
+                .for_each(|pos| mark(pos.channel)),
+            Params::Pcr(pcr) => pcr
+                .outputs
+                .iter()
+                .filter_map(|eq| eq.position.as_ref())
+                .for_each(|pos| mark(pos.channel)),
+            _ => {}
+        }
+        mask
+    }
+
+    /// The thermal slope `k(T) - k0` (um per mm of travel) of every
+    /// positional output ([`ValidModel::positional_outputs`]) at `inputs`,
+    /// written to `slopes[j]`; other entries are left alone. Call it right
+    /// after a successful [`ValidModel::step`] with the same `inputs` (the
+    /// references are then the ones that step used). Positional models are
+    /// static, so this changes no state. Refuses, writing nothing, what
+    /// `step` would refuse, and a slope that is not finite.
+    pub fn thermal_slopes(
+        &self,
+        state: &ModelState,
+        inputs: &[f64],
+        slopes: &mut [f64],
+    ) -> Result<(), StepError> {
+        if inputs.len() != self.model.inputs.len() || !inputs.iter().all(|v| v.is_finite()) {
+            return Err(StepError::NonFiniteInput { channel: 0 });
+        }
+        if slopes.len() < self.model.outputs.len() {
+            return Err(StepError::OutputSpace);
+        }
+        let x = self.adjusted(state, inputs);
+        let mut found = [None; MAX_OUTPUTS];
+        let mut put = |output: u8, k: f64| {
+            if let Some(f) = found.get_mut(usize::from(output)) {
+                *f = Some(k);
+            }
+        };
+        match &self.model.params {
+            Params::Linear(lin) => lin
+                .outputs
+                .iter()
+                .for_each(|eq| eq.slope(&x).into_iter().for_each(|k| put(eq.output, k))),
+            Params::Pcr(pcr) => pcr.slopes(&x, put),
+            _ => {}
+        }
+        if found.iter().flatten().any(|k| !k.is_finite()) {
+            return Err(StepError::NonFiniteOutput);
+        }
+        for (dst, k) in slopes.iter_mut().zip(found) {
+            if let Some(k) = k {
+                *dst = k;
+            }
+        }
+        Ok(())
+    }
+
     /// One sample: raw input values (one per channel, in channel order) in,
     /// one value per output written to `outputs`. On error nothing is
     /// written and the state is unchanged, so a bad sample can simply be
@@ -540,21 +649,7 @@ impl ValidModel {
         // sample leaves the state exactly as it was (and nothing large is
         // copied: only the small per-kind pieces that change).
         let first = !state.started;
-        let mut x = [0.0; MAX_CHANNELS];
-        for (((xi, raw), ch), r) in x
-            .iter_mut()
-            .zip(inputs)
-            .zip(&self.model.inputs)
-            .zip(&state.references)
-        {
-            *xi = match ch.reference {
-                Reference::Absolute => *raw,
-                Reference::Value(v) => raw - v,
-                // At the first sample the reference is the sample itself.
-                Reference::First if first => 0.0,
-                Reference::First => raw - r,
-            };
-        }
+        let x = self.adjusted(state, inputs);
         let mut out = [0.0; MAX_OUTPUTS];
         let mut tf_out = [0.0; MAX_TF_ENTRIES];
         let mut arma_next: Option<ArmaState> = None;

@@ -39,6 +39,16 @@ pub struct PcrOutput {
     pub position: Option<PositionTerm>,
 }
 
+impl PcrOutput {
+    /// `beta_0 + sum_j beta_j C_j` for the component scores `c`.
+    fn regression(&self, c: &[f64]) -> f64 {
+        self.beta
+            .iter()
+            .zip(c)
+            .fold(self.intercept, |acc, (b, cj)| acc + b * cj)
+    }
+}
+
 /// Principal components shared by every output, and one regression per
 /// output on them. Sharing is how PCR is fitted (the components come from
 /// the inputs alone) and keeps the hub's copy small; a spec with different
@@ -75,16 +85,23 @@ impl Pcr {
     pub fn evaluate(&self, x: &[f64], mut emit: impl FnMut(u8, f64)) {
         let c = self.scores(x);
         for eq in &self.outputs {
-            let k = eq
-                .beta
-                .iter()
-                .zip(&c)
-                .fold(eq.intercept, |acc, (b, cj)| acc + b * cj);
+            let k = eq.regression(&c);
             let y = match &eq.position {
                 Some(pos) => pos.error(k, x.get(usize::from(pos.channel)).copied().unwrap_or(0.0)),
                 None => k,
             };
             emit(eq.output, y);
+        }
+    }
+
+    /// For each positional output, `emit(output, k - k0)`: the thermal
+    /// slope ([`PositionTerm::thermal_slope`]) at the inputs `x`.
+    pub fn slopes(&self, x: &[f64], mut emit: impl FnMut(u8, f64)) {
+        let c = self.scores(x);
+        for eq in &self.outputs {
+            if let Some(pos) = &eq.position {
+                emit(eq.output, pos.thermal_slope(eq.regression(&c)));
+            }
         }
     }
 

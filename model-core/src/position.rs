@@ -5,6 +5,18 @@
 //! linearly along the stroke, `(k(T) - k0) P`, where `k(T)` is the slope a
 //! temperature model predicts and `k0` the slope of the cold curve. Seed 003's
 //! Eq. 16 is exactly this with a fifth-order `poly` and `k(T)` from PCR.
+//!
+//! Units: `P` in mm (the position input's unit), the error in um, so the
+//! slopes are um per mm of travel.
+//!
+//! On the machine, the two parts go to different places. The geometric
+//! part is the CNC's own pitch-error (leadscrew) compensation. The thermal
+//! part is what a CNC's position-dependent temperature compensation takes
+//! as an offset plus a slope about a reference position (Siemens
+//! TEMP_COMP: `K0 + tan(beta) (P - P0)`): here `P0 = 0`, where the thermal
+//! part vanishes, so `K0 = 0` and the slope is `k(T) - k0`
+//! ([`PositionTerm::thermal_slope`]). The hub sends that slope, not a
+//! value at one position: it does not know where the axis is.
 
 use serde::{Deserialize, Serialize};
 
@@ -27,7 +39,13 @@ impl PositionTerm {
     pub fn error(&self, k: f64, p: f64) -> f64 {
         // Horner, highest power first.
         let geometric = self.poly.iter().rev().fold(0.0, |acc, c| acc * p + c);
-        geometric + (k - self.k0) * p
+        geometric + self.thermal_slope(k) * p
+    }
+
+    /// The thermal error's growth per mm of travel for the predicted slope
+    /// `k`: `k - k0`, um/mm (its value at `P0 = 0` is zero).
+    pub fn thermal_slope(&self, k: f64) -> f64 {
+        k - self.k0
     }
 
     /// All coefficients are finite.

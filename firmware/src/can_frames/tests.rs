@@ -12,6 +12,7 @@ fn report(seq: u32, offsets: [f64; MAX_OUTPUTS], n_outputs: u8, state: HubState)
         state,
         flags: StatusFlags::default(),
         faulty_channels: 0,
+        ..Report::default()
     }
 }
 
@@ -96,13 +97,49 @@ fn status_exact_bytes_and_round_trip() {
 #[test]
 fn fourth_output_goes_in_offsets_ext() {
     let r = report(3, [1.0, 2.0, 3.0, -250.0], 4, HubState::Running);
-    let frames: heapless::Vec<RawFrame, 3> = encode_report(&r, &StatusInfo::default());
+    let frames: heapless::Vec<RawFrame, REPORT_FRAMES_MAX> =
+        encode_report(&r, &StatusInfo::default());
     let ids: std::vec::Vec<u16> = frames.iter().map(RawFrame::raw_id).collect();
     assert_eq!(ids, [0x181, 0x281, 0x381]);
     assert_eq!(frames[2].data(), &[0x3C, 0xF6, 0, 0, 0, 0, 0x01, 0x03]);
     let three = report(3, [1.0, 2.0, 3.0, 0.0], 3, HubState::Running);
-    let frames: heapless::Vec<RawFrame, 3> = encode_report(&three, &StatusInfo::default());
+    let frames: heapless::Vec<RawFrame, REPORT_FRAMES_MAX> =
+        encode_report(&three, &StatusInfo::default());
     assert_eq!(frames.len(), 2);
+}
+
+/// One SLOPE frame per positional output, after the others (ascending
+/// ids), each naming its output, reference 0 mm, and the report's counter.
+#[test]
+fn positional_outputs_get_slope_frames() {
+    let mut r = report(9, [0.0, 2.0, 0.0, 0.0], 3, HubState::Running);
+    r.positional = 0b101;
+    r.slopes_um_per_m = [12.345, 99.0, -3.0, 0.0];
+    let frames: heapless::Vec<RawFrame, REPORT_FRAMES_MAX> =
+        encode_report(&r, &StatusInfo::default());
+    let ids: std::vec::Vec<u16> = frames.iter().map(RawFrame::raw_id).collect();
+    assert_eq!(ids, [0x181, 0x281, 0x481, 0x481]);
+    let slopes: std::vec::Vec<(u8, f64, f64)> = frames[2..]
+        .iter()
+        .map(|f| match decode(f) {
+            Ok(Message::Slope(m)) => {
+                assert_eq!(m.counter, 9);
+                (m.output, m.slope_um_per_m, m.reference_mm)
+            }
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(slopes.len(), 2);
+    // 0.001 um/m resolution: round to nearest.
+    assert_eq!(slopes[0].0, 0);
+    assert!((slopes[0].1 - 12.345).abs() < 0.0005 + 1e-12);
+    assert_eq!((slopes[1].0, slopes[1].1, slopes[1].2), (2, -3.0, 0.0));
+    // Every output positional with a 4th output: 3 + 4 frames, all fit.
+    let mut all = report(1, [0.0; 4], 4, HubState::Running);
+    all.positional = 0b1111;
+    let frames: heapless::Vec<RawFrame, REPORT_FRAMES_MAX> =
+        encode_report(&all, &StatusInfo::default());
+    assert_eq!(frames.len(), REPORT_FRAMES_MAX);
 }
 
 #[test]

@@ -70,6 +70,7 @@ fn telemetry_max() -> HubMessage {
         state: HubState::Zeroed,
         flags: StatusFlags(u16::MAX),
         faulty_channels: u32::MAX,
+        ..Report::default()
     };
     HubMessage::Telemetry(Telemetry::new(&report, &[25.5; 30]))
 }
@@ -157,6 +158,7 @@ fn telemetry_carries_the_report() {
         state: HubState::Running,
         flags: StatusFlags(StatusFlags::SLEW_LIMITED),
         faulty_channels: 0b10,
+        ..Report::default()
     };
     let t = Telemetry::new(&report, &[20.0, f64::NAN]);
     assert_eq!(t.offsets_um, [1.5, -2.25, 0.0, 0.0]);

@@ -24,7 +24,9 @@ use clap::Args;
 use embedded_can::Frame as _;
 use firmware::can_frames::{self, Heartbeat, Message, NmtState, RawFrame, StatusInfo};
 use firmware::hub::Hub;
-use firmware::pipeline::{ChannelFault, Pipeline, PipelineConfig, Reading, TOOL_INPUT};
+use firmware::pipeline::{
+    ChannelFault, Pipeline, PipelineConfig, Reading, POSITION_REFERENCE_MM, TOOL_INPUT,
+};
 use firmware::report::HubState;
 use max31865::{Config, Filter, Max31865, Mode, Wires};
 use model_core::rtd::{Rtd, RtdChannel, RtdCode};
@@ -49,8 +51,9 @@ pub struct ReplayArgs {
     #[arg(long, default_value = "can0")]
     pub interface: String,
     /// Also write a CSV of every sample: the inputs as the hub read them and
-    /// the offsets decoded from the frames sent (`<output>_sent`), with the
-    /// hub state and flags.
+    /// the offsets decoded from the frames sent (`<output>_sent`), the
+    /// slope of each positional output (`<output>_slope_um_per_m`, from the
+    /// SLOPE frames), with the hub state and flags.
     #[arg(long, value_name = "FILE.csv")]
     pub trace: Option<PathBuf>,
     /// Print one JSON summary object.
@@ -62,8 +65,12 @@ pub struct ReplayArgs {
 enum Source {
     /// A PT100 on its own MAX31865.
     Rtd(Max31865<VirtualMax31865>, VirtualMax31865),
-    /// A value the hub reads directly (speed, power, position).
+    /// A value the hub reads directly (speed, power).
     Direct,
+    /// A positional output's axis position: the hub does not know it (it
+    /// feeds the reference 0 mm and sends slopes), so the run file need not
+    /// have the column; the trace shows the 0 mm the hub used.
+    Position,
     /// The tool length, set by a command when it changes.
     Tool,
 }
@@ -125,6 +132,8 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
             a.model.display()
         );
     }
+    let positional = probe.model().map_or(0, |m| m.positional_outputs());
+    let position_inputs = probe.model().map_or(0, |m| m.position_inputs());
     let (inputs, outputs): (Vec<String>, Vec<String>) = probe.model().map_or_else(
         || (Vec::new(), Vec::new()),
         |m| {
@@ -136,7 +145,14 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     );
     let map = a.runs.column_map()?;
     let columns: Vec<String> = inputs.iter().map(|n| map.column(n).to_string()).collect();
-    let runs = a.runs.read(columns.clone())?;
+    let is_position = |i: usize| position_inputs & (1u32 << i.min(31)) != 0;
+    let needed: Vec<String> = columns
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| !is_position(i))
+        .map(|(_, c)| c.clone())
+        .collect();
+    let runs = a.runs.read(needed)?;
     let mut log = std::io::BufWriter::new(
         std::fs::File::create(&a.candump)
             .with_context(|| format!("cannot write {}", a.candump.display()))?,
@@ -150,6 +166,13 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
             let mut header = vec!["t_s".to_string()];
             header.extend(inputs.iter().cloned());
             header.extend(outputs.iter().map(|o| format!("{o}_sent")));
+            header.extend(
+                outputs
+                    .iter()
+                    .enumerate()
+                    .filter(|&(j, _)| positional & (1 << j) != 0)
+                    .map(|(_, o)| format!("{o}_slope_um_per_m")),
+            );
             header.extend(["state".to_string(), "flags".to_string()]);
             writeln!(w, "{}", header.join(","))?;
             Some(w)
@@ -158,16 +181,14 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     };
     let mut per_run = Vec::new();
     for run in &runs {
-        let tally = replay_run(
-            &bytes,
-            run,
-            &inputs,
-            &columns,
-            outputs.len(),
-            a,
-            &mut log,
-            trace.as_mut(),
-        )?;
+        let shape = Shape {
+            inputs: &inputs,
+            columns: &columns,
+            n_outputs: outputs.len(),
+            positional,
+            position_inputs,
+        };
+        let tally = replay_run(&bytes, run, &shape, a, &mut log, trace.as_mut())?;
         per_run.push((run.path.display().to_string(), tally));
     }
     log.flush()?;
@@ -201,14 +222,25 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     }))
 }
 
+/// The model's inputs and outputs as the replay sees them.
+struct Shape<'a> {
+    /// Model input names.
+    inputs: &'a [String],
+    /// The run-file column of each input.
+    columns: &'a [String],
+    /// Model outputs.
+    n_outputs: usize,
+    /// Bit `j`: output `j` is positional (sent as a slope).
+    positional: u8,
+    /// Bit `i`: input `i` is an axis position (not read by the hub).
+    position_inputs: u32,
+}
+
 /// One run through a fresh hub (a run is a power cycle).
-#[allow(clippy::too_many_arguments)]
 fn replay_run(
     blob: &[u8],
     run: &RunFile,
-    inputs: &[String],
-    columns: &[String],
-    n_outputs: usize,
+    shape: &Shape<'_>,
     a: &ReplayArgs,
     log: &mut impl Write,
     mut trace: Option<&mut std::io::BufWriter<std::fs::File>>,
@@ -232,9 +264,21 @@ fn replay_run(
             grid.len()
         );
     }
+    let Shape {
+        inputs,
+        columns,
+        n_outputs,
+        positional,
+        position_inputs,
+    } = *shape;
+    let is_position = |i: usize| position_inputs & (1u32 << i.min(31)) != 0;
     let values: Vec<Vec<Option<f64>>> = columns
         .iter()
-        .map(|c| {
+        .enumerate()
+        .map(|(i, c)| {
+            if is_position(i) {
+                return Ok(vec![None; grid.len()]);
+            }
             run.column(c)
                 .map(|col| resample_linear(&run.t_s, col, &grid))
                 .ok_or_else(|| {
@@ -249,8 +293,11 @@ fn replay_run(
     let rtd_cfg = Config::new(Wires::Three, Filter::Hz50, Mode::Auto);
     let mut sources: Vec<Source> = inputs
         .iter()
-        .map(|name| -> Result<Source> {
-            Ok(if name == TOOL_INPUT {
+        .enumerate()
+        .map(|(i, name)| -> Result<Source> {
+            Ok(if is_position(i) {
+                Source::Position
+            } else if name == TOOL_INPUT {
                 Source::Tool
             } else if is_rtd_column(name) {
                 let chip = VirtualMax31865::new();
@@ -275,6 +322,8 @@ fn replay_run(
         for (i, src) in sources.iter_mut().enumerate() {
             let v = values[i][k];
             readings[i] = match (src, v) {
+                // What the hub feeds a position it does not know.
+                (Source::Position, _) => Reading::Direct(POSITION_REFERENCE_MM),
                 (_, None) => Reading::Stale,
                 (Source::Direct, Some(v)) => Reading::Direct(v),
                 (Source::Tool, Some(v)) => {
@@ -333,11 +382,17 @@ fn replay_run(
         };
         frames.extend(heartbeat.poll::<RawFrame>(now_ms, nmt));
         let mut sent = [0.0f64; 4];
+        let mut slopes = [0.0f64; 4];
         for f in &frames {
             writeln!(log, "({t:.6}) {} {f}", a.interface)?;
             match can_frames::decode(f) {
                 Ok(Message::Offsets(m)) => sent[..3].copy_from_slice(&m.offsets_um),
                 Ok(Message::OffsetsExt(m)) => sent[3] = m.offsets_um[0],
+                Ok(Message::Slope(m)) => {
+                    if let Some(s) = slopes.get_mut(usize::from(m.output)) {
+                        *s = m.slope_um_per_m;
+                    }
+                }
                 _ => {}
             }
             debug_assert!(f.is_standard());
@@ -356,6 +411,14 @@ fn replay_run(
                 }
             }));
             row.extend(sent.iter().take(n_outputs).map(|v| format!("{v:.1}")));
+            row.extend(
+                slopes
+                    .iter()
+                    .enumerate()
+                    .take(n_outputs)
+                    .filter(|&(j, _)| positional & (1 << j) != 0)
+                    .map(|(_, v)| format!("{v:.3}")),
+            );
             row.push(format!("{}", report.state.code()));
             row.push(format!("{}", report.flags.0));
             writeln!(w, "{}", row.join(","))?;
