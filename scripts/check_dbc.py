@@ -44,7 +44,7 @@ HAND_VECTORS = [
     # SENSOR_FAULT | NO_MODEL, channels 0 and 23 faulty, 24 inputs, 4 outputs
     (0x281, "4100010080981E09",
      {"SensorFault": 1, "SpikeRejected": 0, "Stale": 0, "ModelFault": 0, "Clamped": 0,
-      "SlewLimited": 0, "NoModel": 1, "Uploading": 0, "FaultyChannels": 0x800001,
+      "SlewLimited": 0, "NoModel": 1, "Uploading": 0, "Recovering": 0, "FaultyChannels": 0x800001,
       "InputCount": 24, "OutputCount": 4, "ConsecutiveFaults": 30, "Counter": 9}),
     # 4th output -0.1 um
     (0x381, "FFFF000000000100", {"OffsetOut4": -0.1, "HubState": 1, "Counter": 0}),

@@ -24,6 +24,8 @@ pub enum ConfigError {
     HoldTime,
     /// The ramp-to-zero rate is not finite and positive.
     RampRate,
+    /// The recovery time is not finite and non-negative.
+    RecoverTime,
     /// The ramp is faster than an output's slew limit, so the limiter, not
     /// the configured ramp, would set the rate.
     RampFasterThanSlew {
@@ -55,6 +57,7 @@ impl fmt::Display for ConfigError {
             Self::SpikePersist => write!(f, "spike persist count must be >= 1 sample"),
             Self::HoldTime => write!(f, "hold time must be finite and >= 0 s"),
             Self::RampRate => write!(f, "ramp rate must be finite and > 0 um/s"),
+            Self::RecoverTime => write!(f, "recovery time must be finite and >= 0 s"),
             Self::RampFasterThanSlew { output } => {
                 write!(f, "ramp rate exceeds the slew rate of output #{output}")
             }

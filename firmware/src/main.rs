@@ -196,8 +196,57 @@ mod host {
         );
         println!();
 
+        print_fault_handling();
         print_model_slot();
     }
+
+    /// The pipeline's defaults: spike filter, fault supervisor, limits.
+    #[cfg(feature = "model")]
+    fn print_fault_handling() {
+        let c = firmware::pipeline::PipelineConfig::DEFAULT;
+        let (sup, lim, spike) = (c.supervisor, c.limiter, c.spike);
+        println!("Fault handling and limits (pipeline::PipelineConfig::DEFAULT)");
+        let rows = [
+            (
+                "spike filter",
+                format!(
+                "a jump beyond {} K/s x dt + {} K is a spike; a level lasting {} samples is real",
+                spike.max_rate_k_per_s, spike.noise_k, spike.persist_samples
+            ),
+            ),
+            (
+                "hold",
+                format!("{} s of last good offsets on a bad sample", sup.hold_time_s),
+            ),
+            (
+                "ramp",
+                format!("then to zero at {} um/s", sup.ramp_um_per_s),
+            ),
+            (
+                "recover",
+                format!(
+                    "a failed input must read good {} s in a row (RECOVERING)",
+                    sup.recover_time_s
+                ),
+            ),
+            ("slew", format!("{:?} um/s per output", lim.slew_um_per_s)),
+            ("clamp", format!("{:?} um per output", lim.clamp_um)),
+            (
+                "slope stroke",
+                format!(
+                    "{} mm: slope limits = offset limits / stroke",
+                    c.slope_stroke_mm
+                ),
+            ),
+        ];
+        for (name, value) in rows {
+            println!("  {name:<17} {value}");
+        }
+        println!();
+    }
+
+    #[cfg(not(feature = "model"))]
+    fn print_fault_handling() {}
 
     /// What a model slot accepts and what a loaded model costs in RAM.
     #[cfg(feature = "model")]

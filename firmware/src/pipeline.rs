@@ -254,6 +254,7 @@ struct Timing {
     dt_s: f64,
     spike_limit_k: f64,
     hold_samples: u32,
+    recover_samples: u32,
     ramp_step_um: f64,
     slew_step_um: [f64; MAX_OUTPUTS],
     /// um of offset -> um/m of slope at the configured stroke.
@@ -270,6 +271,7 @@ impl Timing {
             dt_s,
             spike_limit_k: config.spike.limit_k(dt_s),
             hold_samples: config.supervisor.hold_samples(dt_s),
+            recover_samples: config.supervisor.recover_samples(dt_s),
             ramp_step_um: config.supervisor.ramp_step_um(dt_s),
             slew_step_um,
             per_stroke_m: 1000.0 / config.slope_stroke_mm,
@@ -557,10 +559,15 @@ impl Pipeline {
             }
         }
 
-        // 3. Follow, hold or ramp.
-        let phase = self
-            .supervisor
-            .step(model_out.is_some(), self.timing.hold_samples);
+        // 3. Follow, hold or ramp (a failed input proving itself ramps).
+        let phase = self.supervisor.step(
+            model_out.is_some(),
+            self.timing.hold_samples,
+            self.timing.recover_samples,
+        );
+        if phase == Phase::Ramp && model_out.is_some() {
+            flags.set(StatusFlags::RECOVERING);
+        }
 
         // 4. Limit every output.
         let mut all_zero = true;

@@ -66,6 +66,9 @@ impl StatusFlags {
     pub const NO_MODEL: u16 = 1 << 6;
     /// A model upload is in progress.
     pub const UPLOADING: u16 = 1 << 7;
+    /// A failed input reads good again but has not yet done so for the
+    /// recovery time: the offsets stay at (or keep ramping to) zero.
+    pub const RECOVERING: u16 = 1 << 8;
 
     /// Whether every bit of `mask` is set.
     pub const fn has(self, mask: u16) -> bool {

@@ -10,7 +10,7 @@
 //! ```text
 //! Running --bad--> Holding --hold_time_s--> Ramping --offsets at 0--> Zeroed
 //!    ^                |                        |                        |
-//!    +-----good-------+------------good--------+-----------good---------+
+//!    +-----good-------+   good for recover_time_s in a row (failed) ----+
 //! ```
 //!
 //! * Holding: the offsets last sent stay as they are. Thermal error changes
@@ -19,9 +19,14 @@
 //! * Ramping: once the fault has lasted `hold_time_s`, stale compensation
 //!   may be worse than none, so each offset moves to zero at
 //!   `ramp_um_per_s`, never as a step.
-//! * A good sample returns to Running at once; the slew limiter takes the
-//!   offsets from wherever they are to the model's value, so there is no
-//!   jump in either direction.
+//! * From Holding, a good sample returns to Running at once: a glitch is
+//!   over. Once the hold time has run out the input is *failed*, and it
+//!   must read good for `recover_time_s` in a row before the offsets follow
+//!   the model again (until then they keep ramping or stay at zero): an
+//!   intermittent contact that reads good one second in five would
+//!   otherwise switch the compensation on and off all day.
+//! * Either way the slew limiter takes the offsets from wherever they are
+//!   to the model's value, so there is no jump in either direction.
 //!
 //! Timing counts samples, not seconds: a fault starting at sample `k` holds
 //! for samples `k .. k + H - 1` with `H = ceil(hold_time_s / dt_s)`, and the
@@ -47,6 +52,9 @@ pub struct SupervisorConfig {
     /// How fast offsets ramp to zero after the hold time, um/s. Must not
     /// exceed any output's slew rate (checked by the pipeline's config).
     pub ramp_um_per_s: f64,
+    /// How long a failed input (fault past the hold time) must read good
+    /// in a row before the offsets follow the model again, s.
+    pub recover_time_s: f64,
 }
 
 impl SupervisorConfig {
@@ -60,9 +68,13 @@ impl SupervisorConfig {
     /// * `ramp_um_per_s = 1`: half the default slew rate, so the ramp is the
     ///   configured one, not the limiter's; a typical 20-50 um offset reaches
     ///   zero in under a minute, without a step on the part.
+    /// * `recover_time_s = 10`: a reconnected sensor is stable within a
+    ///   second; ten seconds of good readings in a row rule out a contact
+    ///   that flickers, and cost well under 1 um of thermal drift.
     pub const DEFAULT: Self = Self {
         hold_time_s: 60.0,
         ramp_um_per_s: 1.0,
+        recover_time_s: 10.0,
     };
 
     /// Checks the settings once.
@@ -73,7 +85,15 @@ impl SupervisorConfig {
         if !positive(self.ramp_um_per_s) {
             return Err(ConfigError::RampRate);
         }
+        if !non_negative(self.recover_time_s) {
+            return Err(ConfigError::RecoverTime);
+        }
         Ok(())
+    }
+
+    /// The recovery time in whole samples of `dt_s` (rounded up).
+    pub fn recover_samples(&self, dt_s: f64) -> u32 {
+        samples_for(self.recover_time_s, dt_s)
     }
 
     /// The hold time in whole samples of `dt_s` (rounded up).
@@ -116,28 +136,42 @@ impl Phase {
     }
 }
 
-/// The fault timer: consecutive bad samples.
+/// The fault timer: consecutive bad samples, and good ones after a failure.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Supervisor {
     bad_run: u32,
+    good_run: u32,
+    failed: bool,
 }
 
 impl Supervisor {
     /// No fault seen.
-    pub const NEW: Self = Self { bad_run: 0 };
+    pub const NEW: Self = Self {
+        bad_run: 0,
+        good_run: 0,
+        failed: false,
+    };
 
-    /// One sample: `good` as in the module doc, `hold_samples` from
-    /// [`SupervisorConfig::hold_samples`].
-    pub fn step(&mut self, good: bool, hold_samples: u32) -> Phase {
+    /// One sample: `good` as in the module doc; `hold_samples` and
+    /// `recover_samples` from [`SupervisorConfig::hold_samples`] and
+    /// [`SupervisorConfig::recover_samples`].
+    pub fn step(&mut self, good: bool, hold_samples: u32, recover_samples: u32) -> Phase {
         if good {
+            self.good_run = self.good_run.saturating_add(1);
+            if self.failed && self.good_run < recover_samples {
+                return Phase::Ramp;
+            }
+            self.failed = false;
             self.bad_run = 0;
             return Phase::Follow;
         }
+        self.good_run = 0;
         let before = self.bad_run;
         self.bad_run = self.bad_run.saturating_add(1);
-        if before < hold_samples {
+        if before < hold_samples && !self.failed {
             Phase::Hold
         } else {
+            self.failed = true;
             Phase::Ramp
         }
     }
@@ -169,26 +203,51 @@ mod tests {
         let cfg = SupervisorConfig {
             hold_time_s: 5.0,
             ramp_um_per_s: 1.0,
+            recover_time_s: 0.0,
         };
         let hold = cfg.hold_samples(1.0);
         assert_eq!(hold, 5);
         let mut s = Supervisor::NEW;
-        assert_eq!(s.step(true, hold), Phase::Follow);
+        assert_eq!(s.step(true, hold, 0), Phase::Follow);
         for _ in 0..5 {
-            assert_eq!(s.step(false, hold), Phase::Hold);
+            assert_eq!(s.step(false, hold, 0), Phase::Hold);
         }
-        assert_eq!(s.step(false, hold), Phase::Ramp);
+        assert_eq!(s.step(false, hold, 0), Phase::Ramp);
         assert_eq!(s.bad_run(), 6);
-        assert_eq!(s.step(true, hold), Phase::Follow);
+        assert_eq!(s.step(true, hold, 0), Phase::Follow);
         assert_eq!(s.bad_run(), 0);
         // A new fault starts a new hold.
-        assert_eq!(s.step(false, hold), Phase::Hold);
+        assert_eq!(s.step(false, hold, 0), Phase::Hold);
+    }
+
+    /// A glitch inside the hold time recovers at the first good sample; a
+    /// failed input needs `recover` good samples in a row, and a bad one
+    /// among them starts the count again (still ramping, no new hold).
+    #[test]
+    fn a_failed_input_must_read_good_for_the_recovery_time() {
+        let (hold, recover) = (3, 4);
+        let mut s = Supervisor::NEW;
+        assert_eq!(s.step(false, hold, recover), Phase::Hold);
+        assert_eq!(s.step(true, hold, recover), Phase::Follow, "glitch");
+        for _ in 0..3 {
+            assert_eq!(s.step(false, hold, recover), Phase::Hold);
+        }
+        assert_eq!(s.step(false, hold, recover), Phase::Ramp, "failed");
+        for _ in 0..3 {
+            assert_eq!(s.step(true, hold, recover), Phase::Ramp, "proving");
+        }
+        assert_eq!(s.step(false, hold, recover), Phase::Ramp, "flicker");
+        for _ in 0..3 {
+            assert_eq!(s.step(true, hold, recover), Phase::Ramp);
+        }
+        assert_eq!(s.step(true, hold, recover), Phase::Follow, "4 in a row");
+        assert_eq!(s.step(false, hold, recover), Phase::Hold, "a new hold");
     }
 
     #[test]
     fn zero_hold_ramps_at_once() {
         let mut s = Supervisor::NEW;
-        assert_eq!(s.step(false, 0), Phase::Ramp);
+        assert_eq!(s.step(false, 0, 0), Phase::Ramp);
     }
 
     #[test]
@@ -222,5 +281,11 @@ mod tests {
             ..SupervisorConfig::DEFAULT
         };
         assert_eq!(bad.validate(), Err(ConfigError::RampRate));
+        let bad = SupervisorConfig {
+            recover_time_s: f64::INFINITY,
+            ..SupervisorConfig::DEFAULT
+        };
+        assert_eq!(bad.validate(), Err(ConfigError::RecoverTime));
+        assert_eq!(SupervisorConfig::DEFAULT.recover_samples(1.0), 10);
     }
 }

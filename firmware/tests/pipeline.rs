@@ -247,7 +247,21 @@ fn open_rtd_holds_for_the_hold_time_then_ramps_to_zero_then_recovers() {
     let r = settle(&mut p, &open, 100);
     assert_eq!((r.state, r.offsets), (HubState::Zeroed, [0.0; MAX_OUTPUTS]));
 
-    // Recovery: Running at once, offsets climb back at the slew rate.
+    // Recovery: the input failed (fault past the hold time), so it must
+    // read good for the recovery time (10 samples) before the offsets
+    // follow again; meanwhile they stay at zero, flagged RECOVERING.
+    let recover = SupervisorConfig::DEFAULT.recover_samples(1.0);
+    assert_eq!(recover, 10);
+    for k in 1..recover {
+        let r = p.on_sample(&good);
+        assert_eq!(
+            (r.state, r.offsets),
+            (HubState::Zeroed, [0.0; MAX_OUTPUTS]),
+            "{k}"
+        );
+        assert_eq!(r.flags, StatusFlags(StatusFlags::RECOVERING), "{k}");
+    }
+    // Then Running, offsets climb back at the slew rate.
     for k in 1..=5 {
         let r = p.on_sample(&good);
         assert_eq!(r.state, HubState::Running);
@@ -271,10 +285,19 @@ fn recovery_during_the_ramp_slews_back_without_a_jump() {
     assert_eq!(r.state, HubState::Ramping);
     assert!((r.offsets[0] - 39.0).abs() < ATOL_UM, "{r:?}");
     assert!((r.offsets[1] + 9.0).abs() < ATOL_UM, "{r:?}");
+    // Good again: the ramp goes on through the recovery time (10 samples,
+    // the 10th already follows), then the offsets slew back from there.
+    for k in 1..10 {
+        let r = p.on_sample(&temps(25.0, 25.0));
+        assert_eq!(r.state, HubState::Ramping, "{k}");
+        assert!(r.flags.has(StatusFlags::RECOVERING));
+        assert!((r.offsets[0] - (39.0 - k as f64)).abs() < ATOL_UM, "{r:?}");
+        assert!((r.offsets[1] + (9.0 - k as f64)).abs() < ATOL_UM, "{r:?}");
+    }
     let r = p.on_sample(&temps(25.0, 25.0));
     assert_eq!(r.state, HubState::Running);
-    assert!((r.offsets[0] - 41.0).abs() < ATOL_UM, "{r:?}");
-    assert!((r.offsets[1] + 11.0).abs() < ATOL_UM, "{r:?}");
+    assert!((r.offsets[0] - 32.0).abs() < ATOL_UM, "{r:?}");
+    assert!((r.offsets[1] + 2.0).abs() < ATOL_UM, "{r:?}");
 }
 
 #[test]
@@ -491,7 +514,9 @@ fn check_run(model: &ValidModel, samples: &[Vec<Reading>]) -> Result<(), TestCas
         if r.state == HubState::Running {
             prop_assert_eq!(r.faulty_channels, 0);
         } else {
-            prop_assert!(r.flags.0 & 0b1111 != 0, "a cause is named: {r:?}");
+            // A fault, or a failed input proving itself for the recovery time.
+            let causes = 0b1111 | StatusFlags::RECOVERING;
+            prop_assert!(r.flags.0 & causes != 0, "a cause is named: {r:?}");
         }
         prev = r.offsets;
     }

@@ -214,7 +214,7 @@ fn vector(name: &str, f: &RawFrame, signals: &[(&str, f64)]) -> std::string::Str
 }
 
 fn flag_signals(flags: StatusFlags) -> std::vec::Vec<(&'static str, f64)> {
-    const NAMES: [&str; 8] = [
+    const NAMES: [&str; 9] = [
         "SensorFault",
         "SpikeRejected",
         "Stale",
@@ -223,6 +223,7 @@ fn flag_signals(flags: StatusFlags) -> std::vec::Vec<(&'static str, f64)> {
         "SlewLimited",
         "NoModel",
         "Uploading",
+        "Recovering",
     ];
     NAMES
         .iter()
@@ -283,8 +284,12 @@ fn vectors() -> std::string::String {
         4,
         HubState::Holding,
     );
-    fault.flags =
-        StatusFlags(StatusFlags::SENSOR_FAULT | StatusFlags::STALE | StatusFlags::CLAMPED);
+    fault.flags = StatusFlags(
+        StatusFlags::SENSOR_FAULT
+            | StatusFlags::STALE
+            | StatusFlags::CLAMPED
+            | StatusFlags::RECOVERING,
+    );
     fault.faulty_channels = 0x80_0005;
     let info = StatusInfo {
         n_inputs: 24,

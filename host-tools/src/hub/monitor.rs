@@ -14,7 +14,7 @@ pub struct Names {
 }
 
 /// `StatusFlags` bits and their names (bit positions: the wire format).
-const FLAGS: [(u16, &str); 8] = [
+const FLAGS: [(u16, &str); 9] = [
     (StatusFlags::SENSOR_FAULT, "SENSOR_FAULT"),
     (StatusFlags::SPIKE_REJECTED, "SPIKE_REJECTED"),
     (StatusFlags::STALE, "STALE"),
@@ -23,6 +23,7 @@ const FLAGS: [(u16, &str); 8] = [
     (StatusFlags::SLEW_LIMITED, "SLEW_LIMITED"),
     (StatusFlags::NO_MODEL, "NO_MODEL"),
     (StatusFlags::UPLOADING, "UPLOADING"),
+    (StatusFlags::RECOVERING, "RECOVERING"),
 ];
 
 /// The state's name (`NoModel`, `Running`, ...), or `state N` if unknown.
