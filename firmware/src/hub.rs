@@ -134,6 +134,11 @@ impl Hub {
         self.model().map_or(0, |m| m.outputs().len())
     }
 
+    /// Whether the model has taken a sample (its references are set).
+    pub fn started(&self) -> bool {
+        self.state.started()
+    }
+
     /// Refused samples so far.
     pub fn faults(&self) -> Faults {
         self.faults

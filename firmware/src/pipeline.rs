@@ -28,10 +28,17 @@
 //!    (speed, power, position) must be finite and within model-core's input
 //!    range and is not spike-filtered. Anything else makes the channel
 //!    faulty for this sample.
-//! 2. Only if every input is good is the model stepped. A faulty channel
-//!    does not step the model: its state (and a dynamic model's time base)
-//!    freezes; see `supervisor` for what that costs.
-//! 3. The supervisor turns "good sample or not" into follow / hold / ramp.
+//! 2. The model steps on a fully good sample. With faulty inputs it still
+//!    steps, each faulty input replaced by its last good value, if the
+//!    model has run before and some output reads none of them
+//!    (`ValidModel::output_inputs`): a broken X-side sensor must not stop
+//!    Z compensation. Otherwise it does not step: its state (and a dynamic
+//!    model's time base) freezes; see `supervisor` for what that costs.
+//! 3. Per output, a supervisor turns "good for this output or not" (the
+//!    model ran and the output reads no faulty input) into follow / hold /
+//!    ramp. The report's state is the worst output's: Holding, Ramping or
+//!    Zeroed say that at least one output lost its inputs, and
+//!    `faulty_channels` says which inputs.
 //! 4. The limiter clamps and slew-limits every output, so each offset is
 //!    finite, within `+-clamp_um` and moves at most `slew_um_per_s * dt_s`
 //!    per sample, whatever the readings (asserted by a property test).
@@ -290,6 +297,17 @@ fn tool_mask(hub: &Hub) -> u32 {
     })
 }
 
+/// Per output, the inputs it reads (`ValidModel::output_inputs`).
+fn output_deps(hub: &Hub) -> [u32; MAX_OUTPUTS] {
+    let mut deps = [0; MAX_OUTPUTS];
+    if let Some(m) = hub.model() {
+        for (k, d) in deps.iter_mut().enumerate() {
+            *d = m.output_inputs(k);
+        }
+    }
+    deps
+}
+
 /// Bit `j` set: model input `j` is a positional output's position.
 fn position_mask(hub: &Hub) -> u32 {
     hub.model().map_or(0, |m| m.position_inputs())
@@ -306,6 +324,53 @@ fn bit8(j: usize) -> u8 {
         .ok()
         .and_then(|j| 1u8.checked_shl(j))
         .unwrap_or(0)
+}
+
+/// Per-sample limits of one lane (an offset in um, or a slope in um/m).
+#[derive(Clone, Copy, Debug)]
+struct Steps {
+    /// Ramp-to-zero step.
+    ramp: f64,
+    /// Slew step.
+    slew: f64,
+    /// Clamp.
+    clamp: f64,
+}
+
+impl Steps {
+    /// The same limits for a slope: offset limits per metre of stroke.
+    fn scaled(self, per_m: f64) -> Self {
+        Self {
+            ramp: self.ramp * per_m,
+            slew: self.slew * per_m,
+            clamp: self.clamp * per_m,
+        }
+    }
+}
+
+/// One lane through its phase and the limiter: follow `target`, hold, or
+/// ramp to zero; clamp and slew-limit, flagging either. Whether it is now 0.
+fn drive(
+    value: &mut f64,
+    phase: Phase,
+    target: Option<f64>,
+    steps: Steps,
+    flags: &mut StatusFlags,
+) -> bool {
+    let target = match (phase, target) {
+        (Phase::Follow, Some(t)) => t,
+        (Phase::Ramp, _) => ramp_toward_zero(*value, steps.ramp),
+        _ => *value,
+    };
+    let limited = limit(*value, target, steps.slew, steps.clamp);
+    *value = limited.value_um;
+    if limited.clamped {
+        flags.set(StatusFlags::CLAMPED);
+    }
+    if limited.slew_limited {
+        flags.set(StatusFlags::SLEW_LIMITED);
+    }
+    *value == 0.0
 }
 
 /// `1 << j`, or 0 past bit 31 (cannot happen: `MAX_INPUTS <= 32`).
@@ -333,7 +398,10 @@ pub struct Pipeline {
     positional: u8,
     /// The slopes last reported, um/m (zero for other outputs).
     slopes_um_per_m: [f64; MAX_OUTPUTS],
-    supervisor: Supervisor,
+    /// The fault timer of each output.
+    supervisors: [Supervisor; MAX_OUTPUTS],
+    /// Bit `i` of entry `k`: output `k` reads input `i`.
+    deps: [u32; MAX_OUTPUTS],
     /// The offsets last reported, um (zero past the model's output count).
     offsets_um: [f64; MAX_OUTPUTS],
     seq: u32,
@@ -351,13 +419,14 @@ impl Pipeline {
             tool_mask: tool_mask(&hub),
             position_mask: position_mask(&hub),
             positional: positional_outputs(&hub),
+            deps: output_deps(&hub),
             slopes_um_per_m: [0.0; MAX_OUTPUTS],
             hub,
             config,
             timing,
             spike: [SpikeState::NEW; MAX_INPUTS],
             tool_mm: None,
-            supervisor: Supervisor::NEW,
+            supervisors: [Supervisor::NEW; MAX_OUTPUTS],
             offsets_um: [0.0; MAX_OUTPUTS],
             seq: 0,
             uploading: false,
@@ -433,12 +502,18 @@ impl Pipeline {
         };
         let mut offsets_um = [0.0; MAX_OUTPUTS];
         let mut slopes_um_per_m = [0.0; MAX_OUTPUTS];
+        let mut supervisors = [Supervisor::NEW; MAX_OUTPUTS];
         let mut spike = [SpikeState::NEW; MAX_INPUTS];
         let positional = new.positional_outputs();
         if let Some(old) = self.hub.model() {
             for (j, name) in new.outputs().iter().enumerate() {
                 if let Some(k) = old.outputs().iter().position(|n| n == name) {
                     let carry = |v: &[f64; MAX_OUTPUTS]| v.get(k).copied().unwrap_or(0.0);
+                    if let (Some(new), Some(old)) =
+                        (supervisors.get_mut(j), self.supervisors.get(k))
+                    {
+                        *new = *old;
+                    }
                     if let Some(o) = offsets_um.get_mut(j) {
                         *o = carry(&self.offsets_um);
                     }
@@ -461,12 +536,28 @@ impl Pipeline {
         self.timing = Timing::new(&self.config, self.config.sample_period_s(&hub));
         self.tool_mask = tool_mask(&hub);
         self.position_mask = position_mask(&hub);
+        self.deps = output_deps(&hub);
+        self.supervisors = supervisors;
         self.positional = positional;
         self.slopes_um_per_m = slopes_um_per_m;
         self.offsets_um = offsets_um;
         self.spike = spike;
         self.hub = hub;
         Ok(())
+    }
+
+    /// Puts each faulty input's last good value into `inputs`; false if
+    /// one has none (never read good), and the model must not step.
+    fn fill_last_good(&self, inputs: &mut [f64; MAX_INPUTS], faulty: u32) -> bool {
+        for (j, (x, state)) in inputs.iter_mut().zip(&self.spike).enumerate() {
+            if faulty & bit(j) != 0 {
+                match state.last() {
+                    Some(v) => *x = v,
+                    None => return false,
+                }
+            }
+        }
+        true
     }
 
     /// One sample: `readings` holds one [`Reading`] per model input, in the
@@ -529,6 +620,7 @@ impl Pipeline {
                     }
                 }
                 Reading::Direct(v) if v.is_finite() && v.abs() <= MAX_INPUT_MAGNITUDE => {
+                    state.pass(v);
                     *x = v;
                     true
                 }
@@ -548,9 +640,22 @@ impl Pipeline {
             }
         }
 
-        // 2. Step the model only on a fully good sample.
+        // 2. Step the model on a fully good sample, or, once it has run,
+        //    with the last good value standing in for each faulty input
+        //    while some output does not read any of them.
+        let n_mask = u8::try_from((1u32 << n_out) - 1).unwrap_or(u8::MAX);
+        let affected = self
+            .deps
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| **d & faulty != 0)
+            .fold(0u8, |m, (k, _)| m | bit8(k));
+        let stand_in = faulty != 0
+            && self.hub.started()
+            && affected & n_mask != n_mask
+            && self.fill_last_good(&mut inputs, faulty);
         let mut model_out = None;
-        if faulty == 0 {
+        if faulty == 0 || stand_in {
             let out = self.hub.on_sample(inputs.get(..n_in).unwrap_or(&[]));
             if out.fresh {
                 model_out = Some((out.values, out.slopes));
@@ -559,71 +664,52 @@ impl Pipeline {
             }
         }
 
-        // 3. Follow, hold or ramp (a failed input proving itself ramps).
-        let phase = self.supervisor.step(
-            model_out.is_some(),
-            self.timing.hold_samples,
-            self.timing.recover_samples,
-        );
-        if phase == Phase::Ramp && model_out.is_some() {
-            flags.set(StatusFlags::RECOVERING);
-        }
-
-        // 4. Limit every output.
-        let mut all_zero = true;
-        for (i, ((offset, step), clamp)) in self
-            .offsets_um
+        // 3. Per output: follow, hold or ramp (a failed input proving
+        //    itself ramps). An output is good when the model ran and it
+        //    reads no faulty input.
+        let mut phases = [Phase::Follow; MAX_OUTPUTS];
+        for (k, (phase, sup)) in phases
             .iter_mut()
-            .zip(&self.timing.slew_step_um)
-            .zip(&self.config.limiter.clamp_um)
+            .zip(self.supervisors.iter_mut())
             .take(n_out)
             .enumerate()
         {
-            let target = match (phase, &model_out) {
-                (Phase::Follow, Some((values, _))) => values.get(i).copied().unwrap_or(*offset),
-                (Phase::Ramp, _) => ramp_toward_zero(*offset, self.timing.ramp_step_um),
-                _ => *offset,
-            };
-            let limited = limit(*offset, target, *step, *clamp);
-            *offset = limited.value_um;
-            if limited.clamped {
-                flags.set(StatusFlags::CLAMPED);
+            let good = model_out.is_some() && affected & bit8(k) == 0;
+            *phase = sup.step(good, self.timing.hold_samples, self.timing.recover_samples);
+            if *phase == Phase::Ramp && good {
+                flags.set(StatusFlags::RECOVERING);
             }
-            if limited.slew_limited {
-                flags.set(StatusFlags::SLEW_LIMITED);
-            }
-            all_zero &= *offset == 0.0;
         }
 
-        // 5. The same for each positional output's slope, at the stroke.
+        // 4. Limit every output and, for a positional output, its slope at
+        //    the stroke (um/mm from the model -> um/m on the wire).
         let per_m = self.timing.per_stroke_m;
-        for (i, ((slope, step), clamp)) in self
-            .slopes_um_per_m
-            .iter_mut()
-            .zip(&self.timing.slew_step_um)
-            .zip(&self.config.limiter.clamp_um)
-            .take(n_out)
-            .enumerate()
-        {
-            if self.positional & bit8(i) == 0 {
-                *slope = 0.0;
-                continue;
-            }
-            let target = match (phase, &model_out) {
-                // um/mm from the model -> um/m on the wire.
-                (Phase::Follow, Some((_, slopes))) => slopes.get(i).map_or(*slope, |k| k * 1000.0),
-                (Phase::Ramp, _) => ramp_toward_zero(*slope, self.timing.ramp_step_um * per_m),
-                _ => *slope,
+        let mut worst = Phase::Follow;
+        let mut ramped_to_zero = true;
+        for (i, &phase) in phases.iter().enumerate().take(n_out) {
+            let fresh = model_out.as_ref().filter(|_| phase == Phase::Follow);
+            let steps = Steps {
+                ramp: self.timing.ramp_step_um,
+                slew: self.timing.slew_step_um.get(i).copied().unwrap_or(0.0),
+                clamp: self.config.limiter.clamp_um.get(i).copied().unwrap_or(0.0),
             };
-            let limited = limit(*slope, target, step * per_m, clamp * per_m);
-            *slope = limited.value_um;
-            if limited.clamped {
-                flags.set(StatusFlags::CLAMPED);
+            let mut at_zero = true;
+            if let Some(offset) = self.offsets_um.get_mut(i) {
+                let target = fresh.and_then(|(v, _)| v.get(i).copied());
+                at_zero &= drive(offset, phase, target, steps, &mut flags);
             }
-            if limited.slew_limited {
-                flags.set(StatusFlags::SLEW_LIMITED);
+            if let Some(slope) = self.slopes_um_per_m.get_mut(i) {
+                if self.positional & bit8(i) != 0 {
+                    let target = fresh.and_then(|(_, k)| k.get(i)).map(|k| k * 1000.0);
+                    at_zero &= drive(slope, phase, target, steps.scaled(per_m), &mut flags);
+                } else {
+                    *slope = 0.0;
+                }
             }
-            all_zero &= *slope == 0.0;
+            worst = worst.max(phase);
+            if phase == Phase::Ramp {
+                ramped_to_zero &= at_zero;
+            }
         }
 
         Report {
@@ -632,7 +718,7 @@ impl Pipeline {
             slopes_um_per_m: self.slopes_um_per_m,
             positional: self.positional,
             n_outputs: u8::try_from(n_out).unwrap_or(u8::MAX),
-            state: phase.hub_state(all_zero),
+            state: worst.hub_state(ramped_to_zero),
             flags,
             faulty_channels: faulty,
         }

@@ -174,6 +174,12 @@ impl SpikeState {
         self.run = 0;
     }
 
+    /// A direct (not spike-filtered) input's good value becomes the
+    /// reference, so it can stand in while the input is faulty.
+    pub fn pass(&mut self, value: f64) {
+        self.accept(value);
+    }
+
     fn accept(&mut self, value: f64) {
         self.last = Some(value);
         self.candidate = None;

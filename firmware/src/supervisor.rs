@@ -2,10 +2,11 @@
 //!
 //! # Method
 //!
-//! A sample is *good* when every model input was read, passed the spike
-//! filter and the model produced finite outputs. On a bad sample (open or
-//! shorted RTD, bus error, stale reading, rejected spike, model refusal) the
-//! supervisor moves through
+//! One supervisor per model output (see `pipeline`). A sample is *good* for
+//! an output when every input the output reads was read and passed the
+//! spike filter, and the model produced finite outputs. On a bad sample
+//! (open or shorted RTD, bus error, stale reading, rejected spike, model
+//! refusal) the supervisor moves through
 //!
 //! ```text
 //! Running --bad--> Holding --hold_time_s--> Ramping --offsets at 0--> Zeroed
@@ -32,14 +33,17 @@
 //! for samples `k .. k + H - 1` with `H = ceil(hold_time_s / dt_s)`, and the
 //! first ramp step is taken at sample `k + H` (see `config::samples_for`).
 //!
-//! The model is not stepped on a bad sample (see `pipeline`): its state
-//! freezes, so a dynamic (TF/ARMA) model's time base stops for the length of
-//! the fault. After recovery it runs on as if the faulty samples had not
-//! happened: its response lags real time by the fault's length, and a
-//! temperature change during the fault enters as one step at recovery.
-//! For faults short against the thermal time constants (minutes to hours)
-//! that error is small; it is the honest alternative to feeding the model
-//! made-up inputs.
+//! When every output lost an input, the model is not stepped (see
+//! `pipeline`): its state freezes, so a dynamic (TF/ARMA) model's time base
+//! stops for the length of the fault. After recovery it runs on as if the
+//! faulty samples had not happened: its response lags real time by the
+//! fault's length, and a temperature change during the fault enters as one
+//! step at recovery. When some outputs still have their inputs, the model
+//! steps with each failed input held at its last good value: the healthy
+//! outputs stay exact, the affected ones see that held value and take the
+//! change as one step at recovery, the same error as a freeze. For faults
+//! short against the thermal time constants (minutes to hours) that error
+//! is small, and the recovery time plus the slew limit smooth it.
 
 use crate::config::{non_negative, positive, samples_for, ConfigError};
 use crate::report::HubState;
@@ -113,8 +117,9 @@ impl Default for SupervisorConfig {
     }
 }
 
-/// What the offsets do this sample.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// What the offsets do this sample, mildest first (`Ord`: the worst of
+/// several outputs' phases is the hub's state).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Phase {
     /// Follow the model (through the limiter).
     Follow,

@@ -69,6 +69,11 @@ fn two_axis() -> ValidModel {
     linear(&["T1", "T2"], &[("dz_um", 0, 10.0), ("dx_um", 1, -4.0)])
 }
 
+/// The same offsets at T1 = T2, both read from T1: a T1 fault hits both.
+fn both_read_t1() -> ValidModel {
+    linear(&["T1", "T2"], &[("dz_um", 0, 10.0), ("dx_um", 0, -4.0)])
+}
+
 /// seed 004's form, first order: 0.5 y(k) = 0.1 u(k) + 0.4 y(k-1), u = T1
 /// minus its first sample, so y(k) = 0.2 u(k) + 0.8 y(k-1).
 fn tf_model() -> ValidModel {
@@ -203,22 +208,22 @@ fn open_rtd_holds_for_the_hold_time_then_ramps_to_zero_then_recovers() {
         panic!("{:?}", good[0]);
     };
     assert!((t_meas - 24.985_43).abs() < 1e-5, "{t_meas}");
-    let mut p = pipeline(&two_axis());
+    let mut p = pipeline(&both_read_t1());
     let steady = settle(&mut p, &good, 40);
     let (dz0, dx0) = (10.0 * (t_meas - 20.0), -4.0 * (t_meas - 20.0));
     assert!((steady.offsets[0] - dz0).abs() < ATOL_UM);
     assert!((steady.offsets[1] - dx0).abs() < ATOL_UM);
 
-    // T2's RTD opens from sample k on: the converter reads its top code.
-    let open = [good[0], Reading::pt100(0x7FFF)];
-    assert_eq!(open[1], Reading::Fault(ChannelFault::Open));
+    // T1's RTD (read by both outputs) opens: the converter reads its top code.
+    let open = [Reading::pt100(0x7FFF), good[1]];
+    assert_eq!(open[0], Reading::Fault(ChannelFault::Open));
     let hold = SupervisorConfig::DEFAULT.hold_time_s; // 60 s = 60 samples at 1 s
     for k in 0..60 {
         let r = p.on_sample(&open);
         assert_eq!(r.state, HubState::Holding, "fault sample {k}");
         assert_eq!(r.offsets, steady.offsets, "held bit for bit, sample {k}");
         assert_eq!(r.flags, StatusFlags(StatusFlags::SENSOR_FAULT));
-        assert_eq!(r.faulty_channels, 0b10);
+        assert_eq!(r.faulty_channels, 0b01);
     }
     assert_eq!(hold, 60.0);
 
@@ -276,9 +281,47 @@ fn open_rtd_holds_for_the_hold_time_then_ramps_to_zero_then_recovers() {
     assert_eq!(r.flags, StatusFlags::default());
 }
 
+/// One output's sensor fails: only the output that reads it holds and
+/// ramps; the other keeps following its own sensor (here through a real
+/// warm-up during the fault). The model keeps stepping with the failed
+/// input's last good value standing in. The hub state is the worst
+/// output's.
+#[test]
+fn a_fault_holds_only_the_outputs_that_read_the_failed_input() {
+    let (mut p, before) = running_at_50_and_minus_20(&two_axis());
+    for k in 0..60 {
+        // T1 warms 25 -> 26.2 C over the hold time; T2 is open.
+        let t1 = 25.0 + 0.02 * f64::from(k + 1);
+        let r = p.on_sample(&[Reading::Value(t1), Reading::Fault(ChannelFault::Open)]);
+        assert_eq!(r.state, HubState::Holding, "{k}");
+        assert_eq!(r.faulty_channels, 0b10);
+        assert!(
+            (r.offsets[0] - 10.0 * (t1 - 20.0)).abs() < ATOL_UM,
+            "dz follows: {r:?}"
+        );
+        assert_eq!(r.offsets[1], before.offsets[1], "dx held, sample {k}");
+    }
+    let bad = [Reading::Value(26.2), Reading::Fault(ChannelFault::Open)];
+    for m in 1..=20 {
+        let r = p.on_sample(&bad);
+        assert!((r.offsets[0] - 62.0).abs() < ATOL_UM, "{r:?}");
+        assert!(
+            (r.offsets[1] - (-20.0 + f64::from(m))).abs() < ATOL_UM,
+            "{r:?}"
+        );
+        let zeroed = m == 20;
+        let want = if zeroed {
+            HubState::Zeroed
+        } else {
+            HubState::Ramping
+        };
+        assert_eq!(r.state, want, "ramp {m}");
+    }
+}
+
 #[test]
 fn recovery_during_the_ramp_slews_back_without_a_jump() {
-    let (mut p, _) = running_at_50_and_minus_20(&two_axis());
+    let (mut p, _) = running_at_50_and_minus_20(&both_read_t1());
     let bad = [Reading::Fault(ChannelFault::Bus), Reading::Value(25.0)];
     settle(&mut p, &bad, 60 + 10); // hold, then 10 ramp samples
     let r = p.on_sample(&bad);

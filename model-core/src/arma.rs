@@ -35,8 +35,10 @@ pub struct Arma {
     /// Constant `c` of the differenced, standardised series.
     pub constant: f64,
     /// AR coefficients `phi_1..phi_p`.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub phi: heapless::Vec<f64, MAX_ARMA_ORDER>,
     /// MA coefficients `theta_1..theta_q`.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub theta: heapless::Vec<f64, MAX_ARMA_ORDER>,
 }
 

@@ -57,28 +57,38 @@ impl Activation {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BpNet {
     /// Input channels (m of them), in weight order.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub inputs: heapless::Vec<u8, MAX_CHANNELS>,
     /// Model outputs fed (q of them), in weight order.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub outputs: heapless::Vec<u8, MAX_OUTPUTS>,
     /// Hidden-layer transfer function.
     pub hidden_activation: Activation,
     /// Output-layer transfer function (MATLAB's default is `purelin`).
     pub output_activation: Activation,
     /// n x m input weights.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub w1: heapless::Vec<f64, MAX_W1>,
     /// n hidden biases.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub b1: heapless::Vec<f64, MAX_HIDDEN>,
     /// q x n output weights.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub w2: heapless::Vec<f64, MAX_W2>,
     /// q output biases.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub b2: heapless::Vec<f64, MAX_OUTPUTS>,
     /// `mapminmax` input minima (m).
+    #[serde(deserialize_with = "crate::wire::list")]
     pub x_min: heapless::Vec<f64, MAX_CHANNELS>,
     /// `mapminmax` input maxima (m).
+    #[serde(deserialize_with = "crate::wire::list")]
     pub x_max: heapless::Vec<f64, MAX_CHANNELS>,
     /// `mapminmax` output minima (q).
+    #[serde(deserialize_with = "crate::wire::list")]
     pub y_min: heapless::Vec<f64, MAX_OUTPUTS>,
     /// `mapminmax` output maxima (q).
+    #[serde(deserialize_with = "crate::wire::list")]
     pub y_max: heapless::Vec<f64, MAX_OUTPUTS>,
 }
 

@@ -28,6 +28,7 @@ pub mod poly;
 pub mod position;
 pub mod rtd;
 pub mod tf;
+mod wire;
 
 pub use blob::{decode, encode, BlobError};
 pub use model::{

@@ -548,6 +548,44 @@ impl ValidModel {
         mask
     }
 
+    /// Bit `i` set: output `output` depends on input `i`. A hub whose
+    /// input fails holds only the outputs that read it; the others go on.
+    /// PCR and BP outputs read every input of the components or the net.
+    pub fn output_inputs(&self, output: usize) -> u32 {
+        let mut mask = 0u32;
+        let mut mark = |ch: u8| mask |= 1u32.checked_shl(u32::from(ch)).unwrap_or(0);
+        let is = |o: u8| usize::from(o) == output;
+        match &self.model.params {
+            Params::Tf(entries) => entries
+                .iter()
+                .filter(|e| is(e.output))
+                .for_each(|e| mark(e.input)),
+            Params::Linear(lin) => {
+                for eq in lin.outputs.iter().filter(|eq| is(eq.output)) {
+                    eq.coef.iter().for_each(|c| mark(c.channel));
+                    eq.position.iter().for_each(|p| mark(p.channel));
+                }
+            }
+            Params::Pcr(pcr) => {
+                for eq in pcr.outputs.iter().filter(|eq| is(eq.output)) {
+                    pcr.inputs.iter().for_each(|&ch| mark(ch));
+                    eq.position.iter().for_each(|p| mark(p.channel));
+                }
+            }
+            Params::Bp(net) => {
+                if net.outputs.iter().any(|&o| is(o)) {
+                    net.inputs.iter().for_each(|&ch| mark(ch));
+                }
+            }
+            Params::Arma(arma) => {
+                if is(arma.output) {
+                    mark(arma.channel);
+                }
+            }
+        }
+        mask
+    }
+
     /// Bit `i` set: input `i` is the axis position of a positional output.
     /// A hub that does not know the position feeds the reference `P0 = 0`
     /// there and sends slopes instead.

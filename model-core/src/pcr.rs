@@ -22,6 +22,7 @@ pub struct Component {
     /// Constant `c_j` (absorbs the inputs' means and scales).
     pub intercept: f64,
     /// Weights `w_ji`, one per input of the owning [`Pcr`].
+    #[serde(deserialize_with = "crate::wire::list")]
     pub weights: heapless::Vec<f64, MAX_CHANNELS>,
 }
 
@@ -34,6 +35,7 @@ pub struct PcrOutput {
     pub intercept: f64,
     /// `beta_j`, one per component of the owning [`Pcr`] (0 for a component
     /// this output does not use).
+    #[serde(deserialize_with = "crate::wire::list")]
     pub beta: heapless::Vec<f64, MAX_COMPONENTS>,
     /// Positioning-error form, when the regression gives a slope.
     pub position: Option<PositionTerm>,
@@ -57,6 +59,7 @@ impl PcrOutput {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Pcr {
     /// Input channels, in the order of each component's weights.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub inputs: heapless::Vec<u8, MAX_CHANNELS>,
     /// The components.
     pub components: heapless::Vec<Component, MAX_COMPONENTS>,

@@ -29,6 +29,7 @@ pub struct PositionTerm {
     /// Input channel holding the axis position `P` (e.g. `y_mm`).
     pub channel: u8,
     /// Geometric error polynomial `c0 + c1 P + c2 P^2 + ...`.
+    #[serde(deserialize_with = "crate::wire::list")]
     pub poly: heapless::Vec<f64, MAX_POLY_COEFFS>,
     /// Slope of the cold (initial) positioning error curve.
     pub k0: f64,

@@ -53,8 +53,10 @@ pub struct TfEntry {
     /// Index of the model input channel that drives it.
     pub input: u8,
     /// Input weights `a0..an` (seed 004's `a`, um/K and um s^i/K).
+    #[serde(deserialize_with = "crate::wire::list")]
     pub a: heapless::Vec<f64, MAX_COEFFS>,
     /// Output weights `b0..bm` (seed 004's `b`; `b0` non-zero).
+    #[serde(deserialize_with = "crate::wire::list")]
     pub b: heapless::Vec<f64, MAX_COEFFS>,
 }
 

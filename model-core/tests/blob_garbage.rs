@@ -1130,3 +1130,35 @@ fn streaming_crc_equals_one_shot_crc() {
         assert_eq!(streamed, crc32(&bytes), "split at {split}");
     }
 }
+
+/// Lists are decoded through one capacity-erased visitor (`wire.rs`): a
+/// list at capacity decodes, one element more is refused, as heapless's
+/// own decoder did. Checked on the position polynomial (capacity 8).
+#[test]
+fn a_list_longer_than_its_capacity_is_refused() {
+    #[derive(serde::Serialize)]
+    struct Wide {
+        channel: u8,
+        poly: Vec<f64>,
+        k0: f64,
+    }
+    let cap = model_core::position::MAX_POLY_COEFFS;
+    for (n, fits) in [(0, true), (cap, true), (cap + 1, false), (40, false)] {
+        let wide = Wide {
+            channel: 3,
+            poly: (0..n).map(|k| k as f64 * 0.5).collect(),
+            k0: -0.25,
+        };
+        let mut buf = [0u8; 1024];
+        let bytes = postcard::to_slice(&wide, &mut buf).unwrap();
+        let got: Result<PositionTerm, _> = postcard::from_bytes(bytes);
+        match got {
+            Ok(p) => {
+                assert!(fits, "{n} elements must be refused");
+                assert_eq!(p.poly.as_slice(), wide.poly.as_slice());
+                assert_eq!((p.channel, p.k0), (3, -0.25));
+            }
+            Err(_) => assert!(!fits, "{n} elements must decode"),
+        }
+    }
+}

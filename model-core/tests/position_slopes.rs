@@ -112,3 +112,22 @@ fn refused_inputs_write_no_slope() {
     assert!(model.thermal_slopes(&state, &TEMPS, &mut slopes).is_err());
     assert_eq!(slopes, [1.5; 4]);
 }
+
+/// Which inputs each output reads: a linear output its coefficients' (and
+/// position's) channels only; a PCR output every component input.
+#[test]
+fn output_inputs_name_what_each_output_reads() {
+    let pcr = pcr_seed003(true).validate().unwrap();
+    assert_eq!(pcr.output_inputs(0), 0b11_1111, "5 temperatures + y");
+    assert_eq!(pcr.output_inputs(1), 0, "no such output");
+    let lin = linear_seed002().validate().unwrap();
+    let Params::Linear(l) = &lin.model().params else {
+        unreachable!("a linear model")
+    };
+    let want = l.outputs[0]
+        .coef
+        .iter()
+        .fold(0u32, |m, c| m | 1 << c.channel);
+    assert_ne!(want, 0);
+    assert_eq!(lin.output_inputs(0), want);
+}
