@@ -123,6 +123,11 @@ fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
     let Some(save) = &a.save_machine else {
         bail!("--calibrate needs --save-machine CAL.toml");
     };
+    // The run file fixes the time grid and the speed; the nominal twin
+    // (no effects) is what gets calibrated.
+    if a.hours.is_some() || !a.effects.trim().is_empty() || a.sensors.is_some() {
+        bail!("--hours, --effects and --sensors do not apply to --calibrate (the run file sets the grid, the speed and the sensors)");
+    }
     let (text, label) = match &a.machine {
         Some(p) => (
             std::fs::read_to_string(p).with_context(|| format!("cannot read {}", p.display()))?,

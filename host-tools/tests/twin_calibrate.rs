@@ -292,6 +292,11 @@ fn bad_inputs_fail_with_one_line() {
     let good = write("good.csv", &rows);
     let e = calibrate(&good, &["--calibrate-until-s", "600"]);
     assert!(e.contains("at least 30"), "{e}");
+    let empty = write("empty.csv", "t_s,speed_rpm,dz_um\n");
+    let e = calibrate(&empty, &[]);
+    assert!(e.contains("no data rows"), "{e}");
+    let e = calibrate(&good, &["--hours", "1"]);
+    assert!(e.contains("do not apply"), "{e}");
     let none = write("none.csv", &rows.replace("dz_um,T1", "a,b"));
     let e = calibrate(&none, &[]);
     assert!(e.contains("no displacement"), "{e}");

@@ -155,7 +155,9 @@ impl Measured {
         let schedule = profile::schedule(&Profile::File(path.to_path_buf()), 1.0, None, 1.0, 0)?;
         let run = RunFile::read(path, &ReadOptions::default())?;
         let t = &schedule.t_s;
-        let (t0, t1) = (t[0], t[t.len() - 1]);
+        let (Some(&t0), Some(&t1)) = (t.first(), t.last()) else {
+            bail!("{}: no data rows to calibrate to", path.display());
+        };
         let until_s = until_s.unwrap_or(0.5 * (t0 + t1));
         if !until_s.is_finite() {
             bail!("--calibrate-until-s must be finite");
