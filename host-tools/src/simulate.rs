@@ -1,8 +1,9 @@
 //! `thermcomp simulate`: run the thermal twin ([`crate::twin`]) and write a
 //! run file (CONTRACT.md section 2).
 
+use crate::twin::calibrate;
 use crate::twin::effects::EffectSet;
-use crate::twin::machine::{Machine, DEFAULT_MACHINE_TOML};
+use crate::twin::machine::{Machine, DEFAULT_MACHINE_TOML, N_NODES};
 use crate::twin::profile::{self, Profile};
 use crate::twin::sim::{self, SimOptions, Summary};
 use anyhow::{bail, Context, Result};
@@ -16,7 +17,9 @@ use std::time::Instant;
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
     /// Where to write the run file (CSV).
-    #[arg(long, required_unless_present = "print_machine")]
+    /// With --calibrate: optional, the whole calibration run simulated from
+    /// its logged speed with the calibrated machine.
+    #[arg(long, required_unless_present_any = ["print_machine", "calibrate"])]
     pub out: Option<PathBuf>,
     /// Length of the run, hours (built-in profiles; with file:PATH, cuts the file).
     #[arg(long)]
@@ -49,6 +52,20 @@ pub struct SimulateArgs {
     /// Print the built-in machine file (TOML, commented) and exit.
     #[arg(long)]
     pub print_machine: bool,
+    /// Calibrate the machine (--machine, or the built-in one) to this
+    /// measured run: heat, bearing speed exponent, heat capacities and
+    /// ambient conductances by Levenberg-Marquardt; every *_um column as a
+    /// combination of node rises and every T<n> column at its best place
+    /// (docs/twin.md, "Calibration"). Needs --save-machine.
+    #[arg(long, requires = "save_machine")]
+    pub calibrate: Option<PathBuf>,
+    /// Where to write the calibrated machine file (TOML).
+    #[arg(long, requires = "calibrate")]
+    pub save_machine: Option<PathBuf>,
+    /// Calibrate on rows with t_s below this, s (default: the first half of
+    /// the run); the rest is reported as held out.
+    #[arg(long, requires = "calibrate")]
+    pub calibrate_until_s: Option<f64>,
 }
 
 /// Runs `thermcomp simulate`.
@@ -56,6 +73,9 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
     if a.print_machine {
         print!("{DEFAULT_MACHINE_TOML}");
         return Ok(());
+    }
+    if let Some(real) = &a.calibrate {
+        return run_calibration(a, real);
     }
     let Some(out) = &a.out else {
         bail!("--out FILE.csv is needed");
@@ -98,6 +118,79 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
     Ok(())
 }
 
+/// `simulate --calibrate REAL.csv --save-machine CAL.toml [--out SIM.csv]`.
+fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
+    let Some(save) = &a.save_machine else {
+        bail!("--calibrate needs --save-machine CAL.toml");
+    };
+    // The run file fixes the time grid and the speed; the nominal twin
+    // (no effects) is what gets calibrated.
+    if a.hours.is_some() || !a.effects.trim().is_empty() || a.sensors.is_some() {
+        bail!("--hours, --effects and --sensors do not apply to --calibrate (the run file sets the grid, the speed and the sensors)");
+    }
+    let (text, label) = match &a.machine {
+        Some(p) => (
+            std::fs::read_to_string(p).with_context(|| format!("cannot read {}", p.display()))?,
+            p.display().to_string(),
+        ),
+        None => (DEFAULT_MACHINE_TOML.to_string(), "<default machine>".into()),
+    };
+    let base = crate::twin::machine::parse(&label, &text)?;
+    let data = calibrate::Measured::read(real, a.calibrate_until_s)?;
+    let opts = calibrate::CalibrateOptions {
+        progress: true,
+        ..Default::default()
+    };
+    let cal = calibrate::calibrate(&base, &data, &opts)?;
+    let toml = calibrate::to_toml(&text, &cal, &real.display().to_string())?;
+    std::fs::write(save, toml).with_context(|| format!("cannot write {}", save.display()))?;
+    let mut v = calibrate::to_json(&cal);
+    v["machine"] = save.display().to_string().into();
+    if let Some(out) = &a.out {
+        let sim_opts = SimOptions {
+            effects: EffectSet::parse("")?,
+            seed: a.seed,
+            sensors: None,
+        };
+        write_run(&cal.machine, &data.schedule, &sim_opts, out)?;
+        v["out"] = out.display().to_string().into();
+    }
+    if a.json {
+        println!("{v}");
+    } else {
+        eprint!("{}", calibration_table(&cal));
+        eprintln!("wrote {}", save.display());
+    }
+    Ok(())
+}
+
+/// A human-readable summary of a calibration (stderr).
+fn calibration_table(cal: &calibrate::Calibration) -> String {
+    let mut s = String::new();
+    for (p, v) in calibrate::PARAMS.iter().zip(calibrate::values(&cal.theta)) {
+        let _ = writeln!(s, "{:>18} = {v:.4} {}", p.name, p.unit);
+    }
+    let _ = writeln!(
+        s,
+        "{} iterations, {} simulations, converged: {} ({}), {:.2} s",
+        cal.iterations, cal.evaluations, cal.converged, cal.reason, cal.elapsed_s
+    );
+    let _ = writeln!(
+        s,
+        "{:>10} {:>12} {:>8} {:>12} {:>8}",
+        "channel", "rmse cal", "fit %", "rmse rest", "fit %"
+    );
+    for c in &cal.channels {
+        let (r, f) = c.rest.map_or((f64::NAN, f64::NAN), |p| (p.rmse, p.fit_pct));
+        let _ = writeln!(
+            s,
+            "{:>10} {:>9.3} {:<2} {:>8.1} {:>9.3} {:<2} {:>8.1}",
+            c.name, c.calibration.rmse, c.unit, c.calibration.fit_pct, r, c.unit, f
+        );
+    }
+    s
+}
+
 /// Runs the twin and writes the run file; returns the summary and the
 /// number of sensor columns.
 pub fn write_run(
@@ -112,15 +205,30 @@ pub fn write_run(
     let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
     let write_err = || format!("cannot write {}", out.display());
     let mut header = String::from("t_s,speed_rpm,power_kw,ambient_c,coolant_c,tool_mm");
-    for i in 1..=n_sensors {
-        let _ = write!(header, ",T{i}");
+    for name in machine.sensors.names.iter().take(n_sensors) {
+        let _ = write!(header, ",{name}");
     }
-    header.push_str(",S1,S2,S3,S4,S5,dx_um,dy_um,dz_um\n");
+    header.push_str(",S1,S2,S3,S4,S5");
+    // A calibrated output named dx_um/dy_um/dz_um replaces the twin's own.
+    let own_xyz: Vec<bool> = ["dx_um", "dy_um", "dz_um"]
+        .iter()
+        .map(|c| !machine.outputs.iter().any(|o| o.name == *c))
+        .collect();
+    for (c, keep) in ["dx_um", "dy_um", "dz_um"].iter().zip(&own_xyz) {
+        if *keep {
+            let _ = write!(header, ",{c}");
+        }
+    }
+    for o in &machine.outputs {
+        let _ = write!(header, ",{}", o.name);
+    }
+    header.push('\n');
     w.write_all(header.as_bytes()).with_context(write_err)?;
     let n = schedule.t_s.len();
     // Hidden when stderr is not a terminal; only worth drawing for long runs.
     let pb = (n >= 200_000).then(|| crate::fit::arx::progress(n, "simulate"));
     let mut line = String::with_capacity(512);
+    let mut reference: Option<crate::twin::network::State> = None;
     let summary = sim::run(machine, schedule, opts, |r| {
         line.clear();
         let _ = write!(line, "{},{}", r.t_s, r.speed_rpm);
@@ -129,12 +237,22 @@ pub fn write_run(
             push_fixed4(&mut line, v);
         }
         let _ = write!(line, ",{}", r.tool_mm);
-        for &v in r
-            .temps_c
+        let xyz = [r.dx_um, r.dy_um, r.dz_um];
+        let own = xyz
             .iter()
-            .chain(&r.probes_um)
-            .chain(&[r.dx_um, r.dy_um, r.dz_um])
-        {
+            .zip(&own_xyz)
+            .filter(|(_, k)| **k)
+            .map(|(v, _)| v);
+        for &v in r.temps_c.iter().chain(&r.probes_um).chain(own) {
+            line.push(',');
+            push_fixed4(&mut line, v);
+        }
+        // Rises above the run's initial state (row 0), as the expansion.
+        let x0 = *reference.get_or_insert(*r.nodes_c);
+        for o in &machine.outputs {
+            let v: f64 = (0..N_NODES)
+                .map(|i| o.um_per_k[i] * (r.nodes_c[i] - x0[i]))
+                .sum();
             line.push(',');
             push_fixed4(&mut line, v);
         }

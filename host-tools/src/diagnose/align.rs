@@ -20,7 +20,8 @@ pub struct Channel {
 }
 
 impl Channel {
-    /// Whether this is a tool-tip displacement (`dx_um`, `dy_um`, `dz_um`).
+    /// Whether this is a displacement (`dx_um`, `dy_um`, `dz_um`, or any
+    /// other `*_um` column both files have).
     pub fn is_displacement(&self) -> bool {
         is_displacement(&self.name)
     }
@@ -35,8 +36,11 @@ impl Channel {
     }
 }
 
-fn is_displacement(name: &str) -> bool {
-    matches!(name, "dx_um" | "dy_um" | "dz_um")
+/// A displacement channel: any `*_um` column (the tool-tip `dx_um, dy_um,
+/// dz_um`, or a real machine's own channels such as `ch3_um`); the probe
+/// readings `S<n>` carry no unit suffix.
+pub fn is_displacement(name: &str) -> bool {
+    name.ends_with("_um") && name.len() > 3
 }
 
 fn is_probe(name: &str) -> bool {
@@ -95,7 +99,7 @@ pub fn read(sim_path: &Path, real_path: &Path) -> Result<Aligned> {
     names_sorted.extend(names.iter().filter(|c| is_probe(c)).cloned());
     if names_sorted.is_empty() {
         bail!(
-            "{} and {} share no channel to compare (dx_um, dy_um, dz_um, T<n>, S<n>)",
+            "{} and {} share no channel to compare (*_um, T<n>, S<n>)",
             sim_path.display(),
             real_path.display()
         );

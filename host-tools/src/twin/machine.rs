@@ -236,6 +236,29 @@ struct SiteSpec {
     node: Spanned<String>,
     toward: Option<Spanned<String>>,
     share: Option<f64>,
+    name: Option<Spanned<String>>,
+    offset_c: Option<f64>,
+}
+
+/// A displacement output as written: `[[output]] name = "ch3_um"`,
+/// `um_per_k = { shaft = -1.4, structure = -9.0 }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OutputSpec {
+    name: Spanned<String>,
+    um_per_k: toml::Table,
+}
+
+/// An extra displacement column of the run file: a fixed linear combination
+/// of node temperature rises (what `simulate --calibrate` fits to a real
+/// machine's displacement channels, whose sensor places are unknown).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DisplacementOutput {
+    /// Column name, ending in `_um`.
+    pub name: String,
+    /// um per kelvin of each node's rise above the run's initial state, in
+    /// state order.
+    pub um_per_k: [f64; N_NODES],
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -254,6 +277,9 @@ pub struct SensorSite {
     pub toward: Site,
     /// Weight of `toward`, 0..=1.
     pub share: f64,
+    /// Constant added to the reading, K (a calibrated sensor's offset from
+    /// the site temperature; 0 in the built-in machine).
+    pub offset_c: f64,
 }
 
 /// Temperature sensors.
@@ -263,6 +289,8 @@ pub struct Sensors {
     pub noise_c: f64,
     /// Sites of T1, T2, ...
     pub sites: Vec<SensorSite>,
+    /// Column name of each site (`name = ...`, default `T1`, `T2`, ...).
+    pub names: Vec<String>,
 }
 
 /// `ambient` effect parameters.
@@ -365,6 +393,7 @@ struct MachineSpec {
     probes: Probes,
     sensors: SensorsSpec,
     effects: EffectParams,
+    output: Option<Vec<OutputSpec>>,
 }
 
 /// A validated machine.
@@ -392,6 +421,8 @@ pub struct Machine {
     pub sensors: Sensors,
     /// Effect parameters.
     pub effects: EffectParams,
+    /// Extra displacement columns (`[[output]]`, written by a calibration).
+    pub outputs: Vec<DisplacementOutput>,
 }
 
 impl Machine {
@@ -454,7 +485,13 @@ pub fn parse(file: &str, text: &str) -> Result<Machine> {
         });
     }
     let mut sites = Vec::with_capacity(spec.sensors.site.len());
-    for s in &spec.sensors.site {
+    let mut names = Vec::with_capacity(spec.sensors.site.len());
+    for (i, s) in spec.sensors.site.iter().enumerate() {
+        names.push(column_name(s.name.as_ref(), || format!("T{}", i + 1), &at)?);
+        let offset_c = s.offset_c.unwrap_or(0.0);
+        if !offset_c.is_finite() {
+            bail!("{}: offset_c must be finite", at(&s.node));
+        }
         let place = site(&s.node)?;
         let toward = match &s.toward {
             Some(t) => site(t)?,
@@ -468,8 +505,15 @@ pub fn parse(file: &str, text: &str) -> Result<Machine> {
             node: place,
             toward,
             share,
+            offset_c,
         });
     }
+    let mut outputs = Vec::new();
+    for o in spec.output.iter().flatten() {
+        outputs.push(output(o, &at)?);
+    }
+    unique_names(names.iter().chain(outputs.iter().map(|o| &o.name)))
+        .map_err(|e| anyhow!("{file}: {e}"))?;
     let m = Machine {
         name: spec.name,
         max_rpm: spec.max_rpm,
@@ -483,11 +527,88 @@ pub fn parse(file: &str, text: &str) -> Result<Machine> {
         sensors: Sensors {
             noise_c: spec.sensors.noise_c,
             sites,
+            names,
         },
         effects: spec.effects,
+        outputs,
     };
     validate(&m).map_err(|e| anyhow!("{file}: {e}"))?;
     Ok(m)
+}
+
+/// Columns a run file always has; a sensor or output may not take them.
+const RESERVED_COLUMNS: [&str; 6] = [
+    "t_s",
+    "speed_rpm",
+    "power_kw",
+    "ambient_c",
+    "coolant_c",
+    "tool_mm",
+];
+
+/// A column name given in the file (checked), or the default.
+fn column_name(
+    given: Option<&Spanned<String>>,
+    default: impl FnOnce() -> String,
+    at: &dyn Fn(&Spanned<String>) -> String,
+) -> Result<String> {
+    let Some(n) = given else {
+        return Ok(default());
+    };
+    let name = n.get_ref();
+    let ok = !name.is_empty()
+        && name
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'.')
+        && !RESERVED_COLUMNS.contains(&name.as_str());
+    if !ok {
+        bail!(
+            "{}: column name \"{name}\" must be letters, digits, '_' or '.' and not one of {}",
+            at(n),
+            RESERVED_COLUMNS.join(", ")
+        );
+    }
+    Ok(name.clone())
+}
+
+/// One `[[output]]`: a `*_um` name and known node names with finite gains.
+fn output(o: &OutputSpec, at: &dyn Fn(&Spanned<String>) -> String) -> Result<DisplacementOutput> {
+    let name = column_name(Some(&o.name), String::new, at)?;
+    if !name.ends_with("_um") {
+        bail!("{}: output name \"{name}\" must end in _um", at(&o.name));
+    }
+    let mut um_per_k = [0.0; N_NODES];
+    for (k, v) in &o.um_per_k {
+        let node = Node::from_name(k)
+            .ok_or_else(|| anyhow!("{}: output \"{name}\": unknown node \"{k}\"", at(&o.name)))?;
+        let v = v
+            .as_float()
+            .or_else(|| v.as_integer().map(|i| i as f64))
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| {
+                anyhow!(
+                    "{}: output \"{name}\": um_per_k.{k} must be a finite number",
+                    at(&o.name)
+                )
+            })?;
+        um_per_k[node.index()] = v;
+    }
+    Ok(DisplacementOutput { name, um_per_k })
+}
+
+/// Sensor and output column names must not repeat, nor shadow the twin's
+/// probe columns.
+fn unique_names<'a>(names: impl Iterator<Item = &'a String>) -> Result<()> {
+    let mut seen = std::collections::HashSet::new();
+    for n in names {
+        if ["S1", "S2", "S3", "S4", "S5"].contains(&n.as_str()) {
+            bail!("column name \"{n}\" is taken by the probe readings");
+        }
+        if !seen.insert(n) {
+            bail!("column name \"{n}\" is given twice");
+        }
+    }
+    Ok(())
 }
 
 /// Range checks on the numbers, naming the field.

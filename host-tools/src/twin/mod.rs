@@ -7,11 +7,14 @@
 //! heat equations), [`integrate`] (exact zero-order-hold discretisation),
 //! [`expansion`] (temperatures to displacement), [`sensors`], [`profile`]
 //! (speed over time), [`effects`], [`rng`] (seeded noise) and [`sim`] (one
-//! run). Method and numbers: docs/twin.md.
+//! run), [`calibrate`] (grey-box fit of a machine to a measured run) with
+//! its optimiser [`lm`]. Method and numbers: docs/twin.md.
 
+pub mod calibrate;
 pub mod effects;
 pub mod expansion;
 pub mod integrate;
+pub mod lm;
 pub mod machine;
 pub mod network;
 pub mod profile;

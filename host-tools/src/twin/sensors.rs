@@ -69,6 +69,7 @@ impl SensorBank {
         let s = &self.sites[i];
         (1.0 - s.share) * place_c(s.node, t, ambient_c, coolant_c)
             + s.share * place_c(s.toward, t, ambient_c, coolant_c)
+            + s.offset_c
     }
 
     /// Reads every sensor into `out` after a step of `dt_s` (ignored on the
@@ -143,6 +144,7 @@ mod tests {
             node: Site::Node(Node::Motor),
             toward: Site::Node(Node::Motor),
             share: 0.0,
+            offset_c: 0.0,
         };
         let tau = 600.0;
         let mut bank = SensorBank::new(&[site], 0.0, Some(tau), 1);
