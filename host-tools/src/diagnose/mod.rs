@@ -14,6 +14,7 @@
 
 pub mod align;
 pub mod candidates;
+pub mod deploy;
 pub mod lsq;
 pub mod regime;
 pub mod report;
@@ -199,6 +200,7 @@ pub fn diagnose_files(
         None => (verdict, None),
     };
 
+    let deployment = deploy::deployment(&al, main, n_fit, &verdict);
     let v = json!({
         "holdout_from_t_s": round(holdout),
         "gap": gap,
@@ -209,6 +211,7 @@ pub fn diagnose_files(
         "main_gap_snr": round(snr[main]),
         "bands": bands,
         "second": second,
+        "deployment": deployment,
         "rule": format!(
             "verdict = best candidate on the held-out rms if the main channel's gap exceeds {MIN_GAP_SNR} noise sigmas, \
              it shrinks the held-out rms by >= {MIN_SHRINK_PCT} % and leaves <= {MAX_RATIO_TO_NONE} x what the none baseline leaves; else none. \
@@ -318,6 +321,20 @@ fn text_table(v: &Value) -> String {
             "second effect: {} (held-out rms {} after both)",
             sec["name"].as_str().unwrap_or(""),
             sec["rms_after"]
+        );
+    }
+    let d = &v["deployment"];
+    if let Some(sim) = d["trained_on_sim"]["rmse_um"].as_f64() {
+        let _ = writeln!(
+            s,
+            "\ndeployment ({} on {} temperatures, real held-out rmse): trained on sim {:.3} um{}; trained on the real fit part {:.3} um",
+            d["target"].as_str().unwrap_or("?"),
+            d["inputs"].as_array().map_or(0, Vec::len),
+            sim,
+            d["trained_on_sim_plus_effect"]["rmse_um"]
+                .as_f64()
+                .map_or_else(String::new, |e| format!(", on sim + {} {e:.3} um", d["effect"].as_str().unwrap_or("?"))),
+            d["trained_on_real_fit_part"]["rmse_um"].as_f64().unwrap_or(f64::NAN)
         );
     }
     s
