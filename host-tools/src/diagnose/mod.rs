@@ -107,8 +107,16 @@ pub fn diagnose_files(
         snr.push(rms / lsq::noise_sigma(&ch.resid).max(1e-12));
     }
     let main = main_channel(&al, &snr);
+
+    // Which effect, how far it shrinks.
+    let (main, scored, verdict) = judge(&al, main, &snr, n_fit)?;
     let ch = &al.channels[main];
     let gap_significant = snr[main] >= MIN_GAP_SNR;
+    let p = Problem { al: &al, ch, n_fit };
+    let none_after = scored
+        .iter()
+        .find(|s| s.name == "none")
+        .map_or(f64::INFINITY, |s| s.rms_after);
 
     // Where: regimes and bands for the main channel (and dz_um if it is not).
     let segs = regime::segments(t, &al.speed_rpm, al.power_kw.as_deref());
@@ -160,15 +168,6 @@ pub fn diagnose_files(
         }));
     }
 
-    // Which effect, how far it shrinks.
-    let p = Problem { al: &al, ch, n_fit };
-    let mut scored = candidates::fit_all(&p);
-    if scored.is_empty() {
-        bail!("the baseline fit failed on {} (degenerate data?)", ch.name);
-    }
-    let none_after = scored[0].rms_after;
-    scored.sort_by(|a, b| a.rms_after.total_cmp(&b.rms_after));
-    let verdict = verdict(&scored, none_after, gap_significant);
     // Two effects at once: a joint model of the best pair replaces the
     // single verdict when the single winner still leaves a held-out residual
     // out of the noise and the pair leaves <= 0.8 x what it leaves.
@@ -223,6 +222,54 @@ pub fn diagnose_files(
         report::write(dir, &al, main, n_fit, &scored, &v)?;
     }
     Ok(v)
+}
+
+/// Candidates fitted and scored on channel `main`, sorted by held-out rms,
+/// and the verdict. When `main` is a displacement whose verdict is `none`,
+/// the temperature channel whose gap stands out most (if it does) is
+/// judged the same way and replaces it if it has a verdict: an effect on
+/// the sensors only (a lag) is invisible on the probes, and a twin that
+/// is slightly wrong leaves a displacement gap that hides it otherwise.
+/// Returns (channel, scored candidates, verdict).
+fn judge(
+    al: &align::Aligned,
+    main: usize,
+    snr: &[f64],
+    n_fit: usize,
+) -> Result<(usize, Vec<Scored>, String)> {
+    let on = |c: usize| -> Result<(Vec<Scored>, String)> {
+        let p = Problem {
+            al,
+            ch: &al.channels[c],
+            n_fit,
+        };
+        let mut scored = candidates::fit_all(&p);
+        if scored.is_empty() {
+            bail!(
+                "the baseline fit failed on {} (degenerate data?)",
+                p.ch.name
+            );
+        }
+        let none_after = scored[0].rms_after;
+        scored.sort_by(|a, b| a.rms_after.total_cmp(&b.rms_after));
+        let v = verdict(&scored, none_after, snr[c] >= MIN_GAP_SNR);
+        Ok((scored, v))
+    };
+    let (scored, v) = on(main)?;
+    if v != "none" || !al.channels[main].is_displacement() {
+        return Ok((main, scored, v));
+    }
+    let temp = (0..al.channels.len())
+        .filter(|&i| crate::runfile::is_temperature_column(&al.channels[i].name))
+        .filter(|&i| snr[i] >= MIN_GAP_SNR)
+        .max_by(|&a, &b| snr[a].total_cmp(&snr[b]));
+    if let Some(t) = temp {
+        let (s2, v2) = on(t)?;
+        if v2 != "none" {
+            return Ok((t, s2, v2));
+        }
+    }
+    Ok((main, scored, v))
 }
 
 /// The main channel: the displacement with the largest residual rms if its
