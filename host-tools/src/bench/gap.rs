@@ -31,7 +31,7 @@ pub const DEFAULT_MAGNITUDES: &str = "0.5,1,2";
 pub struct GapArgs {
     /// Seeds (independent cases) per combination of cause, profile,
     /// magnitude and logging.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 3)]
     pub seeds: usize,
     /// One seed per combination (a quick look; same as --seeds 1).
     #[arg(long)]

@@ -30,6 +30,12 @@ fn f1(v: Option<f64>) -> String {
         .map_or_else(String::new, |x| format!("{x:.1}"))
 }
 
+/// A number with three decimals, or empty.
+fn f3(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or_else(String::new, |x| format!("{x:.3}"))
+}
+
 /// One row per case.
 pub fn cases_csv(outs: &[Outcome]) -> String {
     let mut s = String::from(
@@ -53,8 +59,8 @@ pub fn cases_csv(outs: &[Outcome]) -> String {
             f1(o.true_shrink_pct),
             o.best,
             o.best_ratio_to_none,
-            f1(o.deploy_sim_um),
-            f1(o.deploy_sim_effect_um),
+            f3(o.deploy_sim_um),
+            f3(o.deploy_sim_effect_um),
             o.correct(),
             o.elapsed_s
         );
