@@ -1,6 +1,7 @@
 //! `thermcomp`'s library: the spec reader, run-file reader, runner and
 //! subcommands, kept apart from `main` so tests can call them directly.
 
+pub mod bench;
 pub mod blobfile;
 pub mod dataset;
 pub mod demo;

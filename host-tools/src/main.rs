@@ -6,7 +6,8 @@
 //! and a non-zero exit status.
 
 use host_tools::{
-    blobfile, demo, diagnose, eval, fit, hub, predict, refit, replay, select, show, simulate, spec,
+    bench, blobfile, demo, diagnose, eval, fit, hub, predict, refit, replay, select, show,
+    simulate, spec,
 };
 
 use clap::{Args, Parser, Subcommand};
@@ -28,6 +29,10 @@ enum Command {
     /// every model kind, export the best, replay it through the firmware,
     /// diagnose a sim-to-real gap (README, "Two commands").
     Demo(demo::DemoArgs),
+    /// Benchmarks of the tool's methods on twin runs with known answers
+    /// (`bench gap`: the blind benchmark of `diagnose`).
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
     /// Build or inspect model blobs.
     #[command(subcommand)]
     Model(ModelCommand),
@@ -138,6 +143,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Demo(a) => demo::run(&a),
+        Command::Bench(c) => bench::run(&c),
         Command::Hub(c) => hub::run(&c),
         Command::Predict(a) => predict::run(&a),
         Command::Eval(a) => eval::run(&a),

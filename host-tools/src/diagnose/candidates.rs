@@ -12,7 +12,7 @@
 //!              + sin/cos(2 pi t/P), sin/cos(4 pi t/P)                    not logged: P from the residual's 10-120 min peak
 //! cutting:     + g1 F(Pcut; tau1) + g2 F(Pcut; tau2)                     Pcut = power_kw - air-cutting power at that speed
 //! motor_loss:  + g1 F(w; tau1) + g2 F(w; tau2),  w = [n > 0] max(0, 1 - n/knee)
-//! sensor_lag:  + g F(sim; tau)    on a temperature channel (so r ~ g (F(sim) - sim) ~ -g tau dsim/dt);
+//! sensor_lag:  + g (F(sim; tau) - sim)  on a temperature channel (r ~ -g tau dsim/dt; g = lagged share);
 //!                                 nothing on a displacement (probes do not lag)
 //! ```
 //!
@@ -325,16 +325,25 @@ fn variants(name: &str, p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String
             (v, d)
         }
         "sensor_lag" => {
-            if p.ch.is_displacement() {
+            if !crate::runfile::is_temperature_column(&p.ch.name) {
                 return (
                     Vec::new(),
-                    "displacement channel: probes do not lag, no signature".into(),
+                    "not a temperature channel: probes and displacements do not lag, no signature"
+                        .into(),
                 );
             }
+            // The lag's own signature F(sim) - sim rather than F(sim): the
+            // same column space (sim is a baseline regressor), so the same
+            // fit, but the gain is the lagged share (1 for a sensor that
+            // lags entirely) and the regressor alone is the effect.
             let v = LAG_TAUS_S
                 .iter()
                 .map(|&tau| Variant {
-                    extra: vec![lsq::lowpass(t, &p.ch.sim, tau, p.ch.sim[0])],
+                    extra: vec![lsq::lowpass(t, &p.ch.sim, tau, p.ch.sim[0])
+                        .iter()
+                        .zip(&p.ch.sim)
+                        .map(|(f, s)| f - s)
+                        .collect()],
                     fixed: vec![("tau_s".into(), tau)],
                     gains: vec!["gain".into()],
                     taus: vec![],
@@ -559,4 +568,39 @@ pub fn best_pair(p: &Problem) -> Option<(Scored, String, String)> {
         }
     }
     best_pair
+}
+
+/// An effect's part of one channel (see [`effect_part`]).
+#[derive(Debug, Clone)]
+pub struct EffectPart {
+    /// The effect's regressors times their coefficients, every row.
+    pub values: Vec<f64>,
+    /// Fit-part rms left by the baseline alone.
+    pub fit_rms_base: f64,
+    /// Fit-part rms left by the baseline and the effect.
+    pub fit_rms_with: f64,
+}
+
+/// What candidate `name` adds to `p`'s channel: its own regressors times
+/// their coefficients, fitted with the baseline on the fit rows only
+/// exactly as [`fit_all`] fits it (the grid point with the smallest
+/// fit-part error); the baseline's offset, drift and twin gain are left
+/// out (they are the twin's mismatch, not the effect). `None` when the
+/// candidate has no usable input on this channel (e.g. `sensor_lag` on a
+/// displacement) or a fit fails.
+pub fn effect_part(name: &str, p: &Problem) -> Option<EffectPart> {
+    let base = baseline(p);
+    let y = &p.ch.resid;
+    let bf = lsq::fit(&base, y, p.n_fit)?;
+    let (vars, _) = variants(name, p, &bf.pred);
+    let (f, _, cols) = best(&base, vars, y, p.n_fit)?;
+    let n_base = base.len();
+    let n_fit = p.n_fit.max(1) as f64;
+    Some(EffectPart {
+        values: (0..y.len())
+            .map(|k| (n_base..cols.len()).map(|j| f.coef[j] * cols[j][k]).sum())
+            .collect(),
+        fit_rms_base: (bf.sse_fit / n_fit).sqrt(),
+        fit_rms_with: (f.sse_fit / n_fit).sqrt(),
+    })
 }

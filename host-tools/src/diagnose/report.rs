@@ -148,6 +148,43 @@ fn bar_chart(title: &str, items: &[(String, f64)]) -> String {
     s
 }
 
+/// The deployment view as a small table: the real held-out error of a
+/// compensation model trained on the sim, on the sim plus the effect and on
+/// the real fit part.
+fn deployment_html(d: &Value) -> String {
+    let mut h = String::from("<h2>Deployment: a compensation model trained on the twin</h2>");
+    let _ = write!(
+        h,
+        "<p>{} ({}) regressed on {} by least squares, trained on the rows before the hold-out, scored on the real run's held-out rows (uncompensated rms {} um). {}</p><table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\"><tr><th>trained on</th><th>rmse, um</th><th>reduction, %</th></tr>",
+        esc(d["model"].as_str().unwrap_or("mlr")),
+        esc(d["target"].as_str().unwrap_or("?")),
+        esc(&d["inputs"].to_string()),
+        d["held_out_uncompensated_rms_um"],
+        esc(d["note"].as_str().unwrap_or(""))
+    );
+    let effect = d["effect"].as_str().unwrap_or("effect");
+    for (label, key) in [
+        ("nominal sim".to_string(), "trained_on_sim"),
+        (format!("sim + {effect}"), "trained_on_sim_plus_effect"),
+        (
+            "real fit part (reference)".to_string(),
+            "trained_on_real_fit_part",
+        ),
+    ] {
+        if d[key].is_object() {
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{}</td><td>{}</td></tr>",
+                esc(&label),
+                d[key]["rmse_um"],
+                d[key]["reduction_pct"]
+            );
+        }
+    }
+    h.push_str("</table>");
+    h
+}
+
 /// Writes `dir/index.html`.
 pub fn write(
     dir: &Path,
@@ -207,6 +244,7 @@ pub fn write(
             300.0,
         ));
     }
+    html.push_str(&deployment_html(&v["deployment"]));
     html.push_str("<h2>Where: regime segments</h2>");
     let seg: Vec<(String, f64)> = v["where"]
         .as_array()

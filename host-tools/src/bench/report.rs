@@ -1,0 +1,244 @@
+//! The benchmark's files: `cases.csv` (one row per case), `confusion.md`
+//! (the matrix and the rates as a Markdown table, ready for docs/),
+//! `summary.json` and `confusion.svg` (the matrix as a heat map, drawn
+//! by hand like the diagnose report: no font or system library needed).
+
+use super::cases::LABELS;
+use super::gap::{Outcome, Summary};
+use anyhow::{Context, Result};
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Writes every file into `dir` (created if missing).
+pub fn write(dir: &Path, outs: &[Outcome], s: &Summary, summary: &Value) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let put = |name: &str, text: String| -> Result<()> {
+        let p = dir.join(name);
+        std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))
+    };
+    put("cases.csv", cases_csv(outs))?;
+    put("confusion.md", markdown(outs, s))?;
+    put("summary.json", format!("{summary:#}\n"))?;
+    put("confusion.svg", svg(s))?;
+    Ok(())
+}
+
+/// A number with one decimal, or empty.
+fn f1(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or_else(String::new, |x| format!("{x:.1}"))
+}
+
+/// A number with three decimals, or empty.
+fn f3(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or_else(String::new, |x| format!("{x:.3}"))
+}
+
+/// One row per case.
+pub fn cases_csv(outs: &[Outcome]) -> String {
+    let mut s = String::from(
+        "id,effect,profile,seed,magnitude,logged,verdict,second,main_channel,shrink_pct,true_shrink_pct,best,best_ratio_to_none,deploy_sim_rmse_um,deploy_sim_effect_rmse_um,correct,elapsed_s\n",
+    );
+    for o in outs {
+        let c = &o.case;
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{},{},{},{:.3}",
+            c.id,
+            c.effect,
+            c.profile.label(),
+            c.seed,
+            c.magnitude,
+            c.logged,
+            o.verdict,
+            o.second.as_deref().unwrap_or(""),
+            o.main_channel,
+            f1(Some(o.verdict_shrink_pct)),
+            f1(o.true_shrink_pct),
+            o.best,
+            o.best_ratio_to_none,
+            f3(o.deploy_sim_um),
+            f3(o.deploy_sim_effect_um),
+            o.correct(),
+            o.elapsed_s
+        );
+    }
+    s
+}
+
+/// The confusion matrix as Markdown rows (true cause x verdict).
+fn matrix_md(s: &Summary) -> String {
+    let mut m = String::from("| true \\ verdict |");
+    for l in LABELS {
+        let _ = write!(m, " {l} |");
+    }
+    m.push_str(" correct |\n|---|");
+    m.push_str(&"---|".repeat(LABELS.len() + 1));
+    m.push('\n');
+    for (i, l) in LABELS.iter().enumerate() {
+        let n: usize = s.confusion[i].iter().sum();
+        let _ = write!(m, "| **{l}** |");
+        for j in 0..LABELS.len() {
+            let v = s.confusion[i][j];
+            if v == 0 {
+                m.push_str(" |");
+            } else if i == j {
+                let _ = write!(m, " **{v}** |");
+            } else {
+                let _ = write!(m, " {v} |");
+            }
+        }
+        let _ = writeln!(m, " {}/{n} |", s.confusion[i][i]);
+    }
+    m
+}
+
+/// The matrix, the rates, the shrinks per cause and every wrong case.
+pub fn markdown(outs: &[Outcome], s: &Summary) -> String {
+    let mut m = matrix_md(s);
+    let _ = writeln!(
+        m,
+        "\nAccuracy {:.1} % of {} cases; effect cases identified {:.1} %; false alarms {} of {} `none` cases ({:.1} %); misses (effect -> none) {}; wrong effect {}; second effect claimed {} times; median held-out shrink of the correctly identified effect cases {:.1} %.\n",
+        s.accuracy_pct,
+        outs.len(),
+        s.effect_accuracy_pct,
+        s.false_alarms.0,
+        s.false_alarms.1,
+        s.false_alarm_rate_pct(),
+        s.misses,
+        s.wrong_effect,
+        s.spurious_seconds,
+        s.median_shrink_correct_pct
+    );
+    m.push_str("| cause | correct | held-out shrink of the verdict: min | median | max |\n|---|---|---|---|---|\n");
+    for (l, n, lo, med, hi) in &s.shrink_by_effect {
+        let _ = writeln!(
+            m,
+            "| {l} | {n} | {} | {} | {} |",
+            f1(Some(*lo)),
+            f1(Some(*med)),
+            f1(Some(*hi))
+        );
+    }
+    m.push_str("\nWrong cases:\n\n| id | true | profile | magnitude | logged | verdict | second | main channel | best (ratio to none) | shrink of true candidate % |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    for o in outs.iter().filter(|o| !o.correct()) {
+        let c = &o.case;
+        let _ = writeln!(
+            m,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} ({:.2}) | {} |",
+            c.id,
+            c.effect,
+            c.profile.label(),
+            c.magnitude,
+            if c.logged { "yes" } else { "no" },
+            o.verdict,
+            o.second.as_deref().unwrap_or("—"),
+            o.main_channel,
+            o.best,
+            o.best_ratio_to_none,
+            f1(o.true_shrink_pct)
+        );
+    }
+    m
+}
+
+/// The short summary printed without `--json`.
+pub fn text(outs: &[Outcome], s: &Summary, wall_s: f64) -> String {
+    let mut t = String::new();
+    let _ = write!(t, "{:>12}", "true\\verdict");
+    for l in LABELS {
+        let _ = write!(t, " {:>10}", l);
+    }
+    t.push('\n');
+    for (i, l) in LABELS.iter().enumerate() {
+        let _ = write!(t, "{l:>12}");
+        for j in 0..LABELS.len() {
+            let _ = write!(t, " {:>10}", s.confusion[i][j]);
+        }
+        t.push('\n');
+    }
+    let _ = writeln!(
+        t,
+        "\n{} cases in {:.1} s: accuracy {:.1} %, false alarms {}/{}, misses {}, wrong effect {}, median shrink (correct effect cases) {:.1} %",
+        outs.len(),
+        wall_s,
+        s.accuracy_pct,
+        s.false_alarms.0,
+        s.false_alarms.1,
+        s.misses,
+        s.wrong_effect,
+        s.median_shrink_correct_pct
+    );
+    t
+}
+
+/// The confusion matrix as an SVG heat map: cell shade = share of the row.
+pub fn svg(s: &Summary) -> String {
+    let n = LABELS.len() as f64;
+    let (cell, left, top) = (80.0, 110.0, 90.0);
+    let (w, h) = (left + n * cell + 20.0, top + n * cell + 40.0);
+    let mut g = format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">"##
+    );
+    let _ = write!(
+        g,
+        r##"<text x="{}" y="18" text-anchor="middle" font-size="14">verdict (columns) for each true cause (rows)</text>"##,
+        left + n * cell / 2.0
+    );
+    for (j, l) in LABELS.iter().enumerate() {
+        let x = left + (j as f64 + 0.5) * cell;
+        let _ = write!(
+            g,
+            r##"<text x="{x}" y="{}" text-anchor="middle">{l}</text>"##,
+            top - 8.0
+        );
+    }
+    for (i, l) in LABELS.iter().enumerate() {
+        let y = top + i as f64 * cell;
+        let row: usize = s.confusion[i].iter().sum();
+        let _ = write!(
+            g,
+            r##"<text x="{}" y="{}" text-anchor="end">{l}</text>"##,
+            left - 8.0,
+            y + cell / 2.0 + 4.0
+        );
+        for j in 0..LABELS.len() {
+            let v = s.confusion[i][j];
+            let share = if row > 0 { v as f64 / row as f64 } else { 0.0 };
+            // Diagonal in blue, off-diagonal in red; white for 0.
+            let (r, gg, b) = if i == j {
+                (255.0 - 200.0 * share, 255.0 - 130.0 * share, 255.0)
+            } else {
+                (255.0, 255.0 - 200.0 * share, 255.0 - 200.0 * share)
+            };
+            let x = left + j as f64 * cell;
+            let _ = write!(
+                g,
+                r##"<rect x="{x}" y="{y}" width="{cell}" height="{cell}" fill="rgb({},{},{})" stroke="#888"/>"##,
+                r as u8, gg as u8, b as u8
+            );
+            if v > 0 {
+                let _ = write!(
+                    g,
+                    r##"<text x="{}" y="{}" text-anchor="middle" font-size="16">{v}</text>"##,
+                    x + cell / 2.0,
+                    y + cell / 2.0 + 6.0
+                );
+            }
+        }
+    }
+    let _ = write!(
+        g,
+        r##"<text x="{}" y="{}" text-anchor="middle">accuracy {:.1} %, false alarms {}/{}, median shrink of correct effect cases {:.1} %</text></svg>"##,
+        left + n * cell / 2.0,
+        h - 12.0,
+        s.accuracy_pct,
+        s.false_alarms.0,
+        s.false_alarms.1,
+        s.median_shrink_correct_pct
+    );
+    g.push('\n');
+    g
+}
