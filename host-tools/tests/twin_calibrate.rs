@@ -41,16 +41,7 @@ fn perturbed() -> Machine {
     h.rear_bearing_w_at_ref *= HEAT;
     h.motor_idle_w *= HEAT;
     h.motor_iron_w_at_ref *= HEAT;
-    let n = &mut m.nodes;
-    for p in [
-        &mut n.front_bearing,
-        &mut n.rear_bearing,
-        &mut n.motor,
-        &mut n.shaft,
-        &mut n.housing,
-        &mut n.structure,
-        &mut n.coolant_jacket,
-    ] {
+    for p in m.nodes.each_mut() {
         p.c_j_per_k *= CAPACITY;
     }
     let x = &mut m.expansion;

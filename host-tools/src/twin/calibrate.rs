@@ -261,16 +261,7 @@ pub fn scaled(base: &Machine, theta: &[f64]) -> Machine {
     h.motor_idle_w *= heat;
     h.motor_iron_w_at_ref *= heat;
     h.bearing_exponent = exponent;
-    let n = &mut m.nodes;
-    for p in [
-        &mut n.front_bearing,
-        &mut n.rear_bearing,
-        &mut n.motor,
-        &mut n.shaft,
-        &mut n.housing,
-        &mut n.structure,
-        &mut n.coolant_jacket,
-    ] {
+    for p in m.nodes.each_mut() {
         p.c_j_per_k *= capacity;
         p.g_ambient_w_per_k *= g_amb;
     }

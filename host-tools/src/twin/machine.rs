@@ -128,6 +128,19 @@ pub struct Nodes {
 }
 
 impl Nodes {
+    /// Every node's parameters, in [`Node`] order (to scale them together).
+    pub fn each_mut(&mut self) -> [&mut NodeParams; N_NODES] {
+        [
+            &mut self.front_bearing,
+            &mut self.rear_bearing,
+            &mut self.motor,
+            &mut self.shaft,
+            &mut self.housing,
+            &mut self.structure,
+            &mut self.coolant_jacket,
+        ]
+    }
+
     /// Parameters of `node`.
     pub fn get(&self, node: Node) -> &NodeParams {
         match node {
