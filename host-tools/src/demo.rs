@@ -969,6 +969,20 @@ pub fn summary_text(d: &Value) -> String {
         num(&g["rms_before_um"]),
         num(&g["rms_after_um"])
     );
+    let dep = &g["result"]["deployment"];
+    if let Some(sim) = dep["trained_on_sim"]["rmse_um"].as_f64() {
+        let with = dep["trained_on_sim_plus_effect"]["rmse_um"].as_f64();
+        let _ = writeln!(
+            s,
+            "             deployment: {} on the real hold-out, trained on the sim {sim:.2} um rms{}, on the real fit part {:.2} um",
+            dep["model"].as_str().unwrap_or("?"),
+            with.map_or(String::new(), |w| format!(
+                ", on sim + {} {w:.2} um",
+                dep["effect"].as_str().unwrap_or("?")
+            )),
+            num(&dep["trained_on_real_fit_part"]["rmse_um"])
+        );
+    }
     let _ = writeln!(
         s,
         "{} files in {} ({:.1} s); --json for every figure",

@@ -267,11 +267,7 @@ pub fn write(
         "share of the residual energy (sum r^2), largest segments",
         &seg,
     ));
-    let _ = write!(
-        html,
-        "<p>Frequency bands: <code>{}</code></p>",
-        esc(&v["bands"].to_string())
-    );
+    html.push_str(&bands_table(&v["bands"]));
     html.push_str("<h2>Sim vs real</h2>");
     for c in al.channels.iter().filter(|c| c.is_displacement()) {
         html.push_str(&line_chart(
@@ -302,4 +298,32 @@ pub fn write(
     let path = dir.join("index.html");
     std::fs::write(&path, html).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
+}
+
+/// The residual energy by period band, one row per channel analysed.
+fn bands_table(bands: &Value) -> String {
+    let mut t = String::from(
+        "<h3>Frequency bands: share of the residual energy</h3>\
+         <table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\">\
+         <tr><th>channel</th><th>slow (&gt; 2 h), %</th><th>mid (10 min - 2 h), %</th>\
+         <th>fast (&lt; 10 min), %</th><th>mid-band peak, min</th></tr>",
+    );
+    let rows = bands.as_array().map(Vec::as_slice).unwrap_or(&[]);
+    for b in rows {
+        let pct = |k: &str| b[k].as_f64().map_or("-".into(), |x| format!("{x:.1}"));
+        let peak = b["mid_peak_period_s"]
+            .as_f64()
+            .map_or("-".into(), |s| format!("{:.0}", s / 60.0));
+        let _ = write!(
+            t,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(b["channel"].as_str().unwrap_or("?")),
+            pct("slow_pct"),
+            pct("mid_pct"),
+            pct("fast_pct"),
+            peak
+        );
+    }
+    t.push_str("</table>");
+    t
 }
