@@ -26,7 +26,8 @@ pub struct SimulateArgs {
     pub hours: Option<f64>,
     /// Speed profile: steps, spectrum, cooldown, constant:RPM or file:PATH
     /// (a run file's speed_rpm, power_kw and tool_mm columns on its own time grid).
-    #[arg(long, default_value = "steps")]
+    /// Not with --calibrate, whose run file sets the speed.
+    #[arg(long, default_value = "steps", conflicts_with = "calibrate")]
     pub profile: String,
     /// Unmodelled effects to switch on, comma-separated: ambient, coolant,
     /// cutting, motor_loss, sensor_lag (none: the nominal twin).
@@ -39,8 +40,9 @@ pub struct SimulateArgs {
     /// (see --print-machine).
     #[arg(long)]
     pub machine: Option<PathBuf>,
-    /// Sample time, s (built-in profiles).
-    #[arg(long, default_value_t = 1.0)]
+    /// Sample time, s (built-in profiles; not with --calibrate, whose run
+    /// file sets the grid).
+    #[arg(long, default_value_t = 1.0, conflicts_with = "calibrate")]
     pub dt_s: f64,
     /// Number of temperature sensors T1..Tn (the machine's first N sites;
     /// default all).

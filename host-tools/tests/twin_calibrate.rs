@@ -296,6 +296,24 @@ fn bad_inputs_fail_with_one_line() {
     let out = common::run(&["simulate", "--calibrate", p(&good)]);
     assert!(!out.status.success());
     assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+    // So is a speed profile or sample time: the run file sets both.
+    for extra in [["--profile", "spectrum"], ["--dt-s", "10"]] {
+        let mut args = vec![
+            "simulate",
+            "--calibrate",
+            p(&good),
+            "--save-machine",
+            p(&cal),
+        ];
+        args.extend_from_slice(&extra);
+        let out = common::run(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains("cannot be used with"),
+            "{err}"
+        );
+        assert!(!cal.exists(), "nothing written");
+    }
     // Machine files: bad output node, duplicate column names.
     let text = format!(
         "{DEFAULT_MACHINE_TOML}\n[[output]]\nname = \"ch1_um\"\num_per_k = {{ shaftt = 1.0 }}\n"
