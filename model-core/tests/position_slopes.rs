@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{linear_seed002, pcr_seed003};
+use common::{arma_2_1_d1, bp_3_4_2, linear_seed002, pcr_seed003, tf_bank_4x4};
 use model_core::linear::Linear;
 use model_core::position::PositionTerm;
 use model_core::{ModelState, Params, ValidModel};
@@ -114,7 +114,9 @@ fn refused_inputs_write_no_slope() {
 }
 
 /// Which inputs each output reads: a linear output its coefficients' (and
-/// position's) channels only; a PCR output every component input.
+/// position's) channels only; a PCR output every component input; a TF
+/// output the inputs of its entries; a BP output every net input; an ARMA
+/// forecast its one series.
 #[test]
 fn output_inputs_name_what_each_output_reads() {
     let pcr = pcr_seed003(true).validate().unwrap();
@@ -130,4 +132,11 @@ fn output_inputs_name_what_each_output_reads() {
         .fold(0u32, |m, c| m | 1 << c.channel);
     assert_ne!(want, 0);
     assert_eq!(lin.output_inputs(0), want);
+    // tf_bank_4x4: entries T1 -> dx, T2 -> dz, T3 -> dx, T4 -> dz.
+    let tf = tf_bank_4x4().validate().unwrap();
+    assert_eq!((tf.output_inputs(0), tf.output_inputs(1)), (0b0101, 0b1010));
+    let bp = bp_3_4_2().validate().unwrap();
+    assert_eq!((bp.output_inputs(0), bp.output_inputs(1)), (0b111, 0b111));
+    let arma = arma_2_1_d1().validate().unwrap();
+    assert_eq!(arma.output_inputs(0), 0b1);
 }
