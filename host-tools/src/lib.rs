@@ -13,6 +13,7 @@ pub mod hub;
 pub mod predict;
 pub mod refit;
 pub mod replay;
+pub mod rng;
 pub mod runfile;
 pub mod runner;
 pub mod score;

@@ -1,6 +1,7 @@
-//! A small seeded PRNG (SplitMix64, Steele, Lea & Flood 2014) with Gaussian
-//! draws (Box–Muller), so runs are reproducible from `--seed` with no extra
-//! dependency and no change between library versions.
+//! The twin's seeded streams: the crate's SplitMix64 ([`crate::rng`]) with
+//! Gaussian (Box–Muller) and exponential draws, so runs are reproducible
+//! from `--seed` with no extra dependency and no change between library
+//! versions.
 //!
 //! Each purpose (sensor noise, probe noise, the speed spectrum, door
 //! openings) draws from its own stream, so switching an effect on never
@@ -19,10 +20,12 @@ pub enum Stream {
     Doors = 4,
 }
 
-/// SplitMix64 generator.
+use crate::rng::SplitMix64;
+
+/// One stream's generator.
 #[derive(Debug, Clone)]
 pub struct Rng {
-    state: u64,
+    bits: SplitMix64,
     spare: Option<f64>,
 }
 
@@ -30,7 +33,7 @@ impl Rng {
     /// The generator for `stream` of `seed`.
     pub fn new(seed: u64, stream: Stream) -> Rng {
         let mut r = Rng {
-            state: seed ^ (stream as u64).wrapping_mul(0xD1B5_4A32_D192_ED03),
+            bits: SplitMix64::new(seed ^ (stream as u64).wrapping_mul(0xD1B5_4A32_D192_ED03)),
             spare: None,
         };
         // Decorrelate nearby seeds.
@@ -40,21 +43,17 @@ impl Rng {
 
     /// Next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.bits.next_u64()
     }
 
     /// Uniform in [0, 1).
     pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        self.bits.uniform()
     }
 
     /// Uniform index in 0..n (n > 0).
     pub fn below(&mut self, n: usize) -> usize {
-        ((self.uniform() * n as f64) as usize).min(n.saturating_sub(1))
+        self.bits.below(n)
     }
 
     /// Standard normal draw.

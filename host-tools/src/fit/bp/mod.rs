@@ -23,17 +23,16 @@ pub mod gd;
 pub mod init;
 pub mod lm;
 pub mod net;
-pub mod rng;
 
 use super::arx::progress;
 use super::{channels, linalg, outputs, Fitted};
 use crate::dataset::Dataset;
+use crate::rng::SplitMix64;
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use model_core::bp::{Activation, BpNet, MAX_HIDDEN, MAX_W1};
 use model_core::{Model, Params};
 use net::{Data, Scaling, Shape};
-use rng::SplitMix64;
 use serde_json::{json, Map, Value};
 
 /// Hidden size without `--hidden`: seed 000's GA settled on a 4-10-3 net,

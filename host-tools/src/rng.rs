@@ -1,7 +1,8 @@
-//! Deterministic pseudo-random numbers for the trainers (SplitMix64).
+//! Deterministic pseudo-random numbers (SplitMix64) for the trainers and
+//! the thermal twin.
 //!
-//! Training must give the same blob for the same `--seed` on every machine,
-//! so the generator is written out here (Steele, Lea & Flood 2014, the
+//! Training must give the same blob, and the twin the same run, for the
+//! same `--seed` on every machine, so the generator is written out here (Steele, Lea & Flood 2014, the
 //! generator Java's `SplittableRandom` uses): 64 bits of state, passes
 //! BigCrush, and nothing in it depends on a crate version or the platform.
 
