@@ -212,9 +212,8 @@ impl Hub {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{name, vec};
+    use crate::test_util::{first_order_tf, name, vec};
     use model_core::linear::{Coef, Linear, LinearOutput};
-    use model_core::tf::TfEntry;
     use model_core::{Channel, Model, Params, Reference};
 
     fn channel(n: &str, reference: Reference) -> Channel {
@@ -255,22 +254,9 @@ mod tests {
         .unwrap()
     }
 
-    /// A first-order lag on the spindle temperature's rise since the first
-    /// sample (seed 004's form): 0.5 y(k) = 0.1 u(k) + 0.4 y(k-1).
+    /// Seed 004's first-order lag on the spindle temperature.
     fn tf_model() -> ValidModel {
-        Model {
-            inputs: vec(&[channel("T_spindle", Reference::First)]),
-            outputs: vec(&[name("dz_um")]),
-            dt_s: 1.0,
-            params: Params::Tf(vec(&[TfEntry {
-                output: 0,
-                input: 0,
-                a: vec(&[0.1]),
-                b: vec(&[0.5, -0.4]),
-            }])),
-        }
-        .validate()
-        .unwrap()
+        first_order_tf("T_spindle", 1.0)
     }
 
     /// A 128 KiB slot as the board sees it: the blob, then erased flash.

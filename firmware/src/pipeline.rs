@@ -728,9 +728,8 @@ impl Pipeline {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{hub, name, vec};
+    use crate::test_util::{first_order_tf, hub, name, vec};
     use model_core::linear::{Coef, Linear, LinearOutput};
-    use model_core::tf::TfEntry;
     use model_core::{Channel, Model, Params, Reference, ValidModel};
 
     /// dz_um = 10 * (T1 - 20) + 2 * tool_mm.
@@ -771,22 +770,7 @@ mod tests {
     }
 
     fn tf_model(dt_s: f64) -> ValidModel {
-        Model {
-            inputs: vec(&[Channel {
-                name: name("T1"),
-                reference: Reference::First,
-            }]),
-            outputs: vec(&[name("dz_um")]),
-            dt_s,
-            params: Params::Tf(vec(&[TfEntry {
-                output: 0,
-                input: 0,
-                a: vec(&[0.1]),
-                b: vec(&[0.5, -0.4]),
-            }])),
-        }
-        .validate()
-        .unwrap()
+        first_order_tf("T1", dt_s)
     }
 
     #[test]

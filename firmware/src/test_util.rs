@@ -1,7 +1,8 @@
 //! Helpers the unit tests of several modules share: building the small
 //! models they run (model-core's fields are heapless types).
 
-use model_core::{Name, ValidModel};
+use model_core::tf::TfEntry;
+use model_core::{Channel, Model, Name, Params, Reference, ValidModel};
 
 use crate::hub::Hub;
 
@@ -22,4 +23,25 @@ pub fn hub(model: &ValidModel) -> Hub {
     let hub = Hub::load(&blob[..n]);
     assert!(hub.model().is_some());
     hub
+}
+
+/// A first-order lag on `input`'s rise since the first sample (seed 004's
+/// form), 0.5 y(k) = 0.1 u(k) + 0.4 y(k-1), identified at `dt_s`.
+pub fn first_order_tf(input: &str, dt_s: f64) -> ValidModel {
+    Model {
+        inputs: vec(&[Channel {
+            name: name(input),
+            reference: Reference::First,
+        }]),
+        outputs: vec(&[name("dz_um")]),
+        dt_s,
+        params: Params::Tf(vec(&[TfEntry {
+            output: 0,
+            input: 0,
+            a: vec(&[0.1]),
+            b: vec(&[0.5, -0.4]),
+        }])),
+    }
+    .validate()
+    .unwrap()
 }
