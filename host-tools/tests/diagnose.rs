@@ -12,14 +12,8 @@ use host_tools::diagnose::diagnose_files;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-const VOCABULARY: [&str; 6] = [
-    "ambient",
-    "coolant",
-    "cutting",
-    "motor_loss",
-    "sensor_lag",
-    "none",
-];
+/// The effect names a verdict may take (CONTRACT.md section 3).
+const VOCABULARY: [&str; 6] = host_tools::bench::cases::LABELS;
 
 /// The built-in machine with two parameters a few % off: the twin's own
 /// model error that the `none` baseline must absorb.

@@ -163,16 +163,9 @@ mod tests {
 
     #[test]
     fn noise_sigma_of_white_noise() {
-        // Deterministic pseudo-noise: a uniform LCG, sigma 1/sqrt(12).
-        let mut s = 12345u64;
-        let x: Vec<f64> = (0..20_000)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect();
+        // Deterministic uniform pseudo-noise, sigma 1/sqrt(12).
+        let mut r = crate::rng::SplitMix64::new(12345);
+        let x: Vec<f64> = (0..20_000).map(|_| r.uniform() - 0.5).collect();
         let sd = noise_sigma(&x);
         // Uniform, not Gaussian: the MAD rule is within ~10 %.
         assert!((sd / (1.0 / 12f64.sqrt()) - 1.0).abs() < 0.12, "{sd}");

@@ -121,15 +121,8 @@ mod tests {
     #[test]
     fn white_noise_rejects_trend_does_not() {
         // A deterministic pseudo-random sequence: strongly stationary.
-        let mut s = 12345u64;
-        let noise: Vec<f64> = (0..300)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect();
+        let mut r = crate::rng::SplitMix64::new(12345);
+        let noise: Vec<f64> = (0..300).map(|_| r.uniform() - 0.5).collect();
         assert!(adfuller(&noise, None).unwrap().pvalue < 0.01);
         let walk: Vec<f64> = noise
             .iter()
