@@ -544,22 +544,15 @@ mod glue {
         /// One sample: read the converters the model's inputs name, run the
         /// pipeline.
         pub fn sample(p: &mut Pipeline, bank: &mut Bank<'_>) -> Sampled {
-            let mut readings = [Reading::Stale; MAX_INPUTS];
-            let mut temps_c = [f64::NAN; MAX_INPUTS];
             let n = p.hub().input_count().min(MAX_INPUTS);
-            if let Some(model) = p.hub().model() {
-                for ((r, t), input) in readings.iter_mut().zip(&mut temps_c).zip(model.inputs()) {
-                    let Some(ch) =
-                        board::rtd_channel(input.name.as_str()).and_then(|k| bank.get_mut(k))
-                    else {
-                        continue;
-                    };
-                    *r = ch.read();
-                    if let Reading::Value(v) = *r {
-                        *t = v;
-                    }
-                }
-            }
+            let names = p
+                .hub()
+                .model()
+                .into_iter()
+                .flat_map(|m| m.inputs().iter().map(|c| c.name.as_str()));
+            let (readings, temps_c) = firmware::rtd::gather(names, |k| {
+                bank.get_mut(k).map_or(Reading::Stale, |ch| ch.read())
+            });
             let report = p.on_sample(readings.get(..n).unwrap_or(&[]));
             let faults = p.hub().faults();
             if faults.consecutive == 1 {

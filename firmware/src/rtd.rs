@@ -26,7 +26,32 @@
 use embedded_hal::spi::SpiDevice;
 use max31865::{Config, Error, FaultStatus, Max31865};
 
+use crate::board;
+use crate::offsets::MAX_INPUTS;
 use crate::pipeline::{ChannelFault, Reading};
+
+/// One sample's readings in the model's input order: an input named
+/// `T<k>` is read from RTD channel `k - 1` ([`board::rtd_channel`]) by
+/// `read(channel)`; any other input (speed, power, a position) is
+/// [`Reading::Stale`]: the hub reads only its RTDs (the tool length and a
+/// position are filled in by the pipeline). Also the temperatures read, for
+/// telemetry (NaN where there is none).
+pub fn gather<'a>(
+    input_names: impl IntoIterator<Item = &'a str>,
+    mut read: impl FnMut(usize) -> Reading,
+) -> ([Reading; MAX_INPUTS], [f64; MAX_INPUTS]) {
+    let mut readings = [Reading::Stale; MAX_INPUTS];
+    let mut temps_c = [f64::NAN; MAX_INPUTS];
+    for ((r, t), name) in readings.iter_mut().zip(&mut temps_c).zip(input_names) {
+        if let Some(k) = board::rtd_channel(name) {
+            *r = read(k);
+            if let Reading::Value(v) = *r {
+                *t = v;
+            }
+        }
+    }
+    (readings, temps_c)
+}
 
 /// The channel fault a driver error means (table in the module docs).
 pub fn fault_of<E>(error: &Error<E>) -> ChannelFault {
@@ -128,6 +153,28 @@ impl<D: SpiDevice> Converter<D> {
 
 #[cfg(test)]
 mod tests {
+    /// `T<k>` inputs are read from channel k - 1, in the model's input
+    /// order; other names stay stale and unread; faults pass through.
+    #[test]
+    fn gather_reads_rtd_inputs_by_name_in_model_order() {
+        let mut asked = std::vec::Vec::new();
+        let (r, t) = super::gather(["T3", "speed_rpm", "T1", "T9"], |k| {
+            asked.push(k);
+            match k {
+                2 => Reading::Value(31.5),
+                0 => Reading::Fault(ChannelFault::Open),
+                _ => Reading::Stale,
+            }
+        });
+        assert_eq!(asked, [2, 0], "T9 is past the board's 8 channels");
+        assert_eq!(r[0], Reading::Value(31.5));
+        assert_eq!(r[1], Reading::Stale);
+        assert_eq!(r[2], Reading::Fault(ChannelFault::Open));
+        assert_eq!(r[3], Reading::Stale);
+        assert_eq!(t[0], 31.5);
+        assert!(t[1..].iter().all(|v| v.is_nan()));
+    }
+
     use super::*;
     use embedded_hal::spi::ErrorKind;
     use embedded_hal_mock::eh1::spi::{Mock, Transaction as T};
