@@ -89,6 +89,8 @@ pub struct Hub {
     state: ModelState,
     offsets: [f64; MAX_OUTPUTS],
     slopes: [f64; MAX_OUTPUTS],
+    /// `ValidModel::positional_outputs`, once at load.
+    positional: u8,
     faults: Faults,
     last_fault: Option<StepError>,
 }
@@ -105,6 +107,7 @@ impl Hub {
     /// A hub around an already decoded blob (or why it was refused).
     pub fn with_model(model: Result<ValidModel, BlobError>) -> Self {
         Self {
+            positional: model.as_ref().map_or(0, |m| m.positional_outputs()),
             model,
             state: ModelState::new(),
             offsets: [0.0; MAX_OUTPUTS],
@@ -117,6 +120,11 @@ impl Hub {
     /// The loaded model.
     pub fn model(&self) -> Option<&ValidModel> {
         self.model.as_ref().ok()
+    }
+
+    /// Bit `j` set: output `j` is positional (sent as a slope).
+    pub fn positional(&self) -> u8 {
+        self.positional
     }
 
     /// Why no model was loaded.
@@ -158,7 +166,7 @@ impl Hub {
         let Ok(model) = &self.model else {
             return Offsets::ZERO;
         };
-        let positional = model.positional_outputs();
+        let positional = self.positional;
         let mut out = [0.0; MAX_OUTPUTS];
         let mut slopes = [0.0; MAX_OUTPUTS];
         let result = model
@@ -191,7 +199,6 @@ impl Hub {
                 Offsets {
                     values: out,
                     slopes,
-                    positional,
                     fresh: true,
                 }
             }
@@ -201,7 +208,6 @@ impl Hub {
                 Offsets {
                     values: self.offsets,
                     slopes: self.slopes,
-                    positional,
                     fresh: false,
                 }
             }

@@ -22,11 +22,10 @@ pub struct Offsets {
     /// Thermal slope of each positional output, um per mm of travel (a
     /// CNC's position-dependent temperature compensation applies
     /// `value + slope x (P - 0)`; model-core's `position` module); zero for
-    /// the other outputs. Always finite.
+    /// the other outputs. Always finite. A positional output's value is the
+    /// thermal offset at the reference position 0 mm, which is zero
+    /// (`Hub::positional` says which outputs are positional).
     pub slopes: [f64; MAX_OUTPUTS],
-    /// Bit `j` set: output `j` is positional. Its value is then the thermal
-    /// offset at the reference position 0 mm, which is zero.
-    pub positional: u8,
     /// Whether `values` were computed from this sample; `false` when they
     /// were held from an earlier sample or there is no model.
     pub fresh: bool,
@@ -37,7 +36,6 @@ impl Offsets {
     pub const ZERO: Self = Self {
         values: [0.0; MAX_OUTPUTS],
         slopes: [0.0; MAX_OUTPUTS],
-        positional: 0,
         fresh: false,
     };
 }

@@ -313,11 +313,6 @@ fn position_mask(hub: &Hub) -> u32 {
     hub.model().map_or(0, |m| m.position_inputs())
 }
 
-/// Bit `j` set: output `j` is positional.
-fn positional_outputs(hub: &Hub) -> u8 {
-    hub.model().map_or(0, |m| m.positional_outputs())
-}
-
 /// `1 << j` as a u8 output mask, or 0 past bit 7.
 fn bit8(j: usize) -> u8 {
     u32::try_from(j)
@@ -394,8 +389,6 @@ pub struct Pipeline {
     tool_mm: Option<f64>,
     /// Inputs fed [`POSITION_REFERENCE_MM`].
     position_mask: u32,
-    /// Outputs reported as slopes.
-    positional: u8,
     /// The slopes last reported, um/m (zero for other outputs).
     slopes_um_per_m: [f64; MAX_OUTPUTS],
     /// The fault timer of each output.
@@ -418,7 +411,6 @@ impl Pipeline {
         Ok(Self {
             tool_mask: tool_mask(&hub),
             position_mask: position_mask(&hub),
-            positional: positional_outputs(&hub),
             deps: output_deps(&hub),
             slopes_um_per_m: [0.0; MAX_OUTPUTS],
             hub,
@@ -504,7 +496,7 @@ impl Pipeline {
         let mut slopes_um_per_m = [0.0; MAX_OUTPUTS];
         let mut supervisors = [Supervisor::NEW; MAX_OUTPUTS];
         let mut spike = [SpikeState::NEW; MAX_INPUTS];
-        let positional = new.positional_outputs();
+        let positional = hub.positional();
         if let Some(old) = self.hub.model() {
             for (j, name) in new.outputs().iter().enumerate() {
                 if let Some(k) = old.outputs().iter().position(|n| n == name) {
@@ -519,7 +511,7 @@ impl Pipeline {
                     }
                     // A slope carries over only from a positional output.
                     if let Some(s) = slopes_um_per_m.get_mut(j) {
-                        *s = if positional & self.positional & bit8(j) != 0 {
+                        *s = if positional & self.hub.positional() & bit8(j) != 0 {
                             carry(&self.slopes_um_per_m)
                         } else {
                             0.0
@@ -538,7 +530,6 @@ impl Pipeline {
         self.position_mask = position_mask(&hub);
         self.deps = output_deps(&hub);
         self.supervisors = supervisors;
-        self.positional = positional;
         self.slopes_um_per_m = slopes_um_per_m;
         self.offsets_um = offsets_um;
         self.spike = spike;
@@ -684,6 +675,7 @@ impl Pipeline {
         // 4. Limit every output and, for a positional output, its slope at
         //    the stroke (um/mm from the model -> um/m on the wire).
         let per_m = self.timing.per_stroke_m;
+        let positional = self.hub.positional();
         let mut worst = Phase::Follow;
         let mut ramped_to_zero = true;
         for (i, &phase) in phases.iter().enumerate().take(n_out) {
@@ -699,7 +691,7 @@ impl Pipeline {
                 at_zero &= drive(offset, phase, target, steps, &mut flags);
             }
             if let Some(slope) = self.slopes_um_per_m.get_mut(i) {
-                if self.positional & bit8(i) != 0 {
+                if positional & bit8(i) != 0 {
                     let target = fresh.and_then(|(_, k)| k.get(i)).map(|k| k * 1000.0);
                     at_zero &= drive(slope, phase, target, steps.scaled(per_m), &mut flags);
                 } else {
@@ -716,7 +708,7 @@ impl Pipeline {
             seq,
             offsets: self.offsets_um,
             slopes_um_per_m: self.slopes_um_per_m,
-            positional: self.positional,
+            positional,
             n_outputs: u8::try_from(n_out).unwrap_or(u8::MAX),
             state: worst.hub_state(ramped_to_zero),
             flags,
