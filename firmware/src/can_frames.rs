@@ -49,8 +49,15 @@ pub const SLOPE_UM_PER_M_PER_BIT: f64 = 0.001;
 /// Reference-position scale: mm per bit (1 mm: range +-32.767 m covers any
 /// machine axis; 1 mm of reference error at 100 um/m is 0.1 um).
 pub const REFERENCE_MM_PER_BIT: f64 = 1.0;
-/// Bits of the faulty-channel mask on the bus: one per possible model input.
-pub const FAULTY_MASK_BITS: u32 = crate::offsets::MAX_INPUTS as u32;
+/// Bits of the faulty-channel mask on the bus: inputs 1-24 (the frozen
+/// STATUS layout has three bytes for it). A fault on inputs 25-32 still sets
+/// [`StatusFlags::SENSOR_FAULT`](crate::report::StatusFlags) and holds the
+/// outputs that read it; only its bit is missing on the bus (the serial
+/// telemetry carries every channel).
+pub const FAULTY_MASK_BITS: u32 = 24;
+/// Largest input count STATUS byte 5 carries (5 bits): a 32-input model is
+/// reported as 31 (the frozen layout predates 32 inputs).
+pub const STATUS_MAX_INPUT_COUNT: usize = 31;
 /// Default heartbeat period, ms (CiA 301 object 0x1017 "producer heartbeat
 /// time"; 1 s matches the sample period, so a CNC can time out at ~3 s).
 pub const DEFAULT_HEARTBEAT_MS: u16 = 1_000;
@@ -59,7 +66,7 @@ const _: () = {
     assert!(SLOPE_ID <= 0x7FF && HEARTBEAT_ID == 0x700 + CAN_NODE_ID);
     assert!(FAULTY_MASK_BITS <= 24); // three bytes on the bus
     assert!(crate::offsets::MAX_OUTPUTS <= 4); // OFFSETS + OFFSETS_EXT carry four
-    assert!(crate::offsets::MAX_INPUTS < 32); // 5 bits of STATUS byte 5
+    assert!(STATUS_MAX_INPUT_COUNT < 32); // 5 bits of STATUS byte 5
 };
 
 /// CANopen NMT state, as the heartbeat's only byte (CiA 301, 7.2.8.3.2.1).
@@ -230,7 +237,7 @@ pub fn encode_status<F: Frame>(report: &Report, info: &StatusInfo) -> Option<F> 
     d[0..2].copy_from_slice(&report.flags.0.to_le_bytes());
     let mask = report.faulty_channels & ((1u32 << FAULTY_MASK_BITS) - 1);
     d[2..5].copy_from_slice(&mask.to_le_bytes()[..3]);
-    let inputs = u8::try_from(info.n_inputs.min(31)).unwrap_or(31);
+    let inputs = u8::try_from(info.n_inputs.min(STATUS_MAX_INPUT_COUNT)).unwrap_or(31);
     let outputs = report.n_outputs.min(7);
     d[5] = inputs | (outputs << 5);
     d[6] = u8::try_from(info.consecutive_faults).unwrap_or(u8::MAX);

@@ -255,6 +255,7 @@ mod tests {
                     },
                 ]),
             }),
+            bounds: None,
         }
         .validate()
         .unwrap()

@@ -4,7 +4,7 @@
 
 /// Most inputs a model can have (length of a full readings array; equals
 /// model-core's channel capacity, asserted where model-core is linked).
-pub const MAX_INPUTS: usize = 24;
+pub const MAX_INPUTS: usize = 32;
 /// Most outputs a model can have (length of [`Offsets::values`]).
 pub const MAX_OUTPUTS: usize = 4;
 

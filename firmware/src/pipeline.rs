@@ -756,6 +756,7 @@ mod tests {
                     position: None,
                 }]),
             }),
+            bounds: None,
         }
         .validate()
         .unwrap()

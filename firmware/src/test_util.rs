@@ -41,6 +41,7 @@ pub fn first_order_tf(input: &str, dt_s: f64) -> ValidModel {
             a: vec(&[0.1]),
             b: vec(&[0.5, -0.4]),
         }])),
+        bounds: None,
     }
     .validate()
     .unwrap()

@@ -59,6 +59,7 @@ fn linear(inputs: &[&str], outputs: &[(&str, u8, f64)]) -> ValidModel {
         params: Params::Linear(Linear {
             outputs: vec(&regressions),
         }),
+        bounds: None,
     }
     .validate()
     .unwrap()
@@ -90,6 +91,7 @@ fn tf_model() -> ValidModel {
             a: vec(&[0.1]),
             b: vec(&[0.5, -0.4]),
         }])),
+        bounds: None,
     }
     .validate()
     .unwrap()

@@ -57,6 +57,7 @@ fn pipeline() -> Pipeline {
                 },
             ]),
         }),
+        bounds: None,
     }
     .validate()
     .unwrap();

@@ -268,6 +268,7 @@ fn structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Structure>> {
                     outputs,
                     dt_s: model.dt_s,
                     params: Params::Tf(ents),
+                    bounds: None,
                 }
                 .validate()
                 .map_err(|e| anyhow!("tf entry: {e}"))?;
@@ -404,6 +405,10 @@ fn update_one(
 /// The old model with the outputs in `new` (output index -> coefficients) replaced.
 fn with_updates(old: &ValidModel, sts: &[Structure], new: &[(usize, Coefs)]) -> Result<ValidModel> {
     let mut model = old.model().clone();
+    // The calibration bounds (input envelope, error band) describe the old
+    // coefficients on the old data; a refit model drops them rather than
+    // claim a band it was not scored on.
+    model.bounds = None;
     for (k, (b0, b)) in new {
         match &mut model.params {
             Params::Linear(l) => {

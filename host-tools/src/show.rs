@@ -2,7 +2,7 @@
 //! what validation derived (TF poles, cancellations, steady-state gains, the
 //! collapsed linear form of a PCR).
 
-use model_core::blob::{crc32, FORMAT_VERSION, HEADER_LEN, TRAILER_LEN};
+use model_core::blob::{crc32, HEADER_LEN, TRAILER_LEN};
 use model_core::poly::{self, Complex};
 use model_core::position::PositionTerm;
 use model_core::{Params, Reference, ValidModel};
@@ -73,6 +73,40 @@ fn complex_text(z: &[Complex]) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// The format version in the blob's header (version 1 blobs still load).
+fn format_version(bytes: &[u8]) -> u16 {
+    match bytes.get(4..6) {
+        Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
+        _ => 0,
+    }
+}
+
+/// Time constants as people read them.
+fn tau_text(tau_s: f64) -> String {
+    if tau_s == 0.0 {
+        "unfiltered".into()
+    } else if tau_s >= 3600.0 {
+        format!("tau {:.4} h", tau_s / 3600.0)
+    } else if tau_s >= 60.0 {
+        format!("tau {:.4} min", tau_s / 60.0)
+    } else {
+        format!("tau {tau_s} s")
+    }
+}
+
+fn bounds_json(model: &ValidModel) -> Value {
+    match model.bounds() {
+        None => Value::Null,
+        Some(b) => json!({
+            "envelope": model.inputs().iter().zip(&b.envelope).map(|(c, s)| json!({
+                "input": c.name.as_str(), "min": s.min, "max": s.max})).collect::<Vec<_>>(),
+            "half_width": model.outputs().iter().zip(&b.half_width).map(|(o, h)| json!({
+                "output": o.as_str(), "half_width": h})).collect::<Vec<_>>(),
+            "extrapolation_flag_at": ValidModel::EXTRAPOLATION_FLAG_AT,
+        }),
+    }
 }
 
 fn name_of(names: &[model_core::Name], i: u8) -> &str {
@@ -169,10 +203,20 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
             "mean": a.mean, "std": a.std, "constant": a.constant,
             "phi": a.phi.as_slice(), "theta": a.theta.as_slice(),
         }),
+        Params::Fbank(bank) => json!({
+            "features": bank.features.iter().zip(model.fbank_poles()).map(|(f, p)| json!({
+                "input": input_of(model, f.input), "power": f.power, "tau_s": f.tau_s,
+                "pole": p})).collect::<Vec<_>>(),
+            "outputs": bank.outputs.iter().map(|eq| json!({
+                "output": name_of(model.outputs(), eq.output),
+                "intercept": eq.intercept,
+                "coef": eq.coef.as_slice(),
+            })).collect::<Vec<_>>(),
+        }),
     };
     json!({
         "kind": model.kind().name(),
-        "format_version": FORMAT_VERSION,
+        "format_version": format_version(bytes),
         "bytes": bytes.len(),
         "body_bytes": bytes.len().saturating_sub(HEADER_LEN + TRAILER_LEN),
         "crc32": format!("{:#010x}", crc32(&bytes[..bytes.len().saturating_sub(TRAILER_LEN)])),
@@ -181,6 +225,7 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
             "name": c.name.as_str(), "reference": reference_json(c.reference)})).collect::<Vec<_>>(),
         "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
         "coefficients": coefficients,
+        "bounds": bounds_json(model),
     })
 }
 
@@ -226,8 +271,9 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
     let _ = writeln!(s, "{} ({} bytes)", path.display(), bytes.len());
     let _ = writeln!(
         s,
-        "  kind {}, blob format version {FORMAT_VERSION}, CRC-32 {crc:#010x} (ok)",
-        model.kind().name()
+        "  kind {}, blob format version {}, CRC-32 {crc:#010x} (ok)",
+        model.kind().name(),
+        format_version(bytes)
     );
     if model.kind().is_dynamic() {
         let _ = writeln!(s, "  sample time {} s", m.dt_s);
@@ -347,6 +393,58 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                 list(&a.phi),
                 list(&a.theta)
             );
+        }
+        Params::Fbank(bank) => {
+            let _ = writeln!(s, "  features ({}):", bank.features.len());
+            for (j, (f, p)) in bank.features.iter().zip(model.fbank_poles()).enumerate() {
+                let x = input_of(model, f.input);
+                let v = if f.power == 2 {
+                    format!("{x}^2")
+                } else {
+                    x.to_string()
+                };
+                if f.tau_s == 0.0 {
+                    let _ = writeln!(s, "    s{} = {v} ({})", j + 1, tau_text(f.tau_s));
+                } else {
+                    let _ = writeln!(
+                        s,
+                        "    s{} = low-pass({v}), {}, pole {p:.8}",
+                        j + 1,
+                        tau_text(f.tau_s)
+                    );
+                }
+            }
+            for eq in &bank.outputs {
+                let mut line = format!("{}", eq.intercept);
+                for (j, c) in eq.coef.iter().enumerate() {
+                    let _ = write!(line, " {c:+} s{}", j + 1);
+                }
+                let _ = writeln!(s, "  {} = {line}", name_of(model.outputs(), eq.output));
+            }
+        }
+    }
+    match model.bounds() {
+        None => {
+            let _ = writeln!(s, "  bounds: none");
+        }
+        Some(b) => {
+            let _ = writeln!(
+                s,
+                "  bounds (flag when an input is more than {} % of its range outside):",
+                ValidModel::EXTRAPOLATION_FLAG_AT * 100.0
+            );
+            for (c, span) in model.inputs().iter().zip(&b.envelope) {
+                let _ = writeln!(
+                    s,
+                    "    {:<12} calibrated on [{}, {}]",
+                    c.name.as_str(),
+                    span.min,
+                    span.max
+                );
+            }
+            for (o, h) in model.outputs().iter().zip(&b.half_width) {
+                let _ = writeln!(s, "    {:<12} 95 % error band +-{h}", o.as_str());
+            }
         }
     }
     s

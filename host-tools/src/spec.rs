@@ -8,12 +8,13 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use model_core::bp::{Activation, BpNet};
+use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
 use model_core::linear::{Coef, Linear, LinearOutput};
 use model_core::model::{ModelError, MAX_CHANNELS, MAX_OUTPUTS};
 use model_core::pcr::{Component, Pcr, PcrOutput, MAX_COMPONENTS};
 use model_core::position::PositionTerm;
 use model_core::tf::TfEntry;
-use model_core::{Channel, Model, Name, Params, Reference, ValidModel};
+use model_core::{Bounds, Channel, Model, Name, Params, Reference, Span, ValidModel};
 use serde::Deserialize;
 use std::ops::Range;
 use std::path::Path;
@@ -132,6 +133,50 @@ struct ArmaSpec {
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
+struct FbInputSpec {
+    name: String,
+    /// Defaults to "first": the features are filtered temperature changes.
+    reference: Option<RefSpec>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct FbFeatureSpec {
+    input: String,
+    /// Defaults to 1.
+    power: Option<u8>,
+    /// Defaults to 0 (the unfiltered value).
+    tau_s: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct FbOutputSpec {
+    output: String,
+    intercept: f64,
+    /// One per feature, in feature order.
+    coef: Vec<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct FbankSpec {
+    inputs: Vec<FbInputSpec>,
+    features: Vec<FbFeatureSpec>,
+    output: Vec<FbOutputSpec>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct BoundsSpec {
+    /// Per input column: `[min, max]` of the reference-adjusted value.
+    envelope: toml::map::Map<String, toml::Value>,
+    /// Per output column: the 95 % error half-width.
+    half_width: toml::map::Map<String, toml::Value>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
 struct SpecFile {
     kind: String,
     dt_s: Option<f64>,
@@ -143,6 +188,62 @@ struct SpecFile {
     pcr: Vec<Spanned<PcrSpec>>,
     bp: Option<Spanned<BpSpec>>,
     arma: Option<Spanned<ArmaSpec>>,
+    fbank: Option<Spanned<FbankSpec>>,
+    bounds: Option<Spanned<BoundsSpec>>,
+}
+
+fn number(v: &toml::Value, what: &str) -> Result<f64> {
+    v.as_float()
+        .or_else(|| v.as_integer().map(|i| i as f64))
+        .ok_or_else(|| anyhow!("{what} is not a number"))
+}
+
+/// The `[bounds]` table for a model with these inputs and outputs: every
+/// input column needs a span and every output a half-width.
+fn bounds_of(spec: &BoundsSpec, inputs: &[Channel], outputs: &[Name]) -> Result<Bounds> {
+    for col in spec.envelope.keys() {
+        if !inputs.iter().any(|c| c.name.as_str() == col) {
+            bail!("envelope.{col}: not an input of the model");
+        }
+    }
+    for col in spec.half_width.keys() {
+        if !outputs.iter().any(|o| o.as_str() == col) {
+            bail!("half_width.{col}: not an output of the model");
+        }
+    }
+    let mut envelope = heapless::Vec::new();
+    for ch in inputs {
+        let col = ch.name.as_str();
+        if inputs.iter().filter(|c| c.name == ch.name).count() > 1 {
+            bail!("envelope.{col}: the column is an input twice (two references); bounds are per column");
+        }
+        let v = spec
+            .envelope
+            .get(col)
+            .ok_or_else(|| anyhow!("envelope has no span for input {col}"))?;
+        let pair = v
+            .as_array()
+            .filter(|a| a.len() == 2)
+            .ok_or_else(|| anyhow!("envelope.{col} must be [min, max]"))?;
+        let span = Span {
+            min: number(&pair[0], &format!("envelope.{col}[0]"))?,
+            max: number(&pair[1], &format!("envelope.{col}[1]"))?,
+        };
+        let _ = envelope.push(span); // capacity MAX_CHANNELS, as `inputs`
+    }
+    let mut half_width = heapless::Vec::new();
+    for o in outputs {
+        let col = o.as_str();
+        let v = spec
+            .half_width
+            .get(col)
+            .ok_or_else(|| anyhow!("half_width has no value for output {col}"))?;
+        let _ = half_width.push(number(v, &format!("half_width.{col}"))?);
+    }
+    Ok(Bounds {
+        envelope,
+        half_width,
+    })
 }
 
 /// Line and column (1-based) of a byte offset.
@@ -284,6 +385,7 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             ("pcr", !spec.pcr.is_empty()),
             ("bp", spec.bp.is_some()),
             ("arma", spec.arma.is_some()),
+            ("fbank", spec.fbank.is_some()),
         ],
         spec.kind.as_str(),
     )?;
@@ -532,19 +634,85 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             spans.push(span);
             Params::Arma(arma)
         }
-        other => bail!("{file}: unknown kind \"{other}\" (tf, linear, pcr, bp or arma)"),
+        "fbank" => {
+            let e = spec
+                .fbank
+                .as_ref()
+                .ok_or_else(|| anyhow!("{file}: kind = \"fbank\" needs an [fbank] table"))?;
+            let span = e.span();
+            let at = b.at(&span);
+            let f = e.get_ref();
+            let bank = (|| -> Result<FilterBank> {
+                let mut by_name: Vec<(&str, u8)> = Vec::new();
+                for i in &f.inputs {
+                    if by_name.iter().any(|(n, _)| *n == i.name) {
+                        bail!("input {} is listed twice", i.name);
+                    }
+                    let reference = i.reference.map_or(Reference::First, RefSpec::reference);
+                    by_name.push((&i.name, b.input(&i.name, reference)?));
+                }
+                let mut features = heapless::Vec::new();
+                for (j, ft) in f.features.iter().enumerate() {
+                    let input = by_name
+                        .iter()
+                        .find(|(n, _)| *n == ft.input)
+                        .map(|(_, i)| *i)
+                        .ok_or_else(|| {
+                            anyhow!("feature {}: input {} is not in inputs", j + 1, ft.input)
+                        })?;
+                    features
+                        .push(Feature {
+                            input,
+                            power: ft.power.unwrap_or(1),
+                            tau_s: ft.tau_s.unwrap_or(0.0),
+                        })
+                        .map_err(|_| anyhow!("more than {MAX_FB_FEATURES} features"))?;
+                }
+                let mut outputs = heapless::Vec::new();
+                for o in &f.output {
+                    if o.coef.len() != features.len() {
+                        bail!(
+                            "output {}: {} coef values for {} features",
+                            o.output,
+                            o.coef.len(),
+                            features.len()
+                        );
+                    }
+                    outputs
+                        .push(FbOutput {
+                            output: b.output(&o.output)?,
+                            intercept: o.intercept,
+                            coef: vec_of(&o.coef, "coef")?,
+                        })
+                        .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
+                }
+                Ok(FilterBank { features, outputs })
+            })()
+            .map_err(|err| anyhow!("{at}: [fbank]: {err}"))?;
+            spans.push(span);
+            Params::Fbank(bank)
+        }
+        other => bail!("{file}: unknown kind \"{other}\" (tf, linear, pcr, bp, arma or fbank)"),
     };
-    let dynamic = matches!(params, Params::Tf(_) | Params::Arma(_));
+    let dynamic = params.kind().is_dynamic();
     let dt_s = match (dynamic, spec.dt_s) {
         (true, Some(dt)) => dt,
         (true, None) => bail!("{file}: kind = \"{}\" is dynamic and needs dt_s", spec.kind),
         (false, dt) => dt.unwrap_or(0.0),
+    };
+    let bounds = match &spec.bounds {
+        Some(e) => Some(
+            bounds_of(e.get_ref(), &b.inputs, &b.outputs)
+                .map_err(|err| anyhow!("{}: [bounds]: {err}", b.at(&e.span())))?,
+        ),
+        None => None,
     };
     let model = Model {
         inputs: b.inputs,
         outputs: b.outputs,
         dt_s,
         params,
+        bounds,
     };
     model.validate().map_err(|e| match e {
         ModelError::Tf { entry, error } => {

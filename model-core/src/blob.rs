@@ -3,8 +3,9 @@
 //! ```text
 //! offset  size  field
 //!      0     4  magic  "TCMB"
-//!      4     2  format version, u16 little-endian (this code: FORMAT_VERSION)
-//!      6     1  model kind code (1 tf, 2 linear, 3 pcr, 4 bp, 5 arma)
+//!      4     2  format version, u16 little-endian (written: FORMAT_VERSION;
+//!               read: 1 and 2)
+//!      6     1  model kind code (1 tf, 2 linear, 3 pcr, 4 bp, 5 arma, 6 fbank)
 //!      7     1  reserved, 0
 //!      8     4  body length N, u32 little-endian
 //!     12     N  body: the `Model` in postcard encoding
@@ -15,13 +16,21 @@
 //! kind code, body (postcard, with nothing left over), kind agreement, and
 //! then [`Model::validate`]. Any failure is a typed [`BlobError`]; no input
 //! makes it panic. docs/blob-format.md is the full specification.
+//!
+//! Version 2 added the optional calibration [`Bounds`](crate::model::Bounds)
+//! as the body's last field; a version-1 body (the same fields without it)
+//! still decodes, with no bounds.
 
-use crate::model::{Model, ModelError, ModelKind, ValidModel};
+use crate::model::{Channel, Name, MAX_CHANNELS, MAX_OUTPUTS};
+use crate::model::{Model, ModelError, ModelKind, Params, ValidModel};
+use serde::Deserialize;
 
 /// Magic bytes at offset 0.
 pub const MAGIC: [u8; 4] = *b"TCMB";
-/// Blob format written by this code and the only one it reads.
-pub const FORMAT_VERSION: u16 = 1;
+/// Blob format written by this code (2: a model may carry bounds).
+pub const FORMAT_VERSION: u16 = 2;
+/// Oldest blob format this code reads (1: no bounds field).
+pub const OLDEST_READ_VERSION: u16 = 1;
 /// Bytes before the body.
 pub const HEADER_LEN: usize = 12;
 /// Bytes after the body (the CRC).
@@ -81,7 +90,7 @@ impl core::fmt::Display for BlobError {
             Self::BadMagic => write!(f, "not a model blob (bad magic)"),
             Self::UnsupportedVersion { found } => write!(
                 f,
-                "blob format version {found}, this build reads version {FORMAT_VERSION}"
+                "blob format version {found}, this build reads versions {OLDEST_READ_VERSION} to {FORMAT_VERSION}"
             ),
             Self::LengthMismatch { declared, actual } => write!(
                 f,
@@ -228,7 +237,7 @@ pub fn check_frame_split<'t>(head: &[u8], tail: &'t [u8]) -> Result<(Header, &'t
         return Err(BlobError::BadMagic);
     }
     let version = le_u16(&header, 4).ok_or(BlobError::TooShort)?;
-    if version != FORMAT_VERSION {
+    if !(OLDEST_READ_VERSION..=FORMAT_VERSION).contains(&version) {
         return Err(BlobError::UnsupportedVersion { found: version });
     }
     let kind_code = header.get(6).copied().ok_or(BlobError::TooShort)?;
@@ -272,8 +281,13 @@ pub fn decode_split(head: &[u8], tail: &[u8]) -> Result<ValidModel, BlobError> {
     let kind = ModelKind::from_code(header.kind_code).ok_or(BlobError::BadKind {
         code: header.kind_code,
     })?;
-    let (model, rest): (Model, &[u8]) =
-        postcard::take_from_bytes(body).map_err(|_| BlobError::Malformed)?;
+    let (model, rest): (Model, &[u8]) = if header.version == 1 {
+        postcard::take_from_bytes::<ModelV1>(body)
+            .map(|(m, rest)| (m.into(), rest))
+            .map_err(|_| BlobError::Malformed)?
+    } else {
+        postcard::take_from_bytes(body).map_err(|_| BlobError::Malformed)?
+    };
     if !rest.is_empty() {
         return Err(BlobError::Malformed);
     }
@@ -283,6 +297,29 @@ pub fn decode_split(head: &[u8], tail: &[u8]) -> Result<ValidModel, BlobError> {
         });
     }
     Ok(model.validate()?)
+}
+
+/// The body of a version-1 blob: [`Model`] without its last field, the
+/// bounds. Its fields decode with `Model`'s own field types, so the only
+/// extra code is this struct's visitor.
+#[derive(Deserialize)]
+struct ModelV1 {
+    inputs: heapless::Vec<Channel, MAX_CHANNELS>,
+    outputs: heapless::Vec<Name, MAX_OUTPUTS>,
+    dt_s: f64,
+    params: Params,
+}
+
+impl From<ModelV1> for Model {
+    fn from(m: ModelV1) -> Self {
+        Self {
+            inputs: m.inputs,
+            outputs: m.outputs,
+            dt_s: m.dt_s,
+            params: m.params,
+            bounds: None,
+        }
+    }
 }
 
 /// Encodes a validated model into `buf`; returns the blob's length.

@@ -6,7 +6,8 @@
 //!
 //! - [`model`]: a model's inputs, outputs and kind; validation; stepping.
 //! - [`blob`]: the versioned, CRC-checked postcard format that is flashed.
-//! - model kinds: [`tf`] (seed 004), [`linear`] (seed 002), [`pcr`] and
+//! - model kinds: [`tf`] (seed 004), [`fbank`] (seed 004, fixed real poles),
+//!   [`linear`] (seed 002), [`pcr`] and
 //!   [`position`] (seed 003), [`bp`] (seeds 000/003), [`arma`] (seed 001).
 //! - [`rtd`]: PT100/PT1000 conversion; [`geometry`]: five-point spindle
 //!   measurement and 3-axis offsets; [`metrics`]: fit %, dpk, reduction...
@@ -19,6 +20,7 @@ extern crate alloc;
 pub mod arma;
 pub mod blob;
 pub mod bp;
+pub mod fbank;
 pub mod geometry;
 pub mod linear;
 pub mod metrics;
@@ -32,5 +34,6 @@ mod wire;
 
 pub use blob::{decode, encode, BlobError};
 pub use model::{
-    Channel, Model, ModelError, ModelKind, ModelState, Name, Params, Reference, ValidModel,
+    Bounds, Channel, Model, ModelError, ModelKind, ModelState, Name, Params, Reference, Span,
+    ValidModel,
 };

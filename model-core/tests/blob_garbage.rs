@@ -22,17 +22,21 @@
 mod common;
 
 use common::{
-    arma_2_1_d1, bp_3_4_2, from_roots, hv, linear_seed002, name, pcr_seed003, tf_sp2_ambient,
+    arma_2_1_d1, bp_3_4_2, fbank_3x2, from_roots, hv, linear_seed002, name, pcr_seed003,
+    tf_sp2_ambient,
 };
 use model_core::arma::Arma;
 use model_core::blob::{self, crc32, BlobError, FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_BLOB_LEN};
 use model_core::bp::BpNet;
+use model_core::fbank::FilterBank;
 use model_core::linear::LinearOutput;
 use model_core::model::{StepError, MAX_INPUT_MAGNITUDE};
 use model_core::pcr::Pcr;
 use model_core::position::PositionTerm;
 use model_core::tf::{RealisedTf, TfEntry, TfError};
-use model_core::{decode, Model, ModelError, ModelKind, ModelState, Params, Reference, ValidModel};
+use model_core::{
+    decode, Bounds, Model, ModelError, ModelKind, ModelState, Params, Reference, ValidModel,
+};
 use proptest::prelude::*;
 
 // ---------------------------------------------------------------------------
@@ -49,6 +53,8 @@ fn models() -> Vec<(&'static str, Model)> {
         ("pcr+position", pcr_seed003(true)),
         ("bp", bp_3_4_2()),
         ("arma", arma_2_1_d1()),
+        ("fbank", fbank_3x2(false)),
+        ("fbank+bounds", fbank_3x2(true)),
     ]
 }
 
@@ -170,7 +176,7 @@ proptest! {
     /// postcard and validation with mostly well-formed structure.
     #[test]
     fn edited_bodies_with_fixed_crc_never_panic(
-        which in 0usize..6,
+        which in 0usize..8,
         edits in proptest::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..8),
     ) {
         let (_, model) = models().swap_remove(which);
@@ -212,6 +218,14 @@ fn every_single_byte_change_is_caught_by_framing_or_crc() {
                 let e = decode(&bad).expect_err("a changed byte is caught");
                 let expected = match at {
                     0..4 => BlobError::BadMagic,
+                    // A flip to the other readable version passes the
+                    // version check and is caught by the CRC.
+                    4..6 if matches!(u16::from_le_bytes([bad[4], bad[5]]), 1..=2) => {
+                        BlobError::BadCrc {
+                            stored: crc,
+                            computed: crc32(&bad[..n - 4]),
+                        }
+                    }
                     4..6 => BlobError::UnsupportedVersion {
                         found: u16::from_le_bytes([bad[4], bad[5]]),
                     },
@@ -353,7 +367,7 @@ fn header_fields_are_checked() {
             assert_eq!(decode(&bad).unwrap_err(), BlobError::BadMagic, "{label}");
         }
 
-        for version in [0u16, 2, 0x0100, u16::MAX] {
+        for version in [0u16, 3, 0x0100, u16::MAX] {
             let mut bad = good.clone();
             bad[4..6].copy_from_slice(&version.to_le_bytes());
             fix_crc(&mut bad);
@@ -388,6 +402,13 @@ fn header_fields_are_checked() {
             );
         }
 
+        // A version-2 body relabelled as version 1 has one byte too many
+        // (the bounds field, which version 1 lacks).
+        let mut old = good.clone();
+        old[4..6].copy_from_slice(&1u16.to_le_bytes());
+        fix_crc(&mut old);
+        assert_eq!(decode(&old).unwrap_err(), BlobError::Malformed, "{label}");
+
         // The reserved byte is covered by the CRC but not interpreted
         // (room for flags in a later version 1.x writer).
         let mut reserved = good.clone();
@@ -412,6 +433,8 @@ fn round_trip_is_byte_exact_for_every_kind() {
         ModelKind::Pcr,
         ModelKind::Bp,
         ModelKind::Arma,
+        ModelKind::Fbank,
+        ModelKind::Fbank,
     ];
     for ((label, model), kind) in models().into_iter().zip(kinds) {
         let vm = valid(model.clone());
@@ -432,15 +455,21 @@ fn round_trip_is_byte_exact_for_every_kind() {
 /// f64 as 8 bytes LE): inputs 1 + ("T1": 1+2, First: 1) + ("ambient_c":
 /// 1+9, First: 1) = 16; outputs 1 + ("dz_um": 1+5) = 7; dt_s 8; params:
 /// tag 1 + count 1 + SP2 (1+1 + a 1+3*8 + b 1+2*8 = 44) + ambient (1+1 +
-/// 1+3*8 + 1+3*8 = 52) = 98. Total 129 = 0x81.
+/// 1+3*8 + 1+3*8 = 52) = 98; bounds `None` 1 (format version 2). Total
+/// 130 = 0x82.
 #[test]
 fn sp2_ambient_header_bytes_are_frozen() {
     let blob = blob_of(&valid(tf_sp2_ambient()));
     assert_eq!(
         blob[..HEADER_LEN],
-        [b'T', b'C', b'M', b'B', 1, 0, 1, 0, 0x81, 0, 0, 0]
+        [b'T', b'C', b'M', b'B', 2, 0, 1, 0, 0x82, 0, 0, 0]
     );
-    assert_eq!(blob.len(), HEADER_LEN + 129 + 4);
+    assert_eq!(blob.len(), HEADER_LEN + 130 + 4);
+    assert_eq!(
+        blob[blob.len() - 5],
+        0,
+        "bounds: None is the last body byte"
+    );
     let crc_at = blob.len() - 4;
     assert_eq!(stored_crc(&blob), crc32(&blob[..crc_at]));
     // dt_s = 1.0 follows the inputs (16 bytes) and outputs (7 bytes).
@@ -774,6 +803,165 @@ fn decoder_applies_every_structural_check() {
     }
 }
 
+fn with_fbank(f: impl FnOnce(&mut FilterBank)) -> Model {
+    let mut m = fbank_3x2(false);
+    let Params::Fbank(bank) = &mut m.params else {
+        unreachable!()
+    };
+    f(bank);
+    m
+}
+
+fn with_bounds(f: impl FnOnce(&mut Bounds)) -> Model {
+    let mut m = fbank_3x2(true);
+    f(m.bounds.as_mut().unwrap());
+    m
+}
+
+/// Every refusal of a filter bank and of calibration bounds, each reached
+/// through `decode` of a hand-framed blob as well.
+#[test]
+fn fbank_and_bounds_refusals() {
+    use ModelError::*;
+    let cases: Vec<(&str, Model, ModelError)> = vec![
+        (
+            "power 0",
+            with_fbank(|b| b.features[1].power = 0),
+            BadFeature { feature: 1 },
+        ),
+        (
+            "power 3",
+            with_fbank(|b| b.features[3].power = 3),
+            BadFeature { feature: 3 },
+        ),
+        (
+            "tau < 0",
+            with_fbank(|b| b.features[2].tau_s = -1.0),
+            BadFeature { feature: 2 },
+        ),
+        (
+            "tau NaN",
+            with_fbank(|b| b.features[2].tau_s = f64::NAN),
+            NonFinite,
+        ),
+        (
+            "tau inf",
+            with_fbank(|b| b.features[2].tau_s = f64::INFINITY),
+            NonFinite,
+        ),
+        (
+            "input index",
+            with_fbank(|b| b.features[4].input = 3),
+            IndexOutOfRange,
+        ),
+        (
+            "output index",
+            with_fbank(|b| b.outputs[1].output = 2),
+            IndexOutOfRange,
+        ),
+        (
+            "coef short",
+            with_fbank(|b| {
+                b.outputs[0].coef.pop();
+            }),
+            ShapeMismatch,
+        ),
+        (
+            "coef long",
+            with_fbank(|b| b.outputs[1].coef.push(1.0).unwrap()),
+            ShapeMismatch,
+        ),
+        (
+            "duplicate output",
+            with_fbank(|b| b.outputs[1].output = 0),
+            DuplicateOutput { output: 0 },
+        ),
+        (
+            "coef NaN",
+            with_fbank(|b| b.outputs[0].coef[2] = f64::NAN),
+            NonFinite,
+        ),
+        (
+            "intercept inf",
+            with_fbank(|b| b.outputs[1].intercept = f64::NEG_INFINITY),
+            NonFinite,
+        ),
+        (
+            "unused output",
+            with_fbank(|b| {
+                b.outputs.pop();
+            }),
+            OutputUnused { output: 1 },
+        ),
+        (
+            "fbank without dt",
+            {
+                let mut m = fbank_3x2(false);
+                m.dt_s = 0.0;
+                m
+            },
+            BadSampleTime,
+        ),
+        (
+            "envelope short",
+            with_bounds(|b| {
+                b.envelope.pop();
+            }),
+            ShapeMismatch,
+        ),
+        (
+            "half_width long",
+            with_bounds(|b| b.half_width.push(1.0).unwrap()),
+            ShapeMismatch,
+        ),
+        (
+            "span NaN",
+            with_bounds(|b| b.envelope[1].min = f64::NAN),
+            NonFinite,
+        ),
+        (
+            "span inf",
+            with_bounds(|b| b.envelope[0].max = f64::INFINITY),
+            NonFinite,
+        ),
+        (
+            "half_width NaN",
+            with_bounds(|b| b.half_width[0] = f64::NAN),
+            NonFinite,
+        ),
+        (
+            "min > max",
+            with_bounds(|b| b.envelope[2].min = 5.0),
+            BadBounds,
+        ),
+        (
+            "width beyond f64",
+            with_bounds(|b| {
+                b.envelope[0].min = -f64::MAX;
+                b.envelope[0].max = f64::MAX;
+            }),
+            BadBounds,
+        ),
+        (
+            "half_width < 0",
+            with_bounds(|b| b.half_width[1] = -0.1),
+            BadBounds,
+        ),
+        (
+            "bounds on a tf model, wrong shape",
+            {
+                let mut m = tf_sp2_ambient();
+                m.bounds = fbank_3x2(true).bounds;
+                m
+            },
+            ShapeMismatch,
+        ),
+    ];
+    for (label, model, expected) in cases {
+        refused_both_ways(label, model, expected);
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Realising random transfer functions
 // ---------------------------------------------------------------------------
@@ -962,7 +1150,7 @@ proptest! {
     /// the output buffer (bit for bit) and the state as they were.
     #[test]
     fn step_never_emits_non_finite_values(
-        which in 0usize..6,
+        which in 0usize..8,
         samples in proptest::collection::vec(
             proptest::collection::vec(input_value(), 6), 1..60),
     ) {
@@ -1012,7 +1200,7 @@ proptest! {
 
     /// Wrong buffer sizes are refused before anything is computed.
     #[test]
-    fn wrong_sizes_are_refused_without_writing(which in 0usize..6, extra in 1usize..4) {
+    fn wrong_sizes_are_refused_without_writing(which in 0usize..8, extra in 1usize..4) {
         let (_, model) = models().swap_remove(which);
         let vm = valid(model);
         let n_in = vm.inputs().len();

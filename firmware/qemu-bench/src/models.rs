@@ -134,6 +134,7 @@ pub fn tf() -> Model {
         outputs: outputs(OUTPUTS),
         dt_s: 1.0,
         params: Params::Tf(entries),
+        bounds: None,
     }
 }
 
@@ -161,6 +162,7 @@ pub fn bp() -> Model {
         outputs: outputs(OUTPUTS),
         dt_s: 0.0,
         params: Params::Bp(net),
+        bounds: None,
     }
 }
 
@@ -186,6 +188,7 @@ pub fn linear() -> Model {
         outputs: outputs(OUTPUTS),
         dt_s: 0.0,
         params: Params::Linear(lin),
+        bounds: None,
     }
 }
 
@@ -213,6 +216,7 @@ pub fn pcr() -> Model {
         outputs: outputs(OUTPUTS),
         dt_s: 0.0,
         params: Params::Pcr(p),
+        bounds: None,
     }
 }
 
@@ -244,6 +248,7 @@ pub fn arma() -> Model {
         outputs: outputs(1),
         dt_s: 1.0,
         params: Params::Arma(a),
+        bounds: None,
     }
 }
 

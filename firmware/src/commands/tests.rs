@@ -41,6 +41,7 @@ fn model(intercept: f64) -> ValidModel {
                 position: None,
             }]),
         }),
+        bounds: None,
     }
     .validate()
     .unwrap()

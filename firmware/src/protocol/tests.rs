@@ -72,7 +72,7 @@ fn telemetry_max() -> HubMessage {
         faulty_channels: u32::MAX,
         ..Report::default()
     };
-    HubMessage::Telemetry(Telemetry::new(&report, &[25.5; 30]))
+    HubMessage::Telemetry(Telemetry::new(&report, &[25.5; 40]))
 }
 
 #[test]

@@ -62,6 +62,7 @@ fn raw_model(intercept: f64) -> Model {
                 position: None,
             }]),
         }),
+        bounds: None,
     }
 }
 
@@ -202,11 +203,11 @@ fn corrupted_blobs_are_refused_and_the_old_slot_stays_active() {
 
     // Another format version.
     let mut b = blob(2.0);
-    b[4] = 2;
+    b[4] = 3;
     reseal(&mut b);
     assert_eq!(
         refused(&b),
-        UploadError::Blob(BlobError::UnsupportedVersion { found: 2 })
+        UploadError::Blob(BlobError::UnsupportedVersion { found: 3 })
     );
 
     // Header kind says PCR, body is linear.

@@ -737,6 +737,7 @@ pub fn bank(ds: &Dataset, dt: f64, entries: Vec<TfEntry>) -> Result<ValidModel> 
         outputs: outputs(ds)?,
         dt_s: dt,
         params: Params::Tf(bank),
+        bounds: None,
     }
     .validate()
     .map_err(|e| anyhow!("{e}"))

@@ -45,6 +45,7 @@ pub fn fit(ds: &Dataset) -> Result<Fitted> {
         outputs: outputs(ds)?,
         dt_s: 0.0,
         params: Params::Linear(Linear { outputs: equations }),
+        bounds: None,
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;

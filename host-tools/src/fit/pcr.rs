@@ -126,6 +126,7 @@ pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
         outputs: outputs(ds)?,
         dt_s: 0.0,
         params: Params::Pcr(pcr),
+        bounds: None,
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;

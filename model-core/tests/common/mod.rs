@@ -13,6 +13,8 @@
 //! | [`bp`] | m-n-3 tansig/purelin net, deterministic weights | sizes of seed 000 (4-11-3) |
 //! | [`bp_3_4_2`] | 3-4-2 tansig/purelin net, made-up weights | MATLAB `feedforwardnet` form (seeds 000, 003) |
 //! | [`arma_2_1_d1`] | ARMA(2, 1) on the once-differenced series | seed 001's form |
+//! | [`fbank_3x2`] | filter bank: raw, filtered and squared features of three inputs into two outputs, with or without bounds | made up, fbank form |
+//! | [`fbank_wide`] | filter bank of `n_in` inputs x 4 features (taus 0, 10 min, 1 h, 4 h) into one output | made up, the largest of its kind at 32 x 4 |
 //!
 //! The tests use the SP2 TF and the 3-4-2 net, the bench the SP1 TF, the
 //! 4/4 bank and the m-n-3 nets; the rest serve both.
@@ -22,12 +24,13 @@
 
 use model_core::arma::Arma;
 use model_core::bp::{Activation, BpNet};
+use model_core::fbank::{FbOutput, Feature, FilterBank};
 use model_core::linear::{Coef, Linear, LinearOutput};
 use model_core::model::{MAX_CHANNELS, MAX_OUTPUTS};
 use model_core::pcr::{Component, Pcr, PcrOutput};
 use model_core::position::PositionTerm;
 use model_core::tf::TfEntry;
-use model_core::{Channel, Model, Name, Params, Reference};
+use model_core::{Bounds, Channel, Model, Name, Params, Reference, Span};
 
 // ---------------------------------------------------------------------------
 // Builders
@@ -104,6 +107,7 @@ fn tf_with_ambient(sp: TfEntry) -> Model {
         outputs: outputs(&["dz_um"]),
         dt_s: 1.0,
         params: Params::Tf(hv(&[sp, ambient_tf_entry()])),
+        bounds: None,
     }
 }
 
@@ -154,6 +158,7 @@ pub fn tf_bank_4x4() -> Model {
         outputs: outputs(&["dx_um", "dz_um"]),
         dt_s: 1.0,
         params: Params::Tf(hv(&entries)),
+        bounds: None,
     }
 }
 
@@ -179,6 +184,7 @@ pub fn linear_seed002() -> Model {
                 position: None,
             }]),
         }),
+        bounds: None,
     }
 }
 
@@ -214,6 +220,7 @@ pub fn pcr_seed003(position: bool) -> Model {
                 position,
             }]),
         }),
+        bounds: None,
     }
 }
 
@@ -244,6 +251,7 @@ pub fn bp(m: usize, n: usize) -> Model {
             y_min: hv(&[-40.0, -20.0, -20.0]),
             y_max: hv(&[5.0, 20.0, 20.0]),
         }),
+        bounds: None,
     }
 }
 
@@ -270,6 +278,7 @@ pub fn bp_3_4_2() -> Model {
             y_min: hv(&[-5.0, -40.0]),
             y_max: hv(&[5.0, 2.0]),
         }),
+        bounds: None,
     }
 }
 
@@ -294,5 +303,101 @@ pub fn arma_2_1_d1() -> Model {
             phi: hv(&[0.6, -0.2]),
             theta: hv(&[0.3]),
         }),
+        bounds: None,
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Filter banks (seed 004's parallel form with fixed real poles)
+// ---------------------------------------------------------------------------
+
+/// Three inputs (`T1`, `T2` relative to their first sample, `ambient_c`
+/// relative to 20 C), five features (raw T1, T1 filtered with tau 10 min
+/// and 1 h, T2 squared and filtered with tau 30 min, raw ambient), into
+/// `dz_um` and `dx_um` at 30 s; with calibration bounds when `bounds`.
+pub fn fbank_3x2(bounds: bool) -> Model {
+    let f = |input: u8, power: u8, tau_s: f64| Feature {
+        input,
+        power,
+        tau_s,
+    };
+    Model {
+        inputs: hv(&[
+            chan("T1", Reference::First),
+            chan("T2", Reference::First),
+            chan("ambient_c", Reference::Value(20.0)),
+        ]),
+        outputs: outputs(&["dz_um", "dx_um"]),
+        dt_s: 30.0,
+        params: Params::Fbank(FilterBank {
+            features: hv(&[
+                f(0, 1, 0.0),
+                f(0, 1, 600.0),
+                f(0, 1, 3600.0),
+                f(1, 2, 1800.0),
+                f(2, 1, 0.0),
+            ]),
+            outputs: hv(&[
+                FbOutput {
+                    output: 0,
+                    intercept: 0.5,
+                    coef: hv(&[1.2, 3.5, -2.0, 0.04, -0.8]),
+                },
+                FbOutput {
+                    output: 1,
+                    intercept: -0.1,
+                    coef: hv(&[0.0, 0.6, 0.3, 0.0, 0.2]),
+                },
+            ]),
+        }),
+        bounds: bounds.then(|| Bounds {
+            envelope: hv(&[
+                Span {
+                    min: -0.5,
+                    max: 12.0,
+                },
+                Span { min: 0.0, max: 8.0 },
+                Span {
+                    min: -3.0,
+                    max: 4.0,
+                },
+            ]),
+            half_width: hv(&[1.8, 0.9]),
+        }),
+    }
+}
+
+/// `n_in` temperatures (first-sample reference), each raw and low-pass
+/// filtered at 10 min, 1 h and 4 h, into one output at 1 s: 32 x 4 is the
+/// trainer's largest bank (128 features, `MAX_FB_FEATURES`).
+pub fn fbank_wide(n_in: usize) -> Model {
+    let names: Vec<String> = (1..=n_in).map(|i| format!("T{i}")).collect();
+    let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+    let mut features = heapless::Vec::new();
+    for i in 0..n_in {
+        for tau_s in [0.0, 600.0, 3600.0, 14_400.0] {
+            features
+                .push(Feature {
+                    input: u8::try_from(i).expect("few inputs"),
+                    power: 1,
+                    tau_s,
+                })
+                .expect("at most 128 features");
+        }
+    }
+    let coef = weights(features.len(), 0.3);
+    Model {
+        inputs: channels(&refs, Reference::First),
+        outputs: outputs(&["dz_um"]),
+        dt_s: 1.0,
+        params: Params::Fbank(FilterBank {
+            features,
+            outputs: hv(&[FbOutput {
+                output: 0,
+                intercept: 0.0,
+                coef: hv(&coef),
+            }]),
+        }),
+        bounds: None,
     }
 }

@@ -285,6 +285,7 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
         outputs: outputs(ds)?,
         dt_s: dt,
         params: Params::Arma(arma.clone()),
+        bounds: None,
     }
     .validate()
     .map_err(|e| {

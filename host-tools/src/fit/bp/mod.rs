@@ -413,6 +413,7 @@ pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
         outputs: outs,
         dt_s: 0.0,
         params: Params::Bp(net),
+        bounds: None,
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;
