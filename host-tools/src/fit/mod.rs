@@ -8,6 +8,7 @@
 
 pub mod arma;
 pub mod arx;
+pub mod auto;
 pub mod bp;
 pub mod gain;
 pub mod linalg;
@@ -28,6 +29,10 @@ use std::path::PathBuf;
 /// Model kinds `fit` trains.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum FitKind {
+    /// Input form, filter-bank features, penalty and filter time constants
+    /// chosen per target by time-respecting cross-validation on the
+    /// calibration data (a ridge over low-pass filters: a TF bank the hub runs).
+    Auto,
     /// Multiple linear regression (least squares by SVD).
     Mlr,
     /// Principal component regression (seed 003).
@@ -58,7 +63,8 @@ pub struct FitArgs {
     /// Target column(s), comma-separated (e.g. ch1_um or dx_um,dz_um).
     #[arg(long, value_delimiter = ',', required = true)]
     pub target: Vec<String>,
-    /// Input columns, comma-separated (default: every column named T<number>).
+    /// Input columns, comma-separated (default: every column named T<number>;
+    /// with `auto` also speed_rpm, power_kw, ambient_c and coolant_c where present).
     #[arg(long, value_delimiter = ',')]
     pub inputs: Vec<String>,
     /// The model kind.
@@ -92,7 +98,25 @@ pub struct FitArgs {
     /// ARMA options.
     #[command(flatten)]
     pub arma: arma::ArmaArgs,
+    /// Auto options.
+    #[command(flatten)]
+    pub auto: AutoArgs,
 }
+
+/// Options of `--model auto`.
+#[derive(Args, Clone, Debug)]
+pub struct AutoArgs {
+    /// auto: contiguous cross-validation folds within a single calibration
+    /// run (several runs: one fold per run).
+    #[arg(long, default_value_t = 6)]
+    pub auto_folds: usize,
+    /// auto: how many of the best candidates the model averages.
+    #[arg(long, default_value_t = 5)]
+    pub auto_ensemble: usize,
+}
+
+/// Columns `auto` reads besides the temperatures when the runs have them.
+pub const AUTO_EXTRA_INPUTS: [&str; 4] = ["speed_rpm", "power_kw", "ambient_c", "coolant_c"];
 
 /// What a kind's trainer returns.
 pub struct Fitted {
@@ -131,11 +155,15 @@ pub fn outputs(ds: &Dataset) -> Result<heapless::Vec<Name, MAX_OUTPUTS>> {
     Ok(out)
 }
 
-/// Every column named `T<number>`, in file order: the default inputs.
-fn temperature_columns(run: &RunFile) -> Vec<String> {
+/// Every column named `T<number>`, in file order: the default inputs
+/// (with `auto`, also the columns of [`AUTO_EXTRA_INPUTS`] present).
+fn default_inputs(run: &RunFile, auto: bool) -> Vec<String> {
     run.columns
         .iter()
-        .filter(|c| crate::runfile::is_temperature_column(c))
+        .filter(|c| {
+            crate::runfile::is_temperature_column(c)
+                || (auto && AUTO_EXTRA_INPUTS.contains(&c.as_str()))
+        })
         .cloned()
         .collect()
 }
@@ -188,7 +216,8 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
     if arma && (a.target.len() != 1 || !a.inputs.is_empty()) {
         bail!("arma: give one --target (the series it forecasts) and no --inputs");
     }
-    let form = if arma {
+    let auto = a.model == FitKind::Auto;
+    let form = if arma || auto {
         InputForm::Absolute
     } else {
         a.reference
@@ -196,7 +225,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
     let inputs = if arma {
         a.target.clone()
     } else if a.inputs.is_empty() {
-        let cols = temperature_columns(&RunFile::read(first, &header_only)?);
+        let cols = default_inputs(&RunFile::read(first, &header_only)?, auto);
         if cols.is_empty() {
             bail!(
                 "{}: no T<number> columns; name the inputs with --inputs",
@@ -216,6 +245,14 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
     let validate = crate::source::read_runs(&a.validate, &opts)?;
     let ds = Dataset::new(&runs, &validate, &inputs, &a.target, form, a.holdout_from_s)?;
     let fitted = match a.model {
+        FitKind::Auto => {
+            let params = auto::AutoParams {
+                folds: a.auto.auto_folds,
+                ensemble: a.auto.auto_ensemble,
+                dt_s: a.arx.dt_s,
+            };
+            auto::fit(&ds, &params.check(&ds)?)?.0
+        }
         FitKind::Mlr => mlr::fit(&ds)?,
         FitKind::Pcr => pcr::fit(&ds, &a.pcr)?,
         FitKind::Arx => arx::fit(&ds, &a.arx)?,

@@ -1,0 +1,404 @@
+//! `fit --model auto`: the input form, the features, the penalty and the
+//! filter time constants of each target, chosen by cross-validation that
+//! respects time, on the calibration data only.
+//!
+//! The model family is a ridge regression over a bank of first-order
+//! low-pass filters of the temperatures and of the heat sources (spindle
+//! speed and power, linear and squared), which is a transfer-function bank
+//! with fixed real poles: the hub evaluates it exactly (model-core `fbank`).
+//! Plain least squares on the temperatures (`mlr`) is one of the candidates
+//! (no filters, the smallest penalty).
+//!
+//! Cross-validation: leave one run out when the calibration has several
+//! runs (a fold then holds conditions no other fold saw, as a new day does);
+//! within a single run, contiguous blocks. Each candidate's CV table row and
+//! the winner go to `--json`; the winner (the average of the best few) is
+//! refitted on every calibration sample and carries its calibration-CV error
+//! band and input envelope in the blob.
+
+pub mod features;
+pub mod ridge;
+pub mod search;
+
+use super::{outputs, Fitted};
+use crate::dataset::{Dataset, GridRun};
+use anyhow::{anyhow, bail, Result};
+use features::Role;
+use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
+use model_core::model::{Bounds, Name, Span, MAX_CHANNELS};
+use model_core::{Channel, Model, Params, Reference};
+use search::{CvRow, Form, FormData, Member, SearchSettings};
+use serde::Serialize;
+
+/// Filter time constants, s, that the temperature banks draw from: 5 min
+/// to 6.75 h in steps of 3 (a machine's structural time constants lie
+/// between a spindle's minutes and a column's hours).
+const TEMP_SETS: [&[f64]; 7] = [
+    &[],
+    &[900.0],
+    &[2700.0],
+    &[900.0, 8100.0],
+    &[300.0, 2700.0],
+    &[2700.0, 24300.0],
+    &[900.0, 2700.0, 8100.0],
+];
+
+/// Heat-source filter sets, s (a heat source acts only through the
+/// structure's lag, so it has no unfiltered column).
+const HEAT_SETS: [&[f64]; 3] = [&[2700.0], &[900.0, 8100.0], &[300.0, 2700.0, 24300.0]];
+
+/// Penalties on the standardised features: 1e-6 to 10 by half decades.
+fn lambda_grid() -> Vec<f64> {
+    (0..=14)
+        .map(|i| 10f64.powf(-6.0 + 0.5 * f64::from(i)))
+        .collect()
+}
+
+/// Settings of an auto fit.
+#[derive(Clone, Debug)]
+pub struct AutoParams {
+    /// Contiguous folds within a run when there is one calibration run.
+    pub folds: usize,
+    /// Candidates averaged into the winner.
+    pub ensemble: usize,
+    /// Sample time, s (None: the first run's median step).
+    pub dt_s: Option<f64>,
+}
+
+impl Default for AutoParams {
+    fn default() -> Self {
+        Self {
+            folds: 6,
+            ensemble: 5,
+            dt_s: None,
+        }
+    }
+}
+
+/// Checked [`AutoParams`].
+#[derive(Clone, Debug)]
+pub struct ValidAutoParams {
+    folds: usize,
+    settings: SearchSettings,
+}
+
+impl AutoParams {
+    /// Checks the settings against the data's sample time.
+    pub fn check(&self, ds: &Dataset) -> Result<ValidAutoParams> {
+        if !(2..=32).contains(&self.folds) {
+            bail!("auto: --auto-folds {} must be 2..32", self.folds);
+        }
+        if !(1..=20).contains(&self.ensemble) {
+            bail!("auto: --auto-ensemble {} must be 1..20", self.ensemble);
+        }
+        let dt_s = super::arx::sample_time(ds, self.dt_s)?;
+        Ok(ValidAutoParams {
+            folds: self.folds,
+            settings: SearchSettings {
+                temp_sets: TEMP_SETS.iter().map(|s| s.to_vec()).collect(),
+                heat_sets: HEAT_SETS.iter().map(|s| s.to_vec()).collect(),
+                lambdas: lambda_grid(),
+                ensemble: self.ensemble,
+                dt_s,
+            },
+        })
+    }
+}
+
+/// What `--json` reports of an auto fit, per target.
+#[derive(Clone, Debug, Serialize)]
+pub struct TargetChoice {
+    /// Target column.
+    pub target: String,
+    /// Every candidate, best CV error first.
+    pub cv_table: Vec<CvRow>,
+    /// Forms of the averaged candidates.
+    pub forms: Vec<Form>,
+    /// CV rmse of the averaged winner (pooled over the folds).
+    pub cv_rmse: f64,
+    /// 95 % half-width of the CV error: the band the blob carries.
+    pub half_width_95: f64,
+}
+
+/// What `--json` reports of an auto fit.
+#[derive(Clone, Debug, Serialize)]
+pub struct AutoReport {
+    /// How the folds were made.
+    pub scheme: String,
+    /// Folds.
+    pub folds: usize,
+    /// Sample time, s.
+    pub dt_s: f64,
+    /// Settings searched.
+    pub settings: SearchSettings,
+    /// Per target.
+    pub targets: Vec<TargetChoice>,
+}
+
+/// Folds of the calibration samples: leave-one-run-out over the runs with
+/// calibration samples when there are at least two, else `k` contiguous
+/// blocks of the one run. `None` marks a held-out sample.
+fn folds(grid: &[GridRun], k: usize) -> (Vec<Option<usize>>, usize, String) {
+    let calib_runs: Vec<usize> = (0..grid.len()).filter(|&r| grid[r].calib_end > 0).collect();
+    let loro = calib_runs.len() >= 2;
+    let mut out = Vec::new();
+    for (r, g) in grid.iter().enumerate() {
+        let run_fold = calib_runs.iter().position(|&c| c == r);
+        for i in 0..g.t_s.len() {
+            out.push(if i >= g.calib_end {
+                None
+            } else if loro {
+                run_fold
+            } else {
+                Some(i * k / g.calib_end)
+            });
+        }
+    }
+    if loro {
+        let n = calib_runs.len();
+        (out, n, format!("leave one run out ({n} calibration runs)"))
+    } else {
+        (
+            out,
+            k,
+            format!("{k} contiguous blocks of the calibration run"),
+        )
+    }
+}
+
+/// Reference-adjusted inputs of every grid run in `form`.
+fn adjusted(grid: &[GridRun], roles: &[Role], form: Form) -> Vec<Vec<Vec<f64>>> {
+    grid.iter()
+        .map(|g| {
+            g.x.iter()
+                .zip(roles)
+                .map(|(c, role)| {
+                    let r0 = match (form, role) {
+                        (Form::Change, Role::Temperature) => c.first().copied().unwrap_or(0.0),
+                        _ => 0.0,
+                    };
+                    c.iter().map(|v| v - r0).collect()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The model input of dataset input `i` in `form`.
+fn reference(role: Role, form: Form) -> Reference {
+    match (role, form) {
+        (Role::Temperature, Form::Change) => Reference::First,
+        _ => Reference::Absolute,
+    }
+}
+
+/// Trains an auto model on `ds` (inputs in absolute form).
+pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport)> {
+    let s = &params.settings;
+    let grid = super::arx::grid_runs(ds, s.dt_s, "auto")?;
+    let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
+    let (fold, n_folds, scheme) = folds(&grid, params.folds);
+    let xs: Vec<(Form, Vec<Vec<Vec<f64>>>)> = Form::ALL
+        .iter()
+        .map(|&f| (f, adjusted(&grid, &roles, f)))
+        .collect();
+    let forms: Vec<FormData> = xs
+        .iter()
+        .map(|(form, x)| FormData {
+            form: *form,
+            x,
+            roles: &roles,
+        })
+        .collect();
+    let per_target = s.temp_sets.len() * s.heat_sets.len() * forms.len();
+    let pb = super::arx::progress(per_target * ds.targets.len(), "auto: candidates");
+    let mut choices = Vec::new();
+    let mut winners = Vec::new();
+    for (j, target) in ds.targets.iter().enumerate() {
+        let y: Vec<f64> = grid.iter().flat_map(|g| g.y[j].iter().copied()).collect();
+        let found = search::search(&forms, &y, &fold, n_folds, s, &|| pb.inc(1))
+            .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?;
+        let hw = quantile_abs(&found.cv_residuals, 0.95);
+        let cv_rmse = rms(&found.cv_residuals);
+        choices.push(TargetChoice {
+            target: target.clone(),
+            forms: found.members.iter().map(|m| m.form).collect(),
+            cv_table: found.table,
+            cv_rmse,
+            half_width_95: hw,
+        });
+        winners.push((found.members, hw));
+    }
+    pb.finish_and_clear();
+    let model = assemble(ds, &roles, &grid, &xs, &winners, s.dt_s)?;
+    let report = AutoReport {
+        scheme,
+        folds: n_folds,
+        dt_s: s.dt_s,
+        settings: s.clone(),
+        targets: choices,
+    };
+    let details = serde_json::to_value(&report)?;
+    Ok((Fitted { model, details }, report))
+}
+
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+/// The `q` quantile of `|v|` (nearest rank).
+fn quantile_abs(v: &[f64], q: f64) -> f64 {
+    let mut a: Vec<f64> = v.iter().map(|e| e.abs()).collect();
+    a.sort_by(f64::total_cmp);
+    if a.is_empty() {
+        return 0.0;
+    }
+    // Nearest rank: ceil(q n) - 1.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let i = ((q * a.len() as f64).ceil() as usize).clamp(1, a.len()) - 1;
+    a[i]
+}
+
+/// Model inputs: every (dataset input, reference) pair a member uses, in
+/// dataset order, change-form channels first.
+fn model_inputs(
+    ds: &Dataset,
+    roles: &[Role],
+    winners: &[(Vec<Member>, f64)],
+) -> Vec<(usize, Form, Reference)> {
+    let mut out: Vec<(usize, Form, Reference)> = Vec::new();
+    for form in Form::ALL {
+        for (i, &role) in roles.iter().enumerate() {
+            let used = winners
+                .iter()
+                .flat_map(|(m, _)| m)
+                .any(|m| m.form == form && m.features.iter().any(|f| f.input == i));
+            let r = reference(role, form);
+            if used && !out.iter().any(|&(j, _, rr)| j == i && rr == r) {
+                out.push((i, form, r));
+            }
+        }
+    }
+    let _ = ds;
+    out
+}
+
+/// One fbank model of every target's averaged winner, with bounds.
+fn assemble(
+    ds: &Dataset,
+    roles: &[Role],
+    grid: &[GridRun],
+    xs: &[(Form, Vec<Vec<Vec<f64>>>)],
+    winners: &[(Vec<Member>, f64)],
+    dt_s: f64,
+) -> Result<model_core::ValidModel> {
+    let inputs = model_inputs(ds, roles, winners);
+    if inputs.len() > MAX_CHANNELS {
+        bail!(
+            "auto: the model would read {} inputs; the hub takes at most {MAX_CHANNELS}",
+            inputs.len()
+        );
+    }
+    let channel_of = |i: usize, form: Form| {
+        let r = reference(roles[i], form);
+        inputs.iter().position(|&(j, _, rr)| j == i && rr == r)
+    };
+    let mut feats: Vec<Feature> = Vec::new();
+    let mut rows: Vec<(f64, Vec<f64>)> = Vec::new();
+    for (members, _) in winners {
+        let mut intercept = 0.0;
+        let mut coef: Vec<(Feature, f64)> = Vec::new();
+        let w = 1.0 / members.len() as f64;
+        for m in members {
+            intercept += w * m.coefs.intercept;
+            for (d, b) in m.features.iter().zip(&m.coefs.beta) {
+                let ch = channel_of(d.input, m.form).ok_or_else(|| anyhow!("auto: input map"))?;
+                let f = Feature {
+                    input: u8::try_from(ch)?,
+                    power: d.power,
+                    tau_s: d.tau_s,
+                };
+                coef.push((f, w * b));
+            }
+        }
+        let mut dense = vec![0.0; feats.len()];
+        for (f, b) in coef {
+            match feats.iter().position(|g| *g == f) {
+                Some(p) => dense[p] += b,
+                None => {
+                    feats.push(f);
+                    dense.push(b);
+                }
+            }
+        }
+        rows.push((intercept, dense));
+    }
+    if feats.len() > MAX_FB_FEATURES {
+        bail!(
+            "auto: {} filter features; the hub takes at most {MAX_FB_FEATURES} (give fewer --inputs)",
+            feats.len()
+        );
+    }
+    let outs = outputs(ds)?;
+    let mut fb_outputs = heapless::Vec::new();
+    for (o, (intercept, mut dense)) in rows.into_iter().enumerate() {
+        dense.resize(feats.len(), 0.0);
+        fb_outputs
+            .push(FbOutput {
+                output: u8::try_from(o)?,
+                intercept,
+                coef: heapless::Vec::from_slice(&dense).map_err(|_| anyhow!("auto: capacity"))?,
+            })
+            .map_err(|_| anyhow!("auto: too many outputs"))?;
+    }
+    let mut channels = heapless::Vec::new();
+    let mut envelope = heapless::Vec::new();
+    for &(i, form, r) in &inputs {
+        let name = &ds.inputs[i];
+        channels
+            .push(Channel {
+                name: Name::try_from(name.as_str())
+                    .map_err(|_| anyhow!("input name \"{name}\" is too long"))?,
+                reference: r,
+            })
+            .map_err(|_| anyhow!("auto: too many inputs"))?;
+        envelope
+            .push(span(grid, xs, i, form))
+            .map_err(|_| anyhow!("auto: too many inputs"))?;
+    }
+    let half_width =
+        heapless::Vec::from_slice(&winners.iter().map(|(_, hw)| *hw).collect::<Vec<_>>())
+            .map_err(|_| anyhow!("auto: too many outputs"))?;
+    let model = Model {
+        inputs: channels,
+        outputs: outs,
+        dt_s,
+        params: Params::Fbank(FilterBank {
+            features: heapless::Vec::from_slice(&feats).map_err(|_| anyhow!("auto: capacity"))?,
+            outputs: fb_outputs,
+        }),
+        bounds: Some(Bounds {
+            envelope,
+            half_width,
+        }),
+    };
+    model
+        .validate()
+        .map_err(|e| anyhow!("auto: the fitted model is invalid: {e}"))
+}
+
+/// Calibration range of input `i` in `form` over every grid run.
+fn span(grid: &[GridRun], xs: &[(Form, Vec<Vec<Vec<f64>>>)], i: usize, form: Form) -> Span {
+    let x = &xs.iter().find(|(f, _)| *f == form).expect("both forms").1;
+    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (g, run) in grid.iter().zip(x) {
+        for v in &run[i][..g.calib_end] {
+            min = min.min(*v);
+            max = max.max(*v);
+        }
+    }
+    if min > max {
+        (min, max) = (0.0, 0.0);
+    }
+    Span { min, max }
+}

@@ -1,0 +1,261 @@
+//! The candidate search of `fit --model auto`, for one target.
+//!
+//! Every candidate is a ridge regression over a filter bank (features.rs):
+//! an input form (changes from the run's first sample without intercept,
+//! or absolute values with one), a set of temperature filter time
+//! constants, a set of heat-source filter time constants and a penalty.
+//! Each is scored by cross-validation that respects time (folds.rs); the
+//! penalty of each (form, filters) pair is the one with the lowest CV error.
+//! The winner is the average of the best few candidates (an average of
+//! filter-bank regressions is one again, so it runs on the hub as it is):
+//! on real runs the CV errors of the leading candidates lie within each
+//! other's noise, and averaging them halves the held-out spread that picking
+//! one of them by a noisy CV minimum leaves.
+
+use super::features::{self, FeatureDef, Role};
+use super::ridge::{Coefs, CvScore, Design};
+use serde::Serialize;
+
+/// The input form of a candidate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Form {
+    /// Temperatures as changes from each run's first sample; no intercept
+    /// (every feature and, on a run starting cold, the error start at zero).
+    Change,
+    /// Temperatures as logged, with an intercept.
+    Absolute,
+}
+
+impl Form {
+    /// Both forms, in the order the table lists them.
+    pub const ALL: [Form; 2] = [Form::Change, Form::Absolute];
+
+    /// Whether the regression has a constant term.
+    pub fn intercept(self) -> bool {
+        self == Self::Absolute
+    }
+}
+
+/// One row of the CV table.
+#[derive(Clone, Debug, Serialize)]
+pub struct CvRow {
+    /// Input form.
+    pub form: Form,
+    /// Temperature filter time constants, s (besides the raw temperature).
+    pub temp_taus_s: Vec<f64>,
+    /// Heat-source filter time constants, s.
+    pub heat_taus_s: Vec<f64>,
+    /// Penalty (on standardised features, alpha / n).
+    pub lambda: f64,
+    /// Feature columns.
+    pub features: usize,
+    /// Cross-validated root mean square error, in the target's unit.
+    pub cv_rmse: f64,
+    /// Standard error of the fold-mean squared error, as an rmse spread.
+    pub cv_se: f64,
+    /// Whether the winner averages this candidate.
+    pub chosen: bool,
+}
+
+/// The feature columns of one input form over the calibration grid.
+pub struct FormData<'a> {
+    /// The form.
+    pub form: Form,
+    /// `x[run][input][k]`: reference-adjusted inputs on the grid.
+    pub x: &'a [Vec<Vec<f64>>],
+    /// Input roles.
+    pub roles: &'a [Role],
+}
+
+/// The search's settings (checked by `AutoParams::check`).
+#[derive(Clone, Debug, Serialize)]
+pub struct SearchSettings {
+    /// Candidate temperature filter sets.
+    pub temp_sets: Vec<Vec<f64>>,
+    /// Candidate heat-source filter sets.
+    pub heat_sets: Vec<Vec<f64>>,
+    /// Penalties tried.
+    pub lambdas: Vec<f64>,
+    /// Candidates averaged into the winner.
+    pub ensemble: usize,
+    /// Sample time, s.
+    pub dt_s: f64,
+}
+
+/// One fitted member of the winner: its features and coefficients.
+#[derive(Clone, Debug)]
+pub struct Member {
+    /// Input form.
+    pub form: Form,
+    /// Features, by dataset input index.
+    pub features: Vec<FeatureDef>,
+    /// Coefficients fitted on every calibration row.
+    pub coefs: Coefs,
+    /// Penalty.
+    pub lambda: f64,
+    /// Coefficients fitted without each fold, for the CV residuals.
+    pub fold_coefs: Vec<Option<Coefs>>,
+}
+
+/// The outcome for one target.
+pub struct TargetSearch {
+    /// Every candidate, best CV error first.
+    pub table: Vec<CvRow>,
+    /// The averaged members.
+    pub members: Vec<Member>,
+    /// Cross-validated residuals of the averaged winner (every
+    /// calibration grid sample once).
+    pub cv_residuals: Vec<f64>,
+}
+
+/// Feature columns of `defs` over every run, concatenated.
+fn columns(data: &FormData, defs: &[FeatureDef], dt_s: f64) -> Vec<Vec<f64>> {
+    defs.iter()
+        .map(|d| {
+            data.x
+                .iter()
+                .flat_map(|run| features::column(run, d, dt_s))
+                .collect()
+        })
+        .collect()
+}
+
+struct Scored {
+    row: CvRow,
+    mse: f64,
+}
+
+/// The best penalty for one (form, filters) candidate.
+fn best_lambda(
+    design: &Design,
+    n: usize,
+    lambdas: &[f64],
+    intercept: bool,
+) -> Option<(f64, CvScore)> {
+    let idx: Vec<usize> = (0..n).collect();
+    lambdas
+        .iter()
+        .filter_map(|&l| design.cv(&idx, l, intercept).map(|s| (l, s)))
+        .min_by(|a, b| a.1.mse.total_cmp(&b.1.mse))
+}
+
+/// Scores every candidate of `forms` for target `y` (concatenated runs),
+/// calibration sample `k` in fold `fold[k]`.
+pub fn search(
+    forms: &[FormData],
+    y: &[f64],
+    fold: &[Option<usize>],
+    n_folds: usize,
+    s: &SearchSettings,
+    progress: &dyn Fn(),
+) -> Option<TargetSearch> {
+    let mut scored: Vec<Scored> = Vec::new();
+    let mut designs: Vec<(Form, Vec<FeatureDef>, Design)> = Vec::new();
+    for data in forms {
+        let heat_sets: &[Vec<f64>] = if data.roles.contains(&Role::HeatSource) {
+            &s.heat_sets
+        } else {
+            &[Vec::new()][..]
+        };
+        for temp in &s.temp_sets {
+            for heat in heat_sets {
+                progress();
+                let defs = features::bank(data.roles, temp, heat);
+                let cols = columns(data, &defs, s.dt_s);
+                let design = Design::new(&cols, y, fold, n_folds);
+                let intercept = data.form.intercept();
+                let Some((lambda, cv)) = best_lambda(&design, defs.len(), &s.lambdas, intercept)
+                else {
+                    continue;
+                };
+                scored.push(Scored {
+                    row: CvRow {
+                        form: data.form,
+                        temp_taus_s: temp.clone(),
+                        heat_taus_s: heat.clone(),
+                        lambda,
+                        features: defs.len(),
+                        cv_rmse: cv.mse.sqrt(),
+                        cv_se: cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE)),
+                        chosen: false,
+                    },
+                    mse: cv.mse,
+                });
+                designs.push((data.form, defs, design));
+            }
+        }
+    }
+    // Best first; keep the design of each row alongside.
+    let mut order: Vec<usize> = (0..scored.len()).collect();
+    order.sort_by(|&a, &b| scored[a].mse.total_cmp(&scored[b].mse));
+    let take = s.ensemble.max(1).min(order.len());
+    let mut members = Vec::new();
+    for &i in order.iter().take(take) {
+        scored[i].row.chosen = true;
+        let (form, defs, design) = &designs[i];
+        let lambda = scored[i].row.lambda;
+        let coefs = design.fit(
+            &(0..defs.len()).collect::<Vec<_>>(),
+            lambda,
+            form.intercept(),
+            None,
+        )?;
+        let all: Vec<usize> = (0..defs.len()).collect();
+        let fold_coefs = (0..n_folds)
+            .map(|f| design.fit(&all, lambda, form.intercept(), Some(f)))
+            .collect();
+        members.push(Member {
+            form: *form,
+            features: defs.clone(),
+            coefs,
+            lambda,
+            fold_coefs,
+        });
+    }
+    if members.is_empty() {
+        return None;
+    }
+    let cv_residuals = cv_residuals(forms, &members, y, fold, s.dt_s);
+    let table = order.into_iter().map(|i| scored[i].row.clone()).collect();
+    Some(TargetSearch {
+        table,
+        members,
+        cv_residuals,
+    })
+}
+
+/// `y - ŷ` of the averaged winner on each calibration sample, `ŷ` from the
+/// members fitted without that sample's fold.
+fn cv_residuals(
+    forms: &[FormData],
+    members: &[Member],
+    y: &[f64],
+    fold: &[Option<usize>],
+    dt_s: f64,
+) -> Vec<f64> {
+    let mut sum = vec![0.0; y.len()];
+    for m in members {
+        let Some(data) = forms.iter().find(|d| d.form == m.form) else {
+            continue;
+        };
+        let cols = columns(data, &m.features, dt_s);
+        for (k, f) in fold.iter().enumerate() {
+            let Some(Some(c)) = f.and_then(|f| m.fold_coefs.get(f)) else {
+                continue;
+            };
+            sum[k] += c.intercept
+                + c.beta
+                    .iter()
+                    .zip(&cols)
+                    .map(|(b, col)| b * col[k])
+                    .sum::<f64>();
+        }
+    }
+    let n = members.len() as f64;
+    fold.iter()
+        .enumerate()
+        .filter(|(_, f)| f.is_some())
+        .map(|(k, _)| y[k] - sum[k] / n)
+        .collect()
+}
