@@ -99,6 +99,7 @@ impl AutoParams {
                 heat_sets: HEAT_SETS.iter().map(|s| s.to_vec()).collect(),
                 lambdas: lambda_grid(),
                 ensemble: self.ensemble,
+                max_features: MAX_FB_FEATURES,
                 dt_s,
             },
         })

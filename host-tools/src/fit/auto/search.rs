@@ -79,6 +79,8 @@ pub struct SearchSettings {
     pub lambdas: Vec<f64>,
     /// Candidates averaged into the winner.
     pub ensemble: usize,
+    /// Most feature columns the averaged model may have (the hub's capacity).
+    pub max_features: usize,
     /// Sample time, s.
     pub dt_s: f64,
 }
@@ -189,22 +191,38 @@ pub fn search(
     // Best first; keep the design of each row alongside.
     let mut order: Vec<usize> = (0..scored.len()).collect();
     order.sort_by(|&a, &b| scored[a].mse.total_cmp(&scored[b].mse));
-    let take = s.ensemble.max(1).min(order.len());
-    let mut members = Vec::new();
-    for &i in order.iter().take(take) {
-        scored[i].row.chosen = true;
+    // The members share the best candidate's form (one set of model input
+    // channels) and, together, fit the hub's feature capacity.
+    let best_form = order.first().map(|&i| scored[i].row.form)?;
+    let mut members: Vec<Member> = Vec::new();
+    let mut union: Vec<FeatureDef> = Vec::new();
+    for &i in &order {
+        if members.len() >= s.ensemble.max(1) {
+            break;
+        }
         let (form, defs, design) = &designs[i];
+        if *form != best_form {
+            continue;
+        }
+        let mut grown = union.clone();
+        for d in defs {
+            if !grown.contains(d) {
+                grown.push(*d);
+            }
+        }
+        if grown.len() > s.max_features {
+            continue;
+        }
         let lambda = scored[i].row.lambda;
-        let coefs = design.fit(
-            &(0..defs.len()).collect::<Vec<_>>(),
-            lambda,
-            form.intercept(),
-            None,
-        )?;
         let all: Vec<usize> = (0..defs.len()).collect();
+        let Some(coefs) = design.fit(&all, lambda, form.intercept(), None) else {
+            continue;
+        };
         let fold_coefs = (0..n_folds)
             .map(|f| design.fit(&all, lambda, form.intercept(), Some(f)))
             .collect();
+        union = grown;
+        scored[i].row.chosen = true;
         members.push(Member {
             form: *form,
             features: defs.clone(),
