@@ -180,14 +180,34 @@ pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Pre
         notes.push(format!(
             "{why}: inputs resampled to the model's dt {dt} s by linear interpolation, outputs interpolated back to the {n} rows"
         ));
-        uniform_grid(t0, t1, dt).map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?
+        let mut grid =
+            uniform_grid(t0, t1, dt).map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?;
+        // The grid stops at its last point <= t1; rows after that point
+        // would have no grid point to their right. One more step covers them
+        // (its inputs are held at the run's last time, see `input_t`).
+        if let Some(&last) = grid.last() {
+            if last < t1 {
+                let tail = run.t_s.iter().filter(|&&t| t > last).count();
+                notes.push(format!(
+                    "the last {tail} row(s) lie after the last whole step ({last} s): the model takes one more step, to {} s, with the inputs held at their values at {t1} s",
+                    t0 + grid.len() as f64 * dt
+                ));
+                grid.push(t0 + grid.len() as f64 * dt);
+            }
+        }
+        grid
     };
+    // The times at which the inputs are read for each grid point: the grid
+    // itself, except a point past the run's end, which reads the inputs at
+    // the last row (held, not extrapolated). docs/models.md, "Sampling".
+    let t_end = run.t_s.last().copied().unwrap_or(0.0);
+    let input_t: Vec<f64> = grid.iter().map(|&g| g.min(t_end)).collect();
     let mut bridged = 0usize;
     let inputs: Vec<Vec<Option<f64>>> = columns
         .iter()
         .map(|c| {
             bridged += c.iter().filter(|v| v.is_none()).count();
-            resample_linear(&run.t_s, c, &grid)
+            resample_linear(&run.t_s, c, &input_t)
         })
         .collect();
     if bridged > 0 {
