@@ -272,6 +272,32 @@ mod tests {
     }
 
     #[test]
+    fn rows_after_the_last_whole_step_are_predicted() {
+        // Rows at 0, 1.5, 3.5 s, model dt 1 s: the grid 0..3 s gets one more
+        // step, to 4 s, with T1 held at its value at 3.5 s. Grid inputs
+        // (minus the first, 20): 0, 2/3, 1, 1, 1; outputs y = y/2 + u/2:
+        // 0, 1/3, 2/3, 5/6, 11/12. Rows: 0; (1/3 + 2/3)/2 = 0.5;
+        // (5/6 + 11/12)/2 = 0.875.
+        let p = predict(
+            &first_order(),
+            &run("t_s,T1\n0,20\n1.5,21\n3.5,21\n"),
+            &ColumnMap::default(),
+        )
+        .unwrap();
+        let want = [0.0, 0.5, 0.875];
+        assert_eq!(p.values[0].len(), 3);
+        for (got, want) in p.values[0].iter().zip(want) {
+            let got = got.expect("every row has a prediction");
+            assert!((got - want).abs() <= 1e-12, "{got} vs {want}");
+        }
+        assert!(
+            p.notes.iter().any(|n| n.contains("one more step, to 4 s")),
+            "{:?}",
+            p.notes
+        );
+    }
+
+    #[test]
     fn missing_column_and_mapping() {
         let r = run("t_s,temp1\n0,20\n1,21\n");
         let e = predict(&first_order(), &r, &ColumnMap::default()).unwrap_err();

@@ -166,3 +166,61 @@ fn fit_on_a_resampled_run_scores_every_row() {
     );
     assert_eq!(t["rows_not_scored"].as_u64(), Some(0), "{t}");
 }
+
+#[test]
+fn rows_that_cannot_be_scored_are_counted_on_stderr() {
+    // Two empty dz_um cells: eval and fit score the other rows, n counts
+    // exactly those, and stderr says how many were left out.
+    let dir = tempfile::tempdir().unwrap();
+    let ts: Vec<f64> = (0..600).map(|i| 10.0 * i as f64).collect();
+    let (run, _) = write_run(dir.path(), "full.csv", &ts);
+    let text = std::fs::read_to_string(&run).unwrap();
+    let holed: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 100 || i == 400 {
+                let (rest, _) = l.rsplit_once(',').unwrap();
+                format!("{rest},\n")
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let run = write(dir.path(), "holed.csv", &holed);
+    let spec = write(dir.path(), "m.toml", SPEC);
+    let model = dir.path().join("m.bin");
+    let model = model.to_str().unwrap();
+    ok(&["model", "build", "--spec", &spec, "--out", model]);
+    let (so, se) = ok(&["eval", "--model", model, "--data", &run, "--json"]);
+    let j: serde_json::Value = serde_json::from_str(&so).unwrap();
+    assert_eq!(j["dz_um"]["n"].as_u64(), Some(598), "{j}");
+    assert_eq!(j["dz_um"]["rows_not_scored"].as_u64(), Some(2), "{j}");
+    assert!(se.contains("2 of 600 rows not scored"), "{se}");
+
+    let out = dir.path().join("arx.bin");
+    let (so, se) = ok(&[
+        "fit",
+        "--data",
+        &run,
+        "--target",
+        "dz_um",
+        "--inputs",
+        "T1",
+        "--model",
+        "arx",
+        "--dt-s",
+        "15",
+        "--holdout-from-s",
+        "3000",
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_str(&so).unwrap();
+    let t = &j["targets"]["dz_um"];
+    let n = |part: &str| t[part]["n"].as_u64().unwrap_or_else(|| panic!("{t}"));
+    assert_eq!(n("calibration") + n("holdout"), 598, "{t}");
+    assert_eq!(t["rows_not_scored"].as_u64(), Some(2), "{t}");
+    assert!(se.contains("2 of 600 rows not scored"), "{se}");
+}
