@@ -68,18 +68,23 @@ pub fn run(a: &EvalArgs) -> Result<()> {
             })?;
             let mut acc = MetricsAccumulator::new();
             let mut skipped = 0usize;
-            for (yi, yhat) in y.iter().zip(&p.values[k]) {
-                match (yi, yhat) {
+            for (row, yi) in y.iter().enumerate() {
+                match (yi, p.values[k].get(row).copied().flatten()) {
                     (Some(yi), Some(yhat)) => {
                         // Both are finite: the reader rejects non-finite
                         // cells and the runner non-finite outputs.
-                        acc.push(*yi, *yhat).map_err(|e| anyhow!("{name}: {e}"))?;
-                        all[k]
-                            .push(*yi, *yhat)
-                            .map_err(|e| anyhow!("{name}: {e}"))?;
+                        acc.push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+                        all[k].push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
                     }
                     _ => skipped += 1,
                 }
+            }
+            if skipped > 0 {
+                eprintln!(
+                    "note: {}: {name}: {skipped} of {} rows not scored (no prediction or no measured {col}); n counts the scored rows",
+                    run.path.display(),
+                    run.len()
+                );
             }
             unscored[k] += skipped;
             let mut entry = match acc.finish() {

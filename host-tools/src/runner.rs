@@ -180,14 +180,34 @@ pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Pre
         notes.push(format!(
             "{why}: inputs resampled to the model's dt {dt} s by linear interpolation, outputs interpolated back to the {n} rows"
         ));
-        uniform_grid(t0, t1, dt).map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?
+        let mut grid =
+            uniform_grid(t0, t1, dt).map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?;
+        // The grid stops at its last point <= t1; rows after that point
+        // would have no grid point to their right. One more step covers them
+        // (its inputs are held at the run's last time, see `input_t`).
+        if let Some(&last) = grid.last() {
+            if last < t1 {
+                let tail = run.t_s.iter().filter(|&&t| t > last).count();
+                notes.push(format!(
+                    "the last {tail} row(s) lie after the last whole step ({last} s): the model takes one more step, to {} s, with the inputs held at their values at {t1} s",
+                    t0 + grid.len() as f64 * dt
+                ));
+                grid.push(t0 + grid.len() as f64 * dt);
+            }
+        }
+        grid
     };
+    // The times at which the inputs are read for each grid point: the grid
+    // itself, except a point past the run's end, which reads the inputs at
+    // the last row (held, not extrapolated). docs/models.md, "Sampling".
+    let t_end = run.t_s.last().copied().unwrap_or(0.0);
+    let input_t: Vec<f64> = grid.iter().map(|&g| g.min(t_end)).collect();
     let mut bridged = 0usize;
     let inputs: Vec<Vec<Option<f64>>> = columns
         .iter()
         .map(|c| {
             bridged += c.iter().filter(|v| v.is_none()).count();
-            resample_linear(&run.t_s, c, &grid)
+            resample_linear(&run.t_s, c, &input_t)
         })
         .collect();
     if bridged > 0 {
@@ -249,6 +269,32 @@ mod tests {
         // Grid outputs: k0 0; k1 0.25; k2 0.625; k3 0.8125; k4 0.90625.
         assert_eq!(p.values[0], [Some(0.0), Some(0.625), Some(0.90625)]);
         assert!(p.notes[0].contains("resampled"), "{:?}", p.notes);
+    }
+
+    #[test]
+    fn rows_after_the_last_whole_step_are_predicted() {
+        // Rows at 0, 1.5, 3.5 s, model dt 1 s: the grid 0..3 s gets one more
+        // step, to 4 s, with T1 held at its value at 3.5 s. Grid inputs
+        // (minus the first, 20): 0, 2/3, 1, 1, 1; outputs y = y/2 + u/2:
+        // 0, 1/3, 2/3, 5/6, 11/12. Rows: 0; (1/3 + 2/3)/2 = 0.5;
+        // (5/6 + 11/12)/2 = 0.875.
+        let p = predict(
+            &first_order(),
+            &run("t_s,T1\n0,20\n1.5,21\n3.5,21\n"),
+            &ColumnMap::default(),
+        )
+        .unwrap();
+        let want = [0.0, 0.5, 0.875];
+        assert_eq!(p.values[0].len(), 3);
+        for (got, want) in p.values[0].iter().zip(want) {
+            let got = got.expect("every row has a prediction");
+            assert!((got - want).abs() <= 1e-12, "{got} vs {want}");
+        }
+        assert!(
+            p.notes.iter().any(|n| n.contains("one more step, to 4 s")),
+            "{:?}",
+            p.notes
+        );
     }
 
     #[test]

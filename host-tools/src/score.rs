@@ -21,6 +21,9 @@ pub struct TargetScore {
     pub calibration: Option<Metrics>,
     /// Over held-out rows (None if there were none).
     pub holdout: Option<Metrics>,
+    /// Rows with no prediction or no measured value: not in either `n`
+    /// (and reported on stderr when there are any).
+    pub rows_not_scored: usize,
 }
 
 impl TargetScore {
@@ -29,17 +32,22 @@ impl TargetScore {
         json!({
             "calibration": self.calibration.as_ref().map(metrics_json),
             "holdout": self.holdout.as_ref().map(metrics_json),
+            "rows_not_scored": self.rows_not_scored,
         })
     }
 }
 
 /// Runs `model` over each run and scores rows `< calib_end` as calibration
-/// and the rest as held out.
+/// and the rest as held out. Each `n` counts the rows scored; rows that
+/// cannot be scored (no prediction, or no measured value) are counted and
+/// reported on stderr, never dropped silently.
 pub fn score(model: &ValidModel, runs: &[(&RunFile, usize)]) -> Result<Vec<TargetScore>> {
     let map = ColumnMap::default();
     let n_out = model.outputs().len();
     let mut calib = vec![MetricsAccumulator::new(); n_out];
     let mut held = vec![MetricsAccumulator::new(); n_out];
+    let mut unscored = vec![Unscored::default(); n_out];
+    let mut rows = 0usize;
     for (run, calib_end) in runs {
         let p = runner::predict(model, run, &map)?;
         for note in &p.notes {
@@ -49,16 +57,32 @@ pub fn score(model: &ValidModel, runs: &[(&RunFile, usize)]) -> Result<Vec<Targe
             let y = run
                 .column(name)
                 .ok_or_else(|| anyhow!("{}: no column \"{name}\"", run.path.display()))?;
-            for (row, (yi, yhat)) in y.iter().zip(&p.values[k]).enumerate() {
-                if let (Some(yi), Some(yhat)) = (yi, yhat) {
-                    let acc = if row < *calib_end {
-                        &mut calib[k]
-                    } else {
-                        &mut held[k]
-                    };
-                    acc.push(*yi, *yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+            for (row, yi) in y.iter().enumerate() {
+                let yhat = p.values[k].get(row).copied().flatten();
+                match (yi, yhat) {
+                    (Some(yi), Some(yhat)) => {
+                        let acc = if row < *calib_end {
+                            &mut calib[k]
+                        } else {
+                            &mut held[k]
+                        };
+                        acc.push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+                    }
+                    (_, None) => unscored[k].no_prediction += 1,
+                    (None, Some(_)) => unscored[k].no_measurement += 1,
                 }
             }
+        }
+        rows += run.len();
+    }
+    for (name, u) in model.outputs().iter().zip(&unscored) {
+        if u.total() > 0 {
+            eprintln!(
+                "note: {name}: {} of {rows} rows not scored ({} without a prediction, {} without a measured value); n counts the scored rows",
+                u.total(),
+                u.no_prediction,
+                u.no_measurement
+            );
         }
     }
     Ok(model
@@ -69,6 +93,22 @@ pub fn score(model: &ValidModel, runs: &[(&RunFile, usize)]) -> Result<Vec<Targe
             output: name.to_string(),
             calibration: calib[k].finish().ok(),
             holdout: held[k].finish().ok(),
+            rows_not_scored: unscored[k].total(),
         })
         .collect())
+}
+
+/// Rows of one output left out of the scores, by reason.
+#[derive(Clone, Copy, Debug, Default)]
+struct Unscored {
+    /// The runner had no prediction (an input missing, a non-finite output).
+    no_prediction: usize,
+    /// The measured column is empty there.
+    no_measurement: usize,
+}
+
+impl Unscored {
+    fn total(self) -> usize {
+        self.no_prediction + self.no_measurement
+    }
 }

@@ -350,9 +350,47 @@ fn seed002_fig3_initial_value_and_weights_match_numpy() {
     assert_eq!(strings(&v["selected"]), ["T8", "T15", "T16"]);
 }
 
+/// Seed 002 Eq. 1 gammas of T1..T16 with target S1 under interval
+/// processing, default weights: the numpy 2.4.6 reference of
+/// `seed002_fig3_matches_numpy`.
+const S1_INTERVAL_GAMMAS: [f64; 16] = [
+    0.5192987094081088,
+    0.5461151548361848,
+    0.5917983812312171,
+    0.5541454256110872,
+    0.5737863741894763,
+    0.5338934772784942,
+    0.5258972898031848,
+    0.5380715654889476,
+    0.5817040566349276,
+    0.620724432866112,
+    0.5769800815503263,
+    0.5905592485693615,
+    0.5988011836978887,
+    0.5059581525168505,
+    0.5380429407026671,
+    0.5194455505286166,
+];
+
+/// The fallback reported in JSON: S1 started at 0, and interval processing
+/// took over for S1 and every input.
+fn assert_fell_back_for_s1(fallback: &Value, inputs: usize) {
+    assert_eq!(fallback["from"], "initial", "{fallback}");
+    assert_eq!(fallback["to"], "interval", "{fallback}");
+    assert_eq!(strings(&fallback["zero_start"]), ["S1"], "{fallback}");
+    let series = strings(&fallback["series"]);
+    assert_eq!(series.len(), inputs + 1, "{fallback}");
+    assert!(series.contains(&"S1".to_string()), "{fallback}");
+}
+
 #[test]
-fn initial_value_processing_of_a_zero_start_fails_clearly() {
-    let e = fails(&[
+fn wgrey_with_a_target_starting_at_0_falls_back_to_interval_processing() {
+    // S1 starts at exactly 0: the default --scale initial used to fail.
+    // It now ranks the sensors with interval processing for the whole
+    // computation, says so on stderr and in JSON, and gives exactly what
+    // --scale interval gives (the numpy gammas within 1e-9, the same
+    // ranking and selection).
+    let args = [
         "select",
         "--data",
         SEED002_FIG3,
@@ -360,11 +398,109 @@ fn initial_value_processing_of_a_zero_start_fails_clearly() {
         "S1",
         "--method",
         "wgrey",
-    ]);
+    ];
+    let (v, se) = json(&args);
     assert!(
-        e.contains("S1") && e.contains("starts at 0") && e.contains("--scale"),
-        "{e}"
+        se.contains("S1 (run 1) start(s) at 0") && se.contains("interval processing"),
+        "{se}"
     );
+    assert_eq!(v["scale"], "initial");
+    let t = &v["per_target"]["S1"];
+    assert_eq!(t["scale_used"], "interval");
+    assert_fell_back_for_s1(&t["scale_fallback"], 16);
+    let got = numbers(&t["gamma"]);
+    assert_eq!(got.len(), 16);
+    for (i, (g, w)) in got.iter().zip(S1_INTERVAL_GAMMAS).enumerate() {
+        assert!((g - w).abs() <= 1e-9, "T{}: {g} vs {w}", i + 1);
+    }
+    let mut explicit = args.to_vec();
+    explicit.extend(["--scale", "interval"]);
+    let (w, se) = json(&explicit);
+    assert!(
+        !se.contains("start(s) at 0"),
+        "no fallback when asked: {se}"
+    );
+    assert_eq!(w["per_target"]["S1"]["scale_fallback"], Value::Null);
+    assert_eq!(t["ranking"], w["per_target"]["S1"]["ranking"]);
+    assert_eq!(strings(&t["ranking"]).len(), 16);
+    assert_eq!(v["selected"], w["selected"]);
+    assert_eq!(
+        strings(&v["selected"]),
+        ["T3", "T9", "T10", "T11", "T12", "T13"]
+    );
+}
+
+#[test]
+fn grey_with_a_target_starting_at_0_falls_back_to_interval_processing() {
+    // The same for grey: the grey coefficients with S1 (1e-12: the same
+    // arithmetic), the typical variables and the selection equal those of
+    // --scale interval. The inputs start far from 0, so their relative
+    // degree keeps initial-value images.
+    let inputs = "T1,T2,T3,T4,T5,T6,T7,T8";
+    let args = [
+        "select",
+        "--data",
+        SEED002_FIG3,
+        "--target",
+        "S1",
+        "--inputs",
+        inputs,
+        "--method",
+        "grey",
+    ];
+    let (v, se) = json(&args);
+    assert!(se.contains("S1 (run 1) start(s) at 0"), "{se}");
+    assert_eq!(v["scale"], "initial");
+    assert_eq!(v["scale_used"], "interval");
+    assert_fell_back_for_s1(&v["scale_fallback"], 8);
+    assert_eq!(v["relative_images"], "initial");
+    assert_eq!(v["relative_fallback"], Value::Null);
+    let mut explicit = args.to_vec();
+    explicit.extend(["--scale", "interval"]);
+    let (w, _) = json(&explicit);
+    let coef = |j: &Value| -> Vec<f64> {
+        j["variables"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x["grey_coefficient"].as_f64().unwrap())
+            .collect()
+    };
+    let (got, want) = (coef(&v), coef(&w));
+    assert_eq!(got.len(), 8);
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() <= 1e-12, "{g} vs {w}");
+    }
+    assert_eq!(v["typical"], w["typical"]);
+    assert!(!strings(&v["selected"]).is_empty());
+    assert_eq!(v["selected"], w["selected"]);
+}
+
+#[test]
+fn grey_relative_degree_of_an_input_starting_at_0_falls_back_too() {
+    // S2 (also zeroed at the start) as a candidate input: the relative
+    // degree between the inputs takes interval images of all of them, and
+    // says so.
+    let (v, se) = json(&[
+        "select",
+        "--data",
+        SEED002_FIG3,
+        "--target",
+        "T1",
+        "--inputs",
+        "T2,T3,S2",
+        "--method",
+        "grey",
+    ]);
+    assert!(se.contains("S2 (run 1) start(s) at 0"), "{se}");
+    assert_eq!(v["relative_images"], "interval");
+    assert_eq!(strings(&v["relative_fallback"]["zero_start"]), ["S2"]);
+    assert_eq!(v["scale_used"], "interval");
+    let rel = &v["relative"];
+    for i in 0..3 {
+        let d = rel[i][i].as_f64().unwrap();
+        assert!((d - 1.0).abs() <= 1e-12, "diagonal {d}");
+    }
 }
 
 #[test]

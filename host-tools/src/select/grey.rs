@@ -207,16 +207,26 @@ pub fn absolute_matrix(cols: &[Vec<f64>], runs: &[usize]) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// Matrix of grey relative degrees: absolute degrees of the initial-value
-/// images. `Err((j, e))` names the column that has no initial-value image.
+/// The first run (0-based) of `x` that starts at exactly 0, where
+/// initial-value processing `x(k) / x(1)` is undefined; `None` if there is
+/// none.
+pub fn zero_start_run(x: &[f64], runs: &[usize]) -> Option<usize> {
+    segments(x, runs).position(|seg| seg.first() == Some(&0.0))
+}
+
+/// Matrix of grey relative degrees: absolute degrees of the `image`
+/// images ([`Scale::Initial`] in Liu & Lin; `thermcomp select` passes
+/// [`Scale::Interval`] when an input starts at 0, docs/select.md).
+/// `Err((j, e))` names the column that has no such image.
 pub fn relative_matrix(
     cols: &[Vec<f64>],
     runs: &[usize],
+    image: Scale,
 ) -> Result<Vec<Vec<f64>>, (usize, ScaleError)> {
     let images = cols
         .iter()
         .enumerate()
-        .map(|(j, c)| dimensionless(c, runs, Scale::Initial).map_err(|e| (j, e)))
+        .map(|(j, c)| dimensionless(c, runs, image).map_err(|e| (j, e)))
         .collect::<Result<Vec<_>, _>>()?;
     Ok(absolute_matrix(&images, runs))
 }
@@ -384,12 +394,21 @@ mod tests {
         // Initial-value images: X0 unchanged (x(1) = 1), X1 / 2 = (1, 1,
         // 1.5, 2.5): image (0, 0, 0.5, 1.5), s = 0.5 + 0.75 = 1.25;
         // r = 7.25 / (7.25 + 3.75) = 7.25 / 11.
-        let rel = relative_matrix(&cols, &[4]).unwrap();
+        let rel = relative_matrix(&cols, &[4], Scale::Initial).unwrap();
         assert!(near(rel[0][1], 7.25 / 11.0));
         let rho = comprehensive_matrix(&abs, &rel, 0.5);
         assert!(near(rho[0][1], 15.75 / 22.0));
         // Two runs: areas add. (1, 2) then (4, 3): 0.5 + (-0.5) = 0.
         assert!(near(zero_start_area(&[1.0, 2.0, 4.0, 3.0], &[2, 2]), 0.0));
+    }
+
+    #[test]
+    fn zero_start_runs_are_found() {
+        assert_eq!(zero_start_run(&[1.0, 0.0, 2.0, 3.0], &[2, 2]), None);
+        assert_eq!(zero_start_run(&[1.0, 2.0, 0.0, 3.0], &[2, 2]), Some(1));
+        assert_eq!(zero_start_run(&[0.0, 2.0, 0.0, 3.0], &[2, 2]), Some(0));
+        // -0.0 == 0.0: a zeroed channel written as "-0" starts at 0 too.
+        assert_eq!(zero_start_run(&[-0.0, 2.0], &[2]), Some(0));
     }
 
     #[test]

@@ -20,8 +20,10 @@
 //! This module reads the runs, lines up the rows, calls the pure functions
 //! of the method modules and prints the result (one JSON object with
 //! `--json`). Rows where a needed value is missing are left out of that
-//! computation and counted on stderr. docs/select.md has the formulas and
-//! their sources.
+//! computation and counted on stderr. With `--scale initial`, a grey
+//! computation in which a series starts at 0 uses interval processing for
+//! all its series, and says so ([`INITIAL_FALLBACK`]). docs/select.md has
+//! the formulas and their sources.
 
 pub mod grey;
 pub mod maxtree;
@@ -63,7 +65,8 @@ impl Method {
 /// Dimensionless processing before grey correlation with the target.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ScaleArg {
-    /// x(k) / x(1), per run.
+    /// x(k) / x(1), per run (interval processing for a computation in which
+    /// a series starts at 0).
     Initial,
     /// x(k) / mean(x), per run.
     Mean,
@@ -110,7 +113,9 @@ pub struct SelectArgs {
 
     /// Dimensionless processing of target and inputs before grey correlation
     /// with the target (grey, wgrey): temperature and displacement have
-    /// different units.
+    /// different units. With `initial`, a computation in which the target or
+    /// an input starts at exactly 0 (x(1) = 0 in some run) uses interval
+    /// processing for all its series instead, and says so.
     #[arg(
         long,
         value_enum,
@@ -381,6 +386,106 @@ fn scaled(col: &[f64], runs: &[usize], scale: grey::Scale, name: &str) -> Result
     })
 }
 
+/// What `--scale initial` falls back to in a grey computation where a series
+/// starts at exactly 0 (docs/select.md, "Zero starts"). Interval processing
+/// is defined for every series that is not constant, and for a series that
+/// starts at its minimum, as a zeroed displacement usually does, it is
+/// `(x(k) - x(1)) / range`: like the initial-value image `x(k)/x(1) - 1`, the
+/// change since the start, only scaled by the range instead of `x(1)`.
+/// (Mean processing would also be defined, but it flattens temperatures to
+/// within a few percent of 1, and the grey coefficients with it.)
+pub const INITIAL_FALLBACK: grey::Scale = grey::Scale::Interval;
+
+/// The processing one grey computation uses: the requested one, or
+/// [`INITIAL_FALLBACK`] for every series of the computation when the
+/// request is initial-value processing and some series starts at 0 (grey
+/// coefficients compare the series point by point, so all of them take the
+/// same processing).
+struct ScaleChoice {
+    requested: grey::Scale,
+    used: grey::Scale,
+    /// The series that start at 0, with the first such run (1-based).
+    zero_start: Vec<(String, usize)>,
+    /// Every series of the computation (all use `used`).
+    series: Vec<String>,
+}
+
+impl ScaleChoice {
+    fn new(requested: grey::Scale, series: &[(&str, &[f64])], runs: &[usize]) -> Self {
+        let zero_start: Vec<(String, usize)> = if requested == grey::Scale::Initial {
+            series
+                .iter()
+                .filter_map(|(n, c)| grey::zero_start_run(c, runs).map(|r| (n.to_string(), r + 1)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let used = if zero_start.is_empty() {
+            requested
+        } else {
+            INITIAL_FALLBACK
+        };
+        Self {
+            requested,
+            used,
+            zero_start,
+            series: series.iter().map(|(n, _)| n.to_string()).collect(),
+        }
+    }
+
+    fn fell_back(&self) -> bool {
+        !self.zero_start.is_empty()
+    }
+
+    /// `null`, or which series started at 0 and which took the fallback.
+    fn json(&self) -> Value {
+        if !self.fell_back() {
+            return Value::Null;
+        }
+        json!({
+            "from": self.requested.name(),
+            "to": self.used.name(),
+            "zero_start": self.zero_start.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(),
+            "series": self.series,
+        })
+    }
+
+    /// Says on stderr that `what` fell back, and why.
+    fn note(&self, what: &str) {
+        if let Some(line) = self.text(what) {
+            eprintln!("note: {line}");
+        }
+    }
+
+    /// One line on the fallback, if there was one.
+    fn text(&self, what: &str) -> Option<String> {
+        if !self.fell_back() {
+            return None;
+        }
+        let starts: Vec<String> = self
+            .zero_start
+            .iter()
+            .map(|(n, r)| format!("{n} (run {r})"))
+            .collect();
+        Some(format!(
+            "{} start(s) at 0, where {} processing x(k)/x(1) is undefined: {what} uses {} processing for all {} series instead (docs/select.md, zero starts)",
+            starts.join(", "),
+            self.requested.name(),
+            self.used.name(),
+            self.series.len()
+        ))
+    }
+}
+
+/// The `(name, column)` pairs of a table's columns.
+fn series<'a>(names: &[&'a str], cols: &'a [Vec<f64>]) -> Vec<(&'a str, &'a [f64])> {
+    names
+        .iter()
+        .zip(cols)
+        .map(|(n, c)| (*n, c.as_slice()))
+        .collect()
+}
+
 /// Initial-value processing divides by the first sample; a displacement
 /// that starts near zero (the usual case: it is zeroed at the start) is then
 /// mostly its noise blown up. Warns when the first value is under this
@@ -494,10 +599,13 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
     let x = Table::new(files, names);
     x.report(files, "a value of every input", 2)?;
     let abs = grey::absolute_matrix(&x.cols, &x.runs);
-    let rel = grey::relative_matrix(&x.cols, &x.runs).map_err(|(j, e)| {
+    let rel_choice = ScaleChoice::new(grey::Scale::Initial, &series(names, &x.cols), &x.runs);
+    rel_choice.note("the grey relative degree between the inputs");
+    let rel = grey::relative_matrix(&x.cols, &x.runs, rel_choice.used).map_err(|(j, e)| {
         anyhow!(
-            "{}: {e}: the grey relative degree needs its initial-value image",
-            names[j]
+            "{}: {e}: the grey relative degree needs its {} image",
+            names[j],
+            rel_choice.used.name()
         )
     })?;
     let rho = grey::comprehensive_matrix(&abs, &rel, a.theta);
@@ -514,7 +622,14 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
     // Correlation with the target: rows where the target and every input have values.
     let xy = Table::new(files, &with_target(names, target));
     xy.report(files, &format!("a value of {target} or of an input"), 3)?;
-    let scale: grey::Scale = a.scale.into();
+    let choice = ScaleChoice::new(
+        a.scale.into(),
+        &series(&with_target(names, target), &xy.cols),
+        &xy.runs,
+    );
+    let with_what = format!("the grey correlation with {target}");
+    choice.note(&with_what);
+    let scale = choice.used;
     let ys = scaled_target(&xy.cols[names.len()], &xy.runs, scale, target)?;
     let xs = names
         .iter()
@@ -576,7 +691,11 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
         "criterion": "adj_r2",
         "rows": {"inputs": x.rows(), "with_target": xy.rows(),
                  "left_out": xy.left_out.iter().sum::<usize>()},
-        "scale": scale.name(),
+        "scale": choice.requested.name(),
+        "scale_used": scale.name(),
+        "scale_fallback": choice.json(),
+        "relative_images": rel_choice.used.name(),
+        "relative_fallback": rel_choice.json(),
         "xi": a.xi,
         "theta": a.theta,
         "level": a.level,
@@ -597,6 +716,15 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
         a.xi,
         scale.name()
     );
+    for line in [
+        rel_choice.text("the grey relative degree between the inputs"),
+        choice.text(&with_what),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        text.push_str(&format!("{line}\n\n"));
+    }
     text.push_str(&matrix_text(
         "grey comprehensive correlation degree between inputs",
         &rho,
@@ -655,7 +783,7 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
 }
 
 fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output> {
-    let scale: grey::Scale = a.scale.into();
+    let requested: grey::Scale = a.scale.into();
     let w = wgrey::Weights {
         xi: a.xi,
         lambda1: a.lambda1,
@@ -671,9 +799,19 @@ fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output
     let mut per_target = Map::new();
     let mut tops = Vec::new();
     let mut gamma_cols = Vec::new();
+    let mut fallbacks: Vec<String> = Vec::new();
     for t in &a.target {
         let xy = Table::new(files, &with_target(names, t));
         xy.report(files, &format!("a value of {t} or of an input"), 2)?;
+        let choice = ScaleChoice::new(
+            requested,
+            &series(&with_target(names, t), &xy.cols),
+            &xy.runs,
+        );
+        let with_what = format!("the grey correlativity with {t}");
+        choice.note(&with_what);
+        fallbacks.extend(choice.text(&with_what));
+        let scale = choice.used;
         let ys = scaled_target(&xy.cols[names.len()], &xy.runs, scale, t)?;
         let xs = names
             .iter()
@@ -686,6 +824,7 @@ fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output
         per_target.insert(
             t.clone(),
             json!({"rows": xy.rows(), "left_out": xy.left_out.iter().sum::<usize>(),
+                   "scale_used": scale.name(), "scale_fallback": choice.json(),
                    "gamma": g, "ranking": names_of(&ranking, names),
                    "top": names_of(&top, names)}),
         );
@@ -704,7 +843,7 @@ fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output
         "target": a.target,
         "inputs": names,
         "selected": selected,
-        "scale": scale.name(),
+        "scale": requested.name(),
         "xi": a.xi,
         "lambda1": a.lambda1,
         "lambda2": a.lambda2,
@@ -712,11 +851,15 @@ fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output
         "per_target": per_target,
     });
     let mut text = format!(
-        "weighted grey correlativity (seed 002 Eq. 1; --scale {}, xi {}, lambda1 {}, lambda2 {})\n\n{:<8}",
-        scale.name(),
+        "weighted grey correlativity (seed 002 Eq. 1; --scale {}, xi {}, lambda1 {}, lambda2 {})\n\n{}{:<8}",
+        requested.name(),
         a.xi,
         a.lambda1,
         a.lambda2,
+        fallbacks
+            .iter()
+            .map(|l| format!("{l}\n\n"))
+            .collect::<String>(),
         "input"
     );
     for t in &a.target {
