@@ -20,6 +20,12 @@ pub struct PredictArgs {
     /// (with several runs, a leading `run` column names each row's file).
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write `<output>_lo95` and `<output>_hi95`: the model's 95 %
+    /// band (its calibration cross-validation error, widened by
+    /// `1 + d` where `d` is how far the inputs lie outside the calibration
+    /// envelope, in envelope widths). Needs a model with bounds (`fit --model auto`).
+    #[arg(long)]
+    pub interval: bool,
     /// Print a JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
@@ -33,6 +39,12 @@ fn cell(v: Option<f64>) -> String {
 /// Runs `thermcomp predict`.
 pub fn run(a: &PredictArgs) -> Result<()> {
     let model = a.model.load()?;
+    if a.interval && model.model().bounds.is_none() {
+        anyhow::bail!(
+            "--interval: this {} model carries no error band (fit it with --model auto)",
+            model.kind().name()
+        );
+    }
     let map = a.runs.column_map()?;
     let runs = a.runs.read(map.model_columns(&model, false))?;
     let file = std::fs::File::create(&a.out)
@@ -45,6 +57,12 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     }
     header.push("t_s".into());
     header.extend(model.outputs().iter().map(|o| format!("{o}_pred")));
+    if a.interval {
+        for o in model.outputs() {
+            header.push(format!("{o}_lo95"));
+            header.push(format!("{o}_hi95"));
+        }
+    }
     let write_err = || format!("cannot write {}", a.out.display());
     writeln!(w, "{}", header.join(",")).with_context(write_err)?;
     let mut rows = 0usize;
@@ -67,6 +85,16 @@ pub fn run(a: &PredictArgs) -> Result<()> {
                 missing += usize::from(value.is_none());
                 line.push(',');
                 line.push_str(&cell(value));
+            }
+            if a.interval {
+                for (v, b) in p.values.iter().zip(&p.bands) {
+                    let (value, half) = (v.get(i).copied().flatten(), b.get(i).copied().flatten());
+                    let pair = value.zip(half);
+                    line.push(',');
+                    line.push_str(&cell(pair.map(|(y, h)| y - h)));
+                    line.push(',');
+                    line.push_str(&cell(pair.map(|(y, h)| y + h)));
+                }
             }
             writeln!(w, "{line}").with_context(write_err)?;
             rows += 1;

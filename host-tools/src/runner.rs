@@ -61,6 +61,11 @@ impl ColumnMap {
 pub struct Prediction {
     /// `values[k][row]`: output `k` at each row (None where it cannot be had).
     pub values: Vec<Vec<Option<f64>>>,
+    /// `bands[k][row]`: half-width of output `k`'s 95 % band at each row
+    /// (the model's calibration-CV band widened by how far the inputs lie
+    /// outside its calibration envelope); empty when the model carries no
+    /// bounds.
+    pub bands: Vec<Vec<Option<f64>>>,
     /// What the runner did that the user should know.
     pub notes: Vec<String>,
 }
@@ -93,16 +98,25 @@ fn input_columns<'r>(
         .collect()
 }
 
+/// Outputs and band half-widths, `[output][sample]`.
+type Stepped = (Vec<Vec<Option<f64>>>, Vec<Vec<Option<f64>>>);
+
 /// Steps the model over aligned input samples; `None` where an input is
-/// missing or the step was refused.
+/// missing or the step was refused. With bounds, also each output's band.
 fn step_all(
     model: &ValidModel,
     inputs: &[Vec<Option<f64>>],
     len: usize,
     notes: &mut Vec<String>,
-) -> Vec<Vec<Option<f64>>> {
+) -> Stepped {
     let n_out = model.outputs().len();
     let mut values = vec![vec![None; len]; n_out];
+    let with_bands = model.model().bounds.is_some();
+    let mut bands = if with_bands {
+        vec![vec![None; len]; n_out]
+    } else {
+        Vec::new()
+    };
     let mut state = ModelState::new();
     let mut x = vec![0.0; inputs.len()];
     let mut out = [0.0; MAX_OUTPUTS];
@@ -126,6 +140,13 @@ fn step_all(
                         *slot = out.get(k).copied();
                     }
                 }
+                // After the step: a `First` reference is captured by then.
+                let d = model.extrapolation(&state, &x);
+                for (k, b) in bands.iter_mut().enumerate() {
+                    if let Some(slot) = b.get_mut(i) {
+                        *slot = model.band_half_width(k, d);
+                    }
+                }
             }
             Err(StepError::NonFiniteOutput) => overflow += 1,
             // Inputs are finite (the reader rejects the rest) and sized by
@@ -143,7 +164,7 @@ fn step_all(
             "{overflow} samples gave a non-finite output and were held out"
         ));
     }
-    values
+    (values, bands)
 }
 
 /// Runs `model` over one run file.
@@ -154,8 +175,12 @@ pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Pre
     let dt = model.model().dt_s;
     if !model.kind().is_dynamic() {
         let inputs: Vec<Vec<Option<f64>>> = columns.iter().map(|c| c.to_vec()).collect();
-        let values = step_all(model, &inputs, n, &mut notes);
-        return Ok(Prediction { values, notes });
+        let (values, bands) = step_all(model, &inputs, n, &mut notes);
+        return Ok(Prediction {
+            values,
+            bands,
+            notes,
+        });
     }
     let sampling = run.sampling();
     let median = sampling.dt_median_s.unwrap_or(dt);
@@ -215,16 +240,21 @@ pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Pre
             "{bridged} missing input cells bridged by linear interpolation (the model's state needs every sample)"
         ));
     }
-    let on_grid_values = step_all(model, &inputs, grid.len(), &mut notes);
-    let values = if on_grid {
-        on_grid_values
-    } else {
-        on_grid_values
-            .iter()
-            .map(|v| resample_linear(&grid, v, &run.t_s))
-            .collect()
+    let (on_grid_values, on_grid_bands) = step_all(model, &inputs, grid.len(), &mut notes);
+    let back = |cols: Vec<Vec<Option<f64>>>| -> Vec<Vec<Option<f64>>> {
+        if on_grid {
+            cols
+        } else {
+            cols.iter()
+                .map(|v| resample_linear(&grid, v, &run.t_s))
+                .collect()
+        }
     };
-    Ok(Prediction { values, notes })
+    Ok(Prediction {
+        values: back(on_grid_values),
+        bands: back(on_grid_bands),
+        notes,
+    })
 }
 
 #[cfg(test)]

@@ -119,6 +119,134 @@ pub struct TargetChoice {
     pub cv_rmse: f64,
     /// 95 % half-width of the CV error: the band the blob carries.
     pub half_width_95: f64,
+    /// How the band was calibrated on the CV residuals.
+    pub band: Band,
+}
+
+/// The 95 % band of a target, calibrated on its cross-validation
+/// residuals: `half_width * (1 + growth * d)`, `d` the extrapolation of the
+/// inputs beyond the calibration envelope in envelope widths. In the CV each
+/// held-out fold is measured against the envelope of the other folds, so
+/// the folds that hold new conditions teach the band how fast it must widen.
+#[derive(Clone, Debug, Serialize)]
+pub struct Band {
+    /// 95 % quantile of |CV residual|.
+    pub half_width: f64,
+    /// Widening per envelope width of extrapolation.
+    pub growth: f64,
+    /// Calibration samples outside the other folds' envelope by more than
+    /// the hub's flag threshold.
+    pub extrapolating_samples: usize,
+    /// Coverage of the band on the CV residuals, %.
+    pub cv_coverage_pct: f64,
+}
+
+/// Growths tried, smallest first.
+const GROWTHS: [f64; 10] = [0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
+
+/// Fewest extrapolating CV samples from which the growth is fitted; with
+/// fewer the band widens at the model-core default of 1 per envelope width.
+const MIN_EXTRAPOLATING: usize = 20;
+
+impl Band {
+    /// The half-width is the 95 % quantile of `|r|`; the growth is the
+    /// smallest of [`GROWTHS`] that covers 95 % of the residuals whose
+    /// inputs lay beyond the flag threshold outside the other folds' envelope.
+    pub fn calibrate(r: &[f64], d: &[f64]) -> Self {
+        let half_width = quantile_abs(r, 0.95);
+        let flag = model_core::model::EXTRAPOLATION_FLAG_AT;
+        let out: Vec<(f64, f64)> = r
+            .iter()
+            .zip(d)
+            .filter(|(_, d)| **d > flag)
+            .map(|(r, d)| (*r, *d))
+            .collect();
+        let covered = |g: f64, set: &[(f64, f64)]| {
+            let n = set
+                .iter()
+                .filter(|(r, d)| r.abs() <= half_width * (1.0 + g * d))
+                .count();
+            100.0 * n as f64 / set.len().max(1) as f64
+        };
+        let growth = if out.len() < MIN_EXTRAPOLATING {
+            1.0
+        } else {
+            GROWTHS
+                .iter()
+                .copied()
+                .find(|&g| covered(g, &out) >= 95.0)
+                .unwrap_or(GROWTHS[GROWTHS.len() - 1])
+        };
+        let all: Vec<(f64, f64)> = r.iter().copied().zip(d.iter().copied()).collect();
+        Self {
+            half_width,
+            growth,
+            extrapolating_samples: out.len(),
+            cv_coverage_pct: covered(growth, &all),
+        }
+    }
+}
+
+/// Dataset inputs the members read.
+fn used_inputs(members: &[Member]) -> Vec<usize> {
+    let mut used: Vec<usize> = members
+        .iter()
+        .flat_map(|m| m.features.iter().map(|f| f.input))
+        .collect();
+    used.sort_unstable();
+    used.dedup();
+    used
+}
+
+/// For each calibration sample (in `fold` order), how far its inputs `used`
+/// lie outside the envelope of the other folds' calibration samples, in
+/// envelope widths (model-core `Span::outside`, the hub's measure).
+fn cv_extrapolation(
+    x: &[Vec<Vec<f64>>],
+    fold: &[Option<usize>],
+    n_folds: usize,
+    used: &[usize],
+) -> Vec<f64> {
+    let rows = || {
+        x.iter()
+            .flat_map(|run| (0..run[0].len()).map(move |k| (run, k)))
+    };
+    // env[f][j]: span of input used[j] over samples not in fold f.
+    let mut env = vec![
+        vec![
+            Span {
+                min: f64::INFINITY,
+                max: f64::NEG_INFINITY
+            };
+            used.len()
+        ];
+        n_folds
+    ];
+    for ((run, k), f) in rows().zip(fold) {
+        let Some(f) = *f else { continue };
+        for (g, e) in env.iter_mut().enumerate() {
+            if g == f {
+                continue;
+            }
+            for (j, &i) in used.iter().enumerate() {
+                e[j].min = e[j].min.min(run[i][k]);
+                e[j].max = e[j].max.max(run[i][k]);
+            }
+        }
+    }
+    rows()
+        .zip(fold)
+        .filter_map(|((run, k), f)| {
+            let e = env.get((*f)?)?;
+            Some(
+                used.iter()
+                    .zip(e)
+                    .filter(|(_, s)| s.min <= s.max)
+                    .map(|(&i, s)| s.outside(run[i][k]))
+                    .fold(0.0, f64::max),
+            )
+        })
+        .collect()
 }
 
 /// What `--json` reports of an auto fit.
@@ -219,7 +347,12 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
         let y: Vec<f64> = grid.iter().flat_map(|g| g.y[j].iter().copied()).collect();
         let found = search::search(&forms, &y, &fold, n_folds, s, &|| pb.inc(1))
             .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?;
-        let hw = quantile_abs(&found.cv_residuals, 0.95);
+        let form = found.members[0].form;
+        let used = used_inputs(&found.members);
+        let x = &xs.iter().find(|(f, _)| *f == form).expect("both forms").1;
+        let d = cv_extrapolation(x, &fold, n_folds, &used);
+        let band = Band::calibrate(&found.cv_residuals, &d);
+        let hw = band.half_width;
         let cv_rmse = rms(&found.cv_residuals);
         choices.push(TargetChoice {
             target: target.clone(),
@@ -227,6 +360,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
             cv_table: found.table,
             cv_rmse,
             half_width_95: hw,
+            band,
         });
         winners.push((found.members, hw));
     }

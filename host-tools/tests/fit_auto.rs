@@ -1,0 +1,304 @@
+//! `thermcomp fit --model auto` end to end on runs of known structure: the
+//! input form chosen per target across runs, a lagged heat source found,
+//! the CV table and the band reported, and `predict --interval`.
+
+mod common;
+
+use common::{ok, ok_json, p, write};
+use serde_json::Value;
+use std::path::Path;
+
+/// A first-order lag of `u` with time constant `tau_s` at step `dt_s`,
+/// started in steady state (the filter the fbank kind runs).
+fn lag(u: &[f64], tau_s: f64, dt_s: f64) -> Vec<f64> {
+    let p = (-dt_s / tau_s).exp();
+    let mut s = u[0];
+    u.iter()
+        .map(|&v| {
+            s = p * s + (1.0 - p) * v;
+            s
+        })
+        .collect()
+}
+
+/// One run at 60 s for `hours`: T1 warms with the spindle (speed steps),
+/// T2 follows the room, which starts at `room_c`; `target(t1, t2, speed)`
+/// gives dz_um per row.
+fn run_file(
+    dir: &Path,
+    name: &str,
+    hours: usize,
+    room_c: f64,
+    speeds: &[f64],
+    target: &dyn Fn(&[f64], &[f64], &[f64]) -> Vec<f64>,
+) -> String {
+    let n = hours * 60;
+    let block = n / speeds.len();
+    let speed: Vec<f64> = (0..n)
+        .map(|k| speeds[(k / block).min(speeds.len() - 1)])
+        .collect();
+    let heat: Vec<f64> = speed.iter().map(|s| (s / 1000.0).powi(2)).collect();
+    let warm = lag(&heat, 1800.0, 60.0);
+    let t2: Vec<f64> = (0..n)
+        .map(|k| room_c + 0.8 * (k as f64 / 200.0).sin())
+        .collect();
+    let t1: Vec<f64> = warm.iter().zip(&t2).map(|(w, r)| r + 0.4 * w).collect();
+    let y = target(&t1, &t2, &speed);
+    let mut s = String::from("t_s,speed_rpm,T1,T2,dz_um\n");
+    for k in 0..n {
+        s.push_str(&format!(
+            "{},{},{:.6},{:.6},{:.6}\n",
+            k * 60,
+            speed[k],
+            t1[k],
+            t2[k],
+            y[k]
+        ));
+    }
+    write(dir, name, &s)
+}
+
+fn fit(args: &[&str]) -> Value {
+    let mut a = vec!["fit", "--model", "auto", "--target", "dz_um"];
+    a.extend_from_slice(args);
+    a.push("--json");
+    ok_json(&a)
+}
+
+fn chosen_forms(v: &Value) -> Vec<String> {
+    v["details"]["targets"][0]["forms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap().to_string())
+        .collect()
+}
+
+fn holdout_rmse(v: &Value) -> f64 {
+    v["targets"]["dz_um"]["holdout"]["rmse_um"]
+        .as_f64()
+        .unwrap()
+}
+
+#[test]
+fn across_runs_the_form_follows_the_data_absolute_here() {
+    // dz = 3 (T2 - 20): the room's absolute temperature, which differs from
+    // run to run; a change-form model cannot see the 4 K between runs.
+    let dir = tempfile::tempdir().unwrap();
+    let f = |_: &[f64], t2: &[f64], _: &[f64]| t2.iter().map(|v| 3.0 * (v - 20.0)).collect();
+    let runs: Vec<String> = [18.0, 22.0, 20.0]
+        .iter()
+        .enumerate()
+        .map(|(i, room)| {
+            run_file(
+                dir.path(),
+                &format!("r{i}.csv"),
+                8,
+                *room,
+                &[0.0, 3000.0],
+                &f,
+            )
+        })
+        .collect();
+    let held = run_file(dir.path(), "v.csv", 8, 24.0, &[0.0, 3000.0], &f);
+    let out = dir.path().join("m.bin");
+    let v = fit(&[
+        "--data",
+        &runs[0],
+        "--data",
+        &runs[1],
+        "--data",
+        &runs[2],
+        "--validate",
+        &held,
+        "--out",
+        p(&out),
+    ]);
+    assert!(v["details"]["scheme"]
+        .as_str()
+        .unwrap()
+        .starts_with("leave one run out"));
+    assert!(
+        chosen_forms(&v).iter().all(|f| f == "absolute"),
+        "{:?}",
+        chosen_forms(&v)
+    );
+    // The held-out run starts 2 K warmer than any calibration run: the exact
+    // relation extrapolates; 0.05 um covers the 6-digit rounding of the file
+    // and the ridge penalty's shrinkage.
+    let r = holdout_rmse(&v);
+    assert!(r < 0.05, "held-out rmse {r}");
+}
+
+#[test]
+fn across_runs_the_form_follows_the_data_change_here() {
+    // dz = 5 (T1 - T1(0)): the error starts at zero in every run whatever the
+    // room temperature, as on a machine zeroed at each run start.
+    let dir = tempfile::tempdir().unwrap();
+    let f = |t1: &[f64], _: &[f64], _: &[f64]| t1.iter().map(|v| 5.0 * (v - t1[0])).collect();
+    let runs: Vec<String> = [18.0, 22.0, 20.0]
+        .iter()
+        .enumerate()
+        .map(|(i, room)| {
+            run_file(
+                dir.path(),
+                &format!("r{i}.csv"),
+                8,
+                *room,
+                &[0.0, 3000.0],
+                &f,
+            )
+        })
+        .collect();
+    let held = run_file(dir.path(), "v.csv", 8, 25.0, &[0.0, 3000.0], &f);
+    let out = dir.path().join("m.bin");
+    let v = fit(&[
+        "--data",
+        &runs[0],
+        "--data",
+        &runs[1],
+        "--data",
+        &runs[2],
+        "--validate",
+        &held,
+        "--out",
+        p(&out),
+    ]);
+    assert!(
+        chosen_forms(&v).iter().all(|f| f == "change"),
+        "{:?}",
+        chosen_forms(&v)
+    );
+    let r = holdout_rmse(&v);
+    assert!(r < 0.05, "held-out rmse {r}");
+}
+
+#[test]
+fn a_lagged_squared_speed_is_found_and_extrapolates() {
+    // dz = 2 * lag(n^2 / 1e6, 2700 s): exactly a heat-source feature of the
+    // bank. Calibrate at 2000/4000 rpm, hold out 6000 rpm (beyond the
+    // calibration range, where a linear-in-speed model would fall short).
+    let dir = tempfile::tempdir().unwrap();
+    let f = |_: &[f64], _: &[f64], s: &[f64]| {
+        let h: Vec<f64> = s.iter().map(|v| (v / 1000.0).powi(2)).collect();
+        lag(&h, 2700.0, 60.0).iter().map(|v| 2.0 * v).collect()
+    };
+    let data = run_file(
+        dir.path(),
+        "r.csv",
+        24,
+        20.0,
+        &[2000.0, 0.0, 4000.0, 0.0, 6000.0, 0.0],
+        &f,
+    );
+    let out = dir.path().join("m.bin");
+    let v = fit(&[
+        "--data",
+        &data,
+        "--holdout-from-s",
+        "57600",
+        "--out",
+        p(&out),
+    ]);
+    assert!(v["details"]["scheme"]
+        .as_str()
+        .unwrap()
+        .contains("contiguous blocks"));
+    // The table lists every candidate, best first, and marks the averaged ones.
+    let table = v["details"]["targets"][0]["cv_table"].as_array().unwrap();
+    assert!(table.len() >= 20, "{} candidates", table.len());
+    let cv: Vec<f64> = table
+        .iter()
+        .map(|r| r["cv_rmse"].as_f64().unwrap())
+        .collect();
+    assert!(cv.windows(2).all(|w| w[0] <= w[1]), "sorted best first");
+    let chosen = table
+        .iter()
+        .filter(|r| r["chosen"] == Value::Bool(true))
+        .count();
+    assert!((1..=5).contains(&chosen), "{chosen} chosen");
+    // Held-out reduction: the peak is 72 um at 6000 rpm; 98 % leaves under
+    // 2 % of the mean error, room for the other filters the average carries.
+    let red = v["targets"]["dz_um"]["holdout"]["reduction_pct"]
+        .as_f64()
+        .unwrap();
+    assert!(red > 98.0, "held-out reduction {red} %");
+}
+
+#[test]
+fn predict_interval_brackets_the_prediction_and_widens_outside_the_envelope() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = |t1: &[f64], _: &[f64], _: &[f64]| t1.iter().map(|v| 4.0 * (v - t1[0])).collect();
+    let data = run_file(
+        dir.path(),
+        "r.csv",
+        24,
+        20.0,
+        &[1000.0, 0.0, 2000.0, 0.0, 6000.0, 0.0],
+        &f,
+    );
+    let model = dir.path().join("m.bin");
+    fit(&[
+        "--data",
+        &data,
+        "--holdout-from-s",
+        "57600",
+        "--out",
+        p(&model),
+    ]);
+    let pred = dir.path().join("p.csv");
+    ok(&[
+        "predict",
+        "--model",
+        p(&model),
+        "--data",
+        &data,
+        "--out",
+        p(&pred),
+        "--interval",
+    ]);
+    let text = std::fs::read_to_string(&pred).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "t_s,dz_um_pred,dz_um_lo95,dz_um_hi95"
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 24 * 60, "row for row");
+    let half = |r: &Vec<f64>| (r[3] - r[2]) / 2.0;
+    for r in &rows {
+        assert!(r[2] <= r[1] && r[1] <= r[3], "{r:?}");
+        // Symmetric band: the prediction in the middle (1e-9 for rounding).
+        assert!(((r[2] + r[3]) / 2.0 - r[1]).abs() < 1e-9);
+    }
+    // Calibration rows sit inside the envelope: the band is the CV half-width
+    // there; at 6000 rpm (row 1000 on) T1 leaves it and the band widens.
+    let cal = half(&rows[100]);
+    let hot = rows[1000..1200].iter().map(half).fold(0.0, f64::max);
+    assert!(cal > 0.0);
+    assert!(
+        hot > cal * 1.5,
+        "band {cal} in calibration, {hot} at 6000 rpm"
+    );
+    // A model without bounds refuses --interval in one line.
+    let spec = write(
+        dir.path(),
+        "lin.toml",
+        "kind = \"linear\"\n[[linear]]\noutput = \"dz_um\"\nintercept = 0.0\ncoef = { T1 = 1.0 }\n",
+    );
+    let lin = dir.path().join("lin.bin");
+    ok(&["model", "build", "--spec", &spec, "--out", p(&lin)]);
+    let e = common::fails_one_line(&[
+        "predict",
+        "--model",
+        p(&lin),
+        "--data",
+        &data,
+        "--out",
+        p(&pred),
+        "--interval",
+    ]);
+    assert!(e.contains("no error band"), "{e}");
+}
