@@ -15,6 +15,8 @@
 //! upload:  let hub = Hub::load(slot_b); (low priority, slow)
 //!          pipeline.lock(|p| p.swap_model(hub));  (between two samples)
 //! command: pipeline.lock(|p| p.set_tool_length_mm(mm));
+//!          (also at each sample with a tool length received over CAN,
+//!          `cnc_inputs::CncInputs::take_tool_mm`)
 //! ```
 //!
 //! # What happens per sample
@@ -22,7 +24,10 @@
 //! 1. Each model input gets one [`Reading`], in the model's input order.
 //!    An input named [`TOOL_INPUT`] (`tool_mm`) takes the length last set by
 //!    [`Pipeline::set_tool_length_mm`] instead (its reading is ignored; until
-//!    a length is set the input counts as stale). A temperature
+//!    a length is set the input counts as stale; the length is latched, it
+//!    never goes stale by age). Speed, power and a position arrive as
+//!    [`Reading::Direct`] from the CNC's frames, [`Reading::Stale`] once
+//!    their timeout has passed (`cnc_inputs`). A temperature
 //!    ([`Reading::Value`]) must be finite and on the RTD curve (-200..=850 C)
 //!    and passes the spike filter (`spike`); a [`Reading::Direct`] value
 //!    (speed, power, position) must be finite and within model-core's input
@@ -399,6 +404,7 @@ pub struct Pipeline {
     offsets_um: [f64; MAX_OUTPUTS],
     seq: u32,
     uploading: bool,
+    extrapolating: bool,
 }
 
 impl Pipeline {
@@ -422,6 +428,7 @@ impl Pipeline {
             offsets_um: [0.0; MAX_OUTPUTS],
             seq: 0,
             uploading: false,
+            extrapolating: false,
         })
     }
 
@@ -475,6 +482,14 @@ impl Pipeline {
     /// [`StatusFlags::UPLOADING`] in every report until cleared).
     pub fn set_uploading(&mut self, uploading: bool) {
         self.uploading = uploading;
+    }
+
+    /// Marks the model as evaluated outside its calibrated envelope: every
+    /// report of a running model carries [`StatusFlags::EXTRAPOLATING`]
+    /// until cleared (off at start; whoever judges the envelope sets it
+    /// before each sample).
+    pub fn set_extrapolating(&mut self, extrapolating: bool) {
+        self.extrapolating = extrapolating;
     }
 
     /// Installs a new hub (its model already decoded and validated, e.g. by
@@ -576,6 +591,9 @@ impl Pipeline {
                 faulty_channels: 0,
             };
         };
+        if self.extrapolating {
+            flags.set(StatusFlags::EXTRAPOLATING);
+        }
         let n_in = model.inputs().len().min(MAX_INPUTS);
         let n_out = model.outputs().len().min(MAX_OUTPUTS);
 
@@ -867,6 +885,20 @@ mod tests {
         assert!(r.flags.has(StatusFlags::UPLOADING | StatusFlags::NO_MODEL));
         p.set_uploading(false);
         assert!(!p.on_sample(&[]).flags.has(StatusFlags::UPLOADING));
+    }
+
+    #[test]
+    fn extrapolating_flag_is_off_unless_set() {
+        let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        p.set_tool_length_mm(0.0).unwrap();
+        let good = [Reading::Value(20.0)];
+        assert!(!p.on_sample(&good).flags.has(StatusFlags::EXTRAPOLATING));
+        p.set_extrapolating(true);
+        let r = p.on_sample(&good);
+        assert!(r.flags.has(StatusFlags::EXTRAPOLATING));
+        assert_eq!(r.flags.0, StatusFlags::EXTRAPOLATING, "nothing else: {r:?}");
+        p.set_extrapolating(false);
+        assert!(!p.on_sample(&good).flags.has(StatusFlags::EXTRAPOLATING));
     }
 
     #[test]
