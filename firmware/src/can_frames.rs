@@ -14,6 +14,9 @@
 //! | 0x481 | SLOPE        | 8   | every sample, once per positional model output |
 //! | 0x701 | HEARTBEAT    | 1   | every [`Heartbeat`] period (NMT state)   |
 //!
+//! The frames the hub receives from the CNC (0x201, 0x301) are in
+//! `can_rx`.
+//!
 //! Offsets are signed 16-bit in 0.1 um: thermal offsets are tens of um and
 //! the hub clamps them to +-500 um, so +-3276.7 um leaves a 6x margin while
 //! 0.1 um is finer than any machine's positioning resolution. Values beyond a
