@@ -489,10 +489,10 @@ mod glue {
         use core::cell::RefCell;
         use embedded_hal_bus::spi::RefCellDevice;
         use firmware::can_frames::StatusInfo;
-        use firmware::cnc_inputs::{CncInput, CncInputs};
+        use firmware::cnc_inputs::CncInputs;
         use firmware::commands::{self, Event, SharedPipeline};
         use firmware::offsets::MAX_INPUTS;
-        use firmware::pipeline::{Pipeline, Reading, TOOL_INPUT};
+        use firmware::pipeline::{Pipeline, Reading};
         use firmware::protocol::{Command, HubMessage};
         use firmware::rtd::Converter;
         use firmware::upload::Uploader;
@@ -686,26 +686,21 @@ mod glue {
                         model.inputs().len(),
                         model.outputs().len()
                     );
-                    let position = model.position_inputs();
                     for (j, input) in model.inputs().iter().enumerate() {
-                        let name = input.name.as_str();
-                        let from_cnc = name == TOOL_INPUT
-                            || CncInput::for_input(name, position >> j & 1 != 0).is_some();
-                        match board::rtd_channel(name) {
-                            Some(k) => {
-                                defmt::info!(
-                                    "  input {=usize} {=str} <- RTD{=usize}",
-                                    j,
-                                    name,
-                                    k + 1
-                                )
-                            }
-                            None if from_cnc => {
-                                defmt::info!("  input {=usize} {=str} <- CAN (CNC)", j, name)
-                            }
-                            None => {
-                                defmt::warn!("  input {=usize} {=str}: no source, stale", j, name)
-                            }
+                        match board::rtd_channel(input.name.as_str()) {
+                            Some(k) => defmt::info!(
+                                "  input {=usize} {=str} <- RTD{=usize}",
+                                j,
+                                input.name.as_str(),
+                                k + 1
+                            ),
+                            // Speed, power, tool length, a position: from
+                            // the CNC (`cnc_inputs`); anything else: stale.
+                            None => defmt::info!(
+                                "  input {=usize} {=str} (not an RTD)",
+                                j,
+                                input.name.as_str()
+                            ),
                         }
                     }
                 }
