@@ -201,10 +201,8 @@ pub fn gather(
         .into_iter()
         .flat_map(|m| m.inputs().iter().map(|c| c.name.as_str()));
     crate::rtd::gather(names, read_rtd, |j, name| {
-        let is_position = u32::try_from(j)
-            .ok()
-            .and_then(|j| position.checked_shr(j))
-            .is_some_and(|m| m & 1 != 0);
+        // j < MAX_INPUTS <= 32 (`rtd::gather` stops there).
+        let is_position = j < 32 && position >> j & 1 != 0;
         CncInput::for_input(name, is_position).map_or(Reading::Stale, |i| cnc.reading(i, now_ms))
     })
 }
