@@ -14,13 +14,14 @@
 //!
 //! The inputs the CNC sends the hub over CAN (`speed_rpm`, `power_kw`,
 //! `tool_mm`, a positional output's position; `firmware::can_rx`) arrive
-//! as CAN frames: at each sample, the run's cells at that sample's row are
+//! as CAN frames: at each sample, the run's values at that time are
 //! encoded into SPINDLE (0x201) and TOOL_POSITION (0x301) frames (an empty
 //! cell or an absent column is "not available"; a frame with nothing
 //! available is not sent), written to the candump log before that sample's
 //! own frames, and decoded by `firmware::cnc_inputs::CncInputs` as on the
-//! board. These columns are not interpolated: a run of empty cells is a
-//! CNC that stopped sending, and the input goes stale after the timeout
+//! board. Between two rows with a value it is interpolated (a frame every
+//! sample), but never across an empty cell: a run of empty cells is a CNC
+//! that stopped sending, and the input goes stale after the timeout
 //! (`board::CNC_INPUT_TIMEOUT_MS`), holding and then ramping the offsets.
 //! The tool length is latched in the pipeline as the board does.
 //!
@@ -93,21 +94,32 @@ enum Source {
     Tool,
 }
 
-/// The run's cells at each grid time, not interpolated: the cell of the
-/// row within half a period of it, `None` where there is none or it is
-/// empty (the CNC sent nothing for that sample).
-fn cells_at(t_s: &[f64], x: &[Option<f64>], grid: &[f64], dt: f64) -> Vec<Option<f64>> {
+/// What the CNC sends at each grid time: the cell of a row at that time,
+/// or, between two rows that both have the value, the value interpolated
+/// between them (a run logged more coarsely than the hub samples does not
+/// mean the CNC sent more rarely); `None` (no frame) from a row with an
+/// empty cell to the next row with a value, and outside the run: a gap of
+/// rows is a CNC that stopped sending. Unlike `resample_linear`, which
+/// bridges gaps for the temperatures.
+fn cnc_values(t_s: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option<f64>> {
+    let cell = |r: usize| x.get(r).copied().flatten().filter(|v| v.is_finite());
     let mut r = 0;
     grid.iter()
         .map(|&g| {
-            while r + 1 < t_s.len() && t_s[r + 1] <= g + 0.5 * dt {
+            while t_s.get(r + 1).is_some_and(|&t| t <= g) {
                 r += 1;
             }
-            let near = t_s.get(r).is_some_and(|&t| (t - g).abs() < 0.5 * dt);
-            x.get(r)
-                .copied()
-                .flatten()
-                .filter(|v| near && v.is_finite())
+            let t0 = *t_s.get(r)?;
+            let x0 = cell(r)?;
+            if t0 == g {
+                return Some(x0);
+            }
+            let (t1, x1) = (*t_s.get(r + 1)?, cell(r + 1)?);
+            if !(t0 < g && g < t1) {
+                return None;
+            }
+            let w = (g - t0) / (t1 - t0);
+            Some(x0 * (1.0 - w) + x1 * w)
         })
         .collect()
 }
@@ -320,7 +332,7 @@ fn replay_run(
                 // Absent column: the CNC never sends it.
                 return Ok(run.column(c).map_or_else(
                     || vec![None; grid.len()],
-                    |col| cells_at(&run.t_s, col, &grid, dt),
+                    |col| cnc_values(&run.t_s, col, &grid),
                 ));
             }
             run.column(c)
@@ -519,4 +531,30 @@ fn replay_run(
         }
     }
     Ok(tally)
+}
+
+#[cfg(test)]
+mod tests {
+    /// Interpolated between rows that both have the value, never across
+    /// an empty cell (the CNC stopped sending), nothing outside the run.
+    #[test]
+    fn cnc_values_bridge_rows_but_not_gaps() {
+        let t = [0.0, 60.0, 120.0, 180.0];
+        let x = [Some(0.0), Some(600.0), None, Some(1200.0)];
+        let grid: Vec<f64> = (0..=8).map(|k| f64::from(k) * 30.0).collect();
+        assert_eq!(
+            super::cnc_values(&t, &x, &grid),
+            [
+                Some(0.0),
+                Some(300.0),
+                Some(600.0),
+                None,
+                None,
+                None,
+                Some(1200.0),
+                None,
+                None
+            ]
+        );
+    }
 }
