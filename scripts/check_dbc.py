@@ -44,13 +44,25 @@ HAND_VECTORS = [
     # SENSOR_FAULT | NO_MODEL, channels 0 and 23 faulty, 24 inputs, 4 outputs
     (0x281, "4100010080981E09",
      {"SensorFault": 1, "SpikeRejected": 0, "Stale": 0, "ModelFault": 0, "Clamped": 0,
-      "SlewLimited": 0, "NoModel": 1, "Uploading": 0, "Recovering": 0, "FaultyChannels": 0x800001,
+      "SlewLimited": 0, "NoModel": 1, "Uploading": 0, "Recovering": 0, "Extrapolating": 0,
+      "FaultyChannels": 0x800001,
       "InputCount": 24, "OutputCount": 4, "ConsecutiveFaults": 30, "Counter": 9}),
     # 4th output -0.1 um
     (0x381, "FFFF000000000100", {"OffsetOut4": -0.1, "HubState": 1, "Counter": 0}),
     # slope 1 um/m = 1000 counts, reference 100 mm, output 2
     (0x481, "E803000064000203", {"Slope": 1.0, "ReferencePos": 100, "SlopeOutput": 2, "Counter": 3}),
     (0x701, "05", {"NmtState": 5}),
+    # EXTRAPOLATING alone (bit 9), Running, 3 inputs, 1 output
+    (0x281, "0002000000230000",
+     {"SensorFault": 0, "SpikeRejected": 0, "Stale": 0, "ModelFault": 0, "Clamped": 0,
+      "SlewLimited": 0, "NoModel": 0, "Uploading": 0, "Recovering": 0, "Extrapolating": 1,
+      "FaultyChannels": 0, "InputCount": 3, "OutputCount": 1, "ConsecutiveFaults": 0, "Counter": 0}),
+    # From the CNC: 12000 rpm (1,200,000 x 0.01 rpm), 15.5 kW (1550 x 0.01 kW)
+    (0x201, "804F12000E060000", {"SpindleSpeed": 12000.0, "SpindlePower": 15.5}),
+    # -1 rpm, power not available (0x7FFF)
+    (0x201, "9CFFFFFFFF7F0000", {"SpindleSpeed": -1.0, "SpindlePower": 327.67}),
+    # tool 100 mm (100,000 x 0.001 mm), position not available (0x7FFFFFFF)
+    (0x301, "A0860100FFFFFF7F", {"ToolLength": 100.0, "AxisPosition": 2147483.647}),
 ]
 
 

@@ -128,7 +128,9 @@ pub const IWDG_TIMEOUT_MIN_MS: u32 = IWDG_TIMEOUT_MS * 32 / 47;
 /// A model input named `T<k>` (`T1`, `T2`, ... no leading zero) is read
 /// from RTD channel `k`, i.e. the chip on the `k`-th entry of
 /// [`RTD_CS_PINS`] ([`rtd_channel`] gives the 0-based index). The tool
-/// length input (`tool_mm`) comes from the `SetToolLength` command. Any
+/// length input (`tool_mm`) comes from the CNC's TOOL_POSITION frame or the
+/// `SetToolLength` command; `speed_rpm`, `power_kw` and a positional
+/// output's position from the CNC's frames (`can_rx`, `cnc_inputs`). Any
 /// other input, or `T<k>` with `k` beyond [`RTD_CHANNELS`], has no source
 /// and reads as stale every sample (so such a model holds its offsets).
 pub const RTD_CHANNELS: usize = 8;
@@ -167,6 +169,14 @@ pub const RTD_WIRES: u8 = 3;
 /// often, ms; the configured ones have their configuration read back at the
 /// same rate (a brown-out resets a chip to "no conversions" silently).
 pub const RTD_RETRY_MS: u32 = 10_000;
+
+/// How long a value received from the CNC (spindle speed, power, axis
+/// position; `cnc_inputs`) stays valid, ms. A CNC or PLC sends them every
+/// 100 ms to 1 s; 5 s rides out a few lost frames or a PLC cycle stall
+/// (5 samples at 1 Hz), while a stopped sender is flagged within seconds,
+/// long before the thermal error moves (drift < 0.1 um/s, `limiter`).
+/// The tool length does not time out (it is sent on tool changes only).
+pub const CNC_INPUT_TIMEOUT_MS: u32 = 5_000;
 
 /// One MCU pin and what it is wired to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -298,6 +308,8 @@ const _: () = {
     assert!(RTD_MAINS_HZ == 50 || RTD_MAINS_HZ == 60);
     assert!(RTD_WIRES >= 2 && RTD_WIRES <= 4);
     assert!(RTD_RETRY_MS >= SAMPLE_PERIOD_MS);
+    // A CNC value must survive at least one sample period.
+    assert!(CNC_INPUT_TIMEOUT_MS >= SAMPLE_PERIOD_MS);
     assert!(IWDG_TIMEOUT_MS < 32_768); // HAL limit
     assert!(CAN_HEARTBEAT_ID <= 0x7FF); // 11-bit standard id
     assert!(RTD_SPI_HZ <= 5_000_000);

@@ -14,6 +14,9 @@
 //! | 0x481 | SLOPE        | 8   | every sample, once per positional model output |
 //! | 0x701 | HEARTBEAT    | 1   | every [`Heartbeat`] period (NMT state)   |
 //!
+//! The frames the hub receives from the CNC (0x201, 0x301) are in
+//! `can_rx`.
+//!
 //! Offsets are signed 16-bit in 0.1 um: thermal offsets are tens of um and
 //! the hub clamps them to +-500 um, so +-3276.7 um leaves a 6x margin while
 //! 0.1 um is finer than any machine's positioning resolution. Values beyond a
@@ -162,7 +165,7 @@ impl core::fmt::Display for RawFrame {
 
 /// Rounds `value / scale` to the nearest integer (half away from zero) and
 /// saturates to `[min, max]`; NaN gives 0. No libm needed.
-fn quantise(value: f64, scale: f64, min: i64, max: i64) -> i64 {
+pub(crate) fn quantise(value: f64, scale: f64, min: i64, max: i64) -> i64 {
     let x = value / scale;
     if x.is_nan() {
         return 0;
@@ -182,7 +185,7 @@ fn offset_raw(um: f64) -> [u8; 2] {
     i16::try_from(raw).unwrap_or(0).to_le_bytes()
 }
 
-fn frame<F: Frame>(id: u16, data: &[u8]) -> Option<F> {
+pub(crate) fn frame<F: Frame>(id: u16, data: &[u8]) -> Option<F> {
     F::new(StandardId::new(id)?, data)
 }
 
@@ -374,7 +377,8 @@ impl Default for Heartbeat {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum DecodeError {
-    /// Not one of the hub's ids (or an extended or remote frame).
+    /// Not one of the hub's ids, or for `can_rx::decode_rx` not one the
+    /// hub receives (or an extended or remote frame).
     UnknownId,
     /// The data length is not the frame's.
     BadLength {
@@ -454,7 +458,7 @@ pub enum Message {
     Heartbeat(u8),
 }
 
-fn data8<F: Frame>(frame: &F) -> Result<[u8; 8], DecodeError> {
+pub(crate) fn data8<F: Frame>(frame: &F) -> Result<[u8; 8], DecodeError> {
     <[u8; 8]>::try_from(frame.data()).map_err(|_| DecodeError::BadLength {
         expected: 8,
         found: u8::try_from(frame.dlc()).unwrap_or(u8::MAX),

@@ -3,7 +3,8 @@
 //! is tested on the host (the RTIC task only locks, feeds and logs).
 //!
 //! - `Ping` answers `Pong` with the protocol version.
-//! - `SetToolLength` sets the pipeline's tool length (refused out of range).
+//! - `SetToolLength` sets the pipeline's tool length (refused out of range):
+//!   the same latch the CNC's TOOL_POSITION frame sets (`cnc_inputs`).
 //! - Upload commands go to the [`Uploader`]; the pipeline shows
 //!   `UPLOADING` while one is in progress (set *before* the erase, which
 //!   stalls the CPU, so the CNC sees why frames pause), the watchdog is fed

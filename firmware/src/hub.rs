@@ -93,6 +93,8 @@ pub struct Hub {
     positional: u8,
     faults: Faults,
     last_fault: Option<StepError>,
+    /// `ValidModel::extrapolation` after the last good step.
+    extrapolation: f64,
 }
 
 impl Hub {
@@ -114,6 +116,7 @@ impl Hub {
             slopes: [0.0; MAX_OUTPUTS],
             faults: Faults::default(),
             last_fault: None,
+            extrapolation: 0.0,
         }
     }
 
@@ -145,6 +148,13 @@ impl Hub {
     /// Whether the model has taken a sample (its references are set).
     pub fn started(&self) -> bool {
         self.state.started()
+    }
+
+    /// Whether the last good sample's inputs lay outside the model's
+    /// calibration envelope by more than `EXTRAPOLATION_FLAG_AT` (10 % of
+    /// an input's calibration range); false for a model without bounds.
+    pub fn extrapolating(&self) -> bool {
+        self.extrapolation > model_core::model::EXTRAPOLATION_FLAG_AT
     }
 
     /// Refused samples so far.
@@ -193,6 +203,7 @@ impl Hub {
             });
         match result {
             Ok(()) => {
+                self.extrapolation = model.extrapolation(&self.state, readings);
                 self.offsets = out;
                 self.slopes = slopes;
                 self.faults.consecutive = 0;

@@ -25,6 +25,10 @@
 //!   for measuring what the model path costs in flash and RAM.
 //! * [`can_frames`]: the CAN frames the CNC reads (spec: `docs/wire-format.md`,
 //!   `thermcomp.dbc`).
+//! * [`can_rx`]: the CAN frames the hub receives from the CNC (spindle
+//!   speed and power, tool length, axis position).
+//! * `cnc_inputs` (feature `model`): which model input each received value
+//!   feeds, its timeout, the tool length's latch.
 //! * [`protocol`]: the serial link's COBS/postcard messages.
 //! * `upload` (feature `model`): model upload into the inactive A/B slot.
 //! * `commands` (feature `model`): what each serial command does to the hub.
@@ -33,6 +37,7 @@
 
 pub mod board;
 pub mod can_frames;
+pub mod can_rx;
 pub mod layout;
 pub mod offsets;
 pub mod protocol;
@@ -59,6 +64,9 @@ pub mod pipeline;
 
 #[cfg(feature = "model")]
 pub mod rtd;
+
+#[cfg(feature = "model")]
+pub mod cnc_inputs;
 
 #[cfg(feature = "model")]
 pub mod hub;

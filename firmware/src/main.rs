@@ -23,8 +23,15 @@
 //!     `Pipeline::on_sample`, feeds the watchdog and queues the result for
 //!     `emit`; every `board::RTD_RETRY_MS` it restarts converters that are
 //!     down and reads back the configuration of the others (`firmware::rtd`).
+//!     The values the CNC sent over CAN (speed, power, axis position) are
+//!     read through `cnc_inputs::gather` (stale after
+//!     `board::CNC_INPUT_TIMEOUT_MS`); a tool length received since the
+//!     last sample goes into the pipeline's tool-length latch first.
 //!   - `emit` (priority 1): COBS telemetry on USART2, OFFSETS/STATUS
 //!     (/OFFSETS_EXT) and the heartbeat on CAN1 (`can_frames`).
+//!   - `can_rx` (interrupt CAN1_RX0, priority 3): the CNC's frames
+//!     (`can_rx`; CAN1's filter passes only 0x201 and 0x301 into FIFO 0),
+//!     stored with their arrival time in a small shared `CncInputs`.
 //!   - `usart2` (interrupt, priority 3): bytes into a `protocol::FrameReader`,
 //!     decoded commands through an `rtic_sync` channel to `command`.
 //!   - `command` (priority 1): ping, tool length, and model uploads through
@@ -50,7 +57,7 @@ fn main() {
 
 #[cfg(not(target_os = "none"))]
 mod host {
-    use firmware::{board, can_frames, layout};
+    use firmware::{board, can_frames, can_rx, layout};
 
     /// Human-readable byte count.
     fn size(bytes: u32) -> String {
@@ -147,7 +154,7 @@ mod host {
             board::RTD_MAINS_HZ,
             board::RTD_RETRY_MS
         );
-        println!("  model input T<k> reads channel k; tool_mm comes from SetToolLength; other inputs read stale");
+        println!("  model input T<k> reads channel k; speed_rpm, power_kw, tool_mm and a position come from the CNC (below); other inputs read stale");
         for (k, pin) in board::RTD_CS_PINS.iter().enumerate() {
             let input = format!("T{}", k + 1);
             debug_assert_eq!(board::rtd_channel(&input), Some(k));
@@ -193,6 +200,25 @@ mod host {
             "  heartbeat period {} ms; offsets {} um/bit",
             can_frames::DEFAULT_HEARTBEAT_MS,
             can_frames::OFFSET_UM_PER_BIT
+        );
+        println!("  received from the CNC (CANopen RPDO1/RPDO2; raw 0x7FFF.. = not available):");
+        println!(
+            "  0x{:03X}  {:<14} speed_rpm i32 {} rpm/bit, power_kw i16 {} kW/bit",
+            can_rx::SPINDLE_ID,
+            "SPINDLE",
+            can_rx::SPEED_RPM_PER_BIT,
+            can_rx::POWER_KW_PER_BIT
+        );
+        println!(
+            "  0x{:03X}  {:<14} tool_mm i32 {} mm/bit (latched), position i32 {} mm/bit",
+            can_rx::TOOL_POSITION_ID,
+            "TOOL_POSITION",
+            can_rx::TOOL_MM_PER_BIT,
+            can_rx::POSITION_MM_PER_BIT
+        );
+        println!(
+            "  CNC input timeout {} ms: speed, power, position stale after it (hold, ramp); tool length never times out",
+            board::CNC_INPUT_TIMEOUT_MS
         );
         println!();
 
@@ -463,6 +489,7 @@ mod glue {
         use core::cell::RefCell;
         use embedded_hal_bus::spi::RefCellDevice;
         use firmware::can_frames::StatusInfo;
+        use firmware::cnc_inputs::CncInputs;
         use firmware::commands::{self, Event, SharedPipeline};
         use firmware::offsets::MAX_INPUTS;
         use firmware::pipeline::{Pipeline, Reading};
@@ -483,6 +510,32 @@ mod glue {
         pub type RtdDevice<'a> = RefCellDevice<'a, Spi<pac::SPI1>, SharedCs<'a>, CycleDelay>;
         /// All converters.
         pub type Bank<'a> = [Converter<RtdDevice<'a>>; board::RTD_CHANNELS];
+        /// The values received from the CNC, shared by `can_rx` and `sample`.
+        pub type Cnc = CncInputs;
+
+        /// Nothing received yet.
+        pub const fn new_cnc() -> Cnc {
+            CncInputs::new(board::CNC_INPUT_TIMEOUT_MS)
+        }
+
+        /// One frame from the CNC into the store (`can_rx` task).
+        pub fn receive(cnc: &mut Cnc, frame: &bxcan::Frame, now_ms: u32) {
+            // Only a wrong DLC fails (the filter passes only the CNC's
+            // ids); logged at debug level, which costs no flash in the
+            // default (info) build.
+            if cnc.on_frame(frame, now_ms).is_err() {
+                defmt::debug!("CAN1: frame from the CNC with a wrong DLC ignored");
+            }
+        }
+
+        /// What `sample` takes from the store under its lock: a copy (old
+        /// values expired first) and the tool length received since the
+        /// last sample.
+        pub fn take_cnc(cnc: &mut Cnc, now_ms: u32) -> (Cnc, Option<f64>) {
+            cnc.expire(now_ms);
+            let tool_mm = cnc.take_tool_mm();
+            (*cnc, tool_mm)
+        }
 
         /// Every converter: auto conversions, the board's wiring and mains
         /// filter, full-range fault window (only open/short trip it).
@@ -541,16 +594,22 @@ mod glue {
             }
         }
 
-        /// One sample: read the converters the model's inputs name, run the
-        /// pipeline.
-        pub fn sample(p: &mut Pipeline, bank: &mut Bank<'_>) -> Sampled {
+        /// One sample: latch a tool length received over CAN, read the
+        /// converters the model's inputs name and the CNC's values at
+        /// `now_ms`, run the pipeline.
+        pub fn sample(
+            p: &mut Pipeline,
+            bank: &mut Bank<'_>,
+            (cnc, tool_mm): (Cnc, Option<f64>),
+            now_ms: u32,
+        ) -> Sampled {
+            if let Some(mm) = tool_mm {
+                if p.set_tool_length_mm(mm).is_err() {
+                    defmt::warn!("CAN1: tool length out of range, the old one stays");
+                }
+            }
             let n = p.hub().input_count().min(MAX_INPUTS);
-            let names = p
-                .hub()
-                .model()
-                .into_iter()
-                .flat_map(|m| m.inputs().iter().map(|c| c.name.as_str()));
-            let (readings, temps_c) = firmware::rtd::gather(names, |k| {
+            let (readings, temps_c) = firmware::cnc_inputs::gather(p.hub(), &cnc, now_ms, |k| {
                 bank.get_mut(k).map_or(Reading::Stale, |ch| ch.read())
             });
             let report = p.on_sample(readings.get(..n).unwrap_or(&[]));
@@ -638,6 +697,8 @@ mod glue {
                                 input.name.as_str(),
                                 k + 1
                             ),
+                            // Speed, power, tool length, a position: from
+                            // the CNC (`cnc_inputs`); anything else: stale.
                             None => defmt::info!(
                                 "  input {=usize} {=str} (not an RTD)",
                                 j,
@@ -667,8 +728,23 @@ mod glue {
         pub type Upload = ();
         pub type RtdHw = ();
         pub type Bank<'a> = ();
+        /// Nothing from the CNC is used without a model.
+        pub type Cnc = ();
 
-        pub fn sample(seq: &mut u32, _bank: &mut ()) -> Sampled {
+        pub const fn new_cnc() -> Cnc {}
+
+        pub fn receive(_cnc: &mut Cnc, _frame: &bxcan::Frame, _now_ms: u32) {}
+
+        pub fn take_cnc(_cnc: &mut Cnc, _now_ms: u32) -> (Cnc, Option<f64>) {
+            ((), None)
+        }
+
+        pub fn sample(
+            seq: &mut u32,
+            _bank: &mut (),
+            _cnc: (Cnc, Option<f64>),
+            _now_ms: u32,
+        ) -> Sampled {
             let report = Report {
                 seq: *seq,
                 flags: StatusFlags(StatusFlags::NO_MODEL),
@@ -709,11 +785,13 @@ mod glue {
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true, dispatchers = [UART4, UART5])]
 mod app {
-    use crate::glue::{self, Core, RtdHw, Sampled, Upload};
+    use crate::glue::{self, Cnc, Core, RtdHw, Sampled, Upload};
     use crate::rt::Mono;
+    use bxcan::filter::ListEntry16;
     use bxcan::{Frame, Mailbox};
     use core::mem::MaybeUninit;
     use firmware::can_frames::{encode_report, Heartbeat, NmtState, DEFAULT_HEARTBEAT_MS};
+    use firmware::can_rx::{SPINDLE_ID, TOOL_POSITION_ID};
     use firmware::protocol::{
         self, Command, CommandKind, ErrorCode, FrameError, FrameReader, HubMessage, Telemetry,
         COMMAND_FRAME_MAX, HUB_FRAME_MAX,
@@ -754,6 +832,10 @@ mod app {
         core: &'static mut Core,
         watchdog: IndependentWatchdog,
         tx: Tx<pac::USART2>,
+        /// CAN1: `emit` transmits, `can_rx` receives.
+        can: bxcan::Can<Can<pac::CAN1>>,
+        /// The CNC's values as received (`can_rx`), read by `sample`.
+        cnc: Cnc,
     }
 
     #[local]
@@ -766,7 +848,6 @@ mod app {
         sampled_tx: Sender<'static, Sampled, EMIT_QUEUE>,
         sampled_rx: Receiver<'static, Sampled, EMIT_QUEUE>,
         uploader: Upload,
-        can: bxcan::Can<Can<pac::CAN1>>,
     }
 
     // `core_slot` starts uninitialised (.bss, not flash); `MaybeUninit::write`
@@ -842,9 +923,19 @@ mod app {
         // `leave_disabled` instead of `enable`: `enable` blocks until it sees 11
         // recessive bits, which never happens without a transceiver. `emit`
         // finishes enabling without blocking.
-        let can = bxcan::Can::builder(dp.CAN1.can((gpioa.pa12, gpioa.pa11), &mut rcc))
+        let mut can = bxcan::Can::builder(dp.CAN1.can((gpioa.pa12, gpioa.pa11), &mut rcc))
             .set_bit_timing(board::CAN_TIMING.btr())
             .leave_disabled();
+        // Only the CNC's two frames reach FIFO 0 (list mode: exact ids,
+        // data frames); its interrupt wakes `can_rx`.
+        let entry = |id: u16| match bxcan::StandardId::new(id) {
+            Some(id) => ListEntry16::data_frames_with_id(id),
+            None => defmt::panic!("CAN id beyond 11 bits"),
+        };
+        let (spindle, tool) = (entry(SPINDLE_ID), entry(TOOL_POSITION_ID));
+        can.modify_filters()
+            .enable_bank(0, bxcan::Fifo::Fifo0, [spindle, tool, spindle, tool]);
+        can.enable_interrupt(bxcan::Interrupt::Fifo0MessagePending);
 
         let (cmd_tx, cmd_rx) = rtic_sync::make_channel!(Incoming, COMMAND_QUEUE);
         let (sampled_tx, sampled_rx) = rtic_sync::make_channel!(Sampled, EMIT_QUEUE);
@@ -865,7 +956,13 @@ mod app {
         emit::spawn().ok();
 
         (
-            Shared { core, watchdog, tx },
+            Shared {
+                core,
+                watchdog,
+                tx,
+                can,
+                cnc: glue::new_cnc(),
+            },
             Local {
                 rtd_hw,
                 rx,
@@ -874,7 +971,6 @@ mod app {
                 sampled_tx,
                 sampled_rx,
                 uploader,
-                can,
             },
         )
     }
@@ -945,7 +1041,7 @@ mod app {
     /// the model needs, run the pipeline, feed the watchdog, hand the
     /// result to `emit`. Converters are configured at the start and then
     /// serviced every `board::RTD_RETRY_MS`.
-    #[task(priority = 2, shared = [core, watchdog], local = [rtd_hw, sampled_tx])]
+    #[task(priority = 2, shared = [core, watchdog, cnc], local = [rtd_hw, sampled_tx])]
     async fn sample(mut cx: sample::Context) {
         #[cfg(feature = "model")]
         let (bus, cs) = {
@@ -976,10 +1072,14 @@ mod app {
         let mut next = Mono::now();
         let mut next_service = next + retry;
         loop {
-            let (sampled, period_ms) = cx
-                .shared
-                .core
-                .lock(|core| (glue::sample(core, &mut bank), glue::period_ms(core)));
+            let now_ms = Mono::now().as_ticks();
+            let cnc = cx.shared.cnc.lock(|c| glue::take_cnc(c, now_ms));
+            let (sampled, period_ms) = cx.shared.core.lock(|core| {
+                (
+                    glue::sample(core, &mut bank, cnc, now_ms),
+                    glue::period_ms(core),
+                )
+            });
             cx.shared.watchdog.lock(|w| w.feed());
             if cx.local.sampled_tx.try_send(sampled).is_err() {
                 defmt::warn!(
@@ -1048,6 +1148,24 @@ mod app {
         }
     }
 
+    /// The CNC's frames (`can_rx`): decoded and stored with their arrival
+    /// time for `sample`. Same priority as `usart2`; both are short.
+    #[task(binds = CAN1_RX0, priority = 3, shared = [can, cnc])]
+    fn can_rx(mut cx: can_rx::Context) {
+        let now_ms = Mono::now().as_ticks();
+        loop {
+            // FIFO 0 only: the filter routes nothing to FIFO 1.
+            match cx.shared.can.lock(|can| can.rx0().receive()) {
+                Ok(frame) => cx.shared.cnc.lock(|cnc| glue::receive(cnc, &frame, now_ms)),
+                Err(stm32f4xx_hal::nb::Error::WouldBlock) => break,
+                // The flag is cleared by the read; the frames still queued follow.
+                Err(stm32f4xx_hal::nb::Error::Other(_)) => {
+                    defmt::warn!("CAN1: receive FIFO overrun, a frame from the CNC lost")
+                }
+            }
+        }
+    }
+
     /// Serial commands, lowest priority: uploads (the erase stalls the CPU),
     /// tool length, ping. One reply per command.
     #[task(priority = 1, shared = [core, watchdog, tx], local = [cmd_rx, uploader])]
@@ -1090,12 +1208,12 @@ mod app {
     /// Report one sample: telemetry on USART2; OFFSETS/STATUS(/OFFSETS_EXT)
     /// and the heartbeat on CAN1. Lower priority than `sample`, so a slow
     /// UART or a busy bus never delays sampling.
-    #[task(priority = 1, shared = [tx], local = [sampled_rx, can, can_up: bool = false, heartbeat: Heartbeat = Heartbeat::new(DEFAULT_HEARTBEAT_MS)])]
+    #[task(priority = 1, shared = [tx, can], local = [sampled_rx, can_up: bool = false, heartbeat: Heartbeat = Heartbeat::new(DEFAULT_HEARTBEAT_MS)])]
     async fn emit(mut cx: emit::Context) {
         while let Ok(s) = cx.local.sampled_rx.recv().await {
             report(
                 &mut cx.shared.tx,
-                cx.local.can,
+                &mut cx.shared.can,
                 cx.local.can_up,
                 cx.local.heartbeat,
                 &s,
@@ -1107,7 +1225,7 @@ mod app {
     /// One sample out on USART2 and CAN1.
     async fn report(
         tx: &mut impl rtic::Mutex<T = Tx<pac::USART2>>,
-        can: &mut bxcan::Can<Can<pac::CAN1>>,
+        can: &mut impl rtic::Mutex<T = bxcan::Can<Can<pac::CAN1>>>,
         can_up: &mut bool,
         heartbeat: &mut Heartbeat,
         s: &Sampled,
@@ -1117,7 +1235,7 @@ mod app {
         send(tx, &HubMessage::Telemetry(telemetry));
 
         if !*can_up {
-            *can_up = can.enable_non_blocking().is_ok();
+            *can_up = can.lock(|can| can.enable_non_blocking().is_ok());
             if !*can_up {
                 defmt::debug!("CAN1 waiting for bus idle");
                 return;
@@ -1126,9 +1244,11 @@ mod app {
         }
         // Frames still pending from the last sample are a period old (no
         // ACK on the bus): drop them so fresh ones go out when it recovers.
-        for mailbox in [Mailbox::Mailbox0, Mailbox::Mailbox1, Mailbox::Mailbox2] {
-            can.abort(mailbox);
-        }
+        can.lock(|can| {
+            for mailbox in [Mailbox::Mailbox0, Mailbox::Mailbox1, Mailbox::Mailbox2] {
+                can.abort(mailbox);
+            }
+        });
         // Ascending ids, so a later frame never displaces an earlier one.
         let mut sent = 0u32;
         let frames = encode_report::<Frame>(&s.report, &s.info);
@@ -1154,9 +1274,12 @@ mod app {
     }
 
     /// Queues one frame, waiting up to `CAN_TX_TRIES` ms for a free mailbox.
-    async fn transmit(can: &mut bxcan::Can<Can<pac::CAN1>>, frame: &Frame) -> bool {
+    async fn transmit(
+        can: &mut impl rtic::Mutex<T = bxcan::Can<Can<pac::CAN1>>>,
+        frame: &Frame,
+    ) -> bool {
         for _ in 0..CAN_TX_TRIES {
-            match can.transmit(frame) {
+            match can.lock(|can| can.transmit(frame)) {
                 Ok(_) => return true,
                 Err(stm32f4xx_hal::nb::Error::WouldBlock) => Mono::delay(ms(1)).await,
                 Err(stm32f4xx_hal::nb::Error::Other(never)) => match never {},

@@ -15,6 +15,8 @@
 //! upload:  let hub = Hub::load(slot_b); (low priority, slow)
 //!          pipeline.lock(|p| p.swap_model(hub));  (between two samples)
 //! command: pipeline.lock(|p| p.set_tool_length_mm(mm));
+//!          (also at each sample with a tool length received over CAN,
+//!          `cnc_inputs::CncInputs::take_tool_mm`)
 //! ```
 //!
 //! # What happens per sample
@@ -22,7 +24,10 @@
 //! 1. Each model input gets one [`Reading`], in the model's input order.
 //!    An input named [`TOOL_INPUT`] (`tool_mm`) takes the length last set by
 //!    [`Pipeline::set_tool_length_mm`] instead (its reading is ignored; until
-//!    a length is set the input counts as stale). A temperature
+//!    a length is set the input counts as stale; the length is latched, it
+//!    never goes stale by age). Speed, power and a position arrive as
+//!    [`Reading::Direct`] from the CNC's frames, [`Reading::Stale`] once
+//!    their timeout has passed (`cnc_inputs`). A temperature
 //!    ([`Reading::Value`]) must be finite and on the RTD curve (-200..=850 C)
 //!    and passes the spike filter (`spike`); a [`Reading::Direct`] value
 //!    (speed, power, position) must be finite and within model-core's input
@@ -650,6 +655,9 @@ impl Pipeline {
             let out = self.hub.on_sample(inputs.get(..n_in).unwrap_or(&[]));
             if out.fresh {
                 model_out = Some((out.values, out.slopes));
+                if self.hub.extrapolating() {
+                    flags.set(StatusFlags::EXTRAPOLATING);
+                }
             } else {
                 flags.set(StatusFlags::MODEL_FAULT);
             }
@@ -868,6 +876,51 @@ mod tests {
         assert!(r.flags.has(StatusFlags::UPLOADING | StatusFlags::NO_MODEL));
         p.set_uploading(false);
         assert!(!p.on_sample(&[]).flags.has(StatusFlags::UPLOADING));
+    }
+
+    #[test]
+    fn extrapolating_flag_follows_the_model_envelope() {
+        // T1's rise calibrated on 0..10 K (from 20 C): 33 C lies 30 % of
+        // the range outside, above the 10 % flag threshold; 30.5 C (5 %)
+        // does not.
+        let mut m = crate::test_util::first_order_tf("T1", 1.0).into_model();
+        m.bounds = Some(model_core::model::Bounds {
+            envelope: crate::test_util::vec(&[model_core::model::Span {
+                min: 0.0,
+                max: 10.0,
+            }]),
+            half_width: crate::test_util::vec(&[1.0]),
+        });
+        let m = m.validate().unwrap();
+        let mut p = Pipeline::new(hub(&m), PipelineConfig::DEFAULT).unwrap();
+        let flagged = |p: &mut Pipeline, t: f64| {
+            p.on_sample(&[Reading::Value(t)])
+                .flags
+                .has(StatusFlags::EXTRAPOLATING)
+        };
+        assert!(!flagged(&mut p, 20.0));
+        // Climb slowly (the spike filter passes 0.5 K a sample).
+        let mut t: f64 = 20.0;
+        while t < 30.5 {
+            t += 0.4;
+            p.on_sample(&[Reading::Value(t.min(30.5))]);
+        }
+        assert!(!flagged(&mut p, 30.5), "5 % outside: not flagged");
+        let mut t: f64 = 30.5;
+        while t < 33.0 {
+            t += 0.4;
+            p.on_sample(&[Reading::Value(t.min(33.0))]);
+        }
+        let r = p.on_sample(&[Reading::Value(33.0)]);
+        assert!(r.flags.has(StatusFlags::EXTRAPOLATING), "{r:?}");
+        assert_eq!(r.state, HubState::Running, "a flag, not a fault");
+        // A model without bounds never raises it.
+        let mut q = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        q.set_tool_length_mm(0.0).unwrap();
+        assert!(!q
+            .on_sample(&[Reading::Value(20.0)])
+            .flags
+            .has(StatusFlags::EXTRAPOLATING));
     }
 
     #[test]

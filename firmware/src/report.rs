@@ -69,6 +69,12 @@ impl StatusFlags {
     /// A failed input reads good again but has not yet done so for the
     /// recovery time: the offsets stay at (or keep ramping to) zero.
     pub const RECOVERING: u16 = 1 << 8;
+    /// The model is evaluated outside the envelope it was fitted on
+    /// (inputs beyond their calibrated range): its offsets are
+    /// extrapolated. Set by the hub after each good step when an input lies
+    /// more than `EXTRAPOLATION_FLAG_AT` of its calibration range outside the
+    /// model's envelope (models with bounds: `fit --model auto`).
+    pub const EXTRAPOLATING: u16 = 1 << 9;
 
     /// Whether every bit of `mask` is set.
     pub const fn has(self, mask: u16) -> bool {

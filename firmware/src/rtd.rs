@@ -32,22 +32,30 @@ use crate::pipeline::{ChannelFault, Reading};
 
 /// One sample's readings in the model's input order: an input named
 /// `T<k>` is read from RTD channel `k - 1` ([`board::rtd_channel`]) by
-/// `read(channel)`; any other input (speed, power, a position) is
-/// [`Reading::Stale`]: the hub reads only its RTDs (the tool length and a
-/// position are filled in by the pipeline). Also the temperatures read, for
-/// telemetry (NaN where there is none).
+/// `read(channel)`; any other input (speed, power, a position, the tool
+/// length) from `other(input index, name)` (on the board:
+/// `cnc_inputs::gather`, the values received from the CNC). Also the
+/// temperatures read, for telemetry (NaN where there is none).
 pub fn gather<'a>(
     input_names: impl IntoIterator<Item = &'a str>,
     mut read: impl FnMut(usize) -> Reading,
+    mut other: impl FnMut(usize, &str) -> Reading,
 ) -> ([Reading; MAX_INPUTS], [f64; MAX_INPUTS]) {
     let mut readings = [Reading::Stale; MAX_INPUTS];
     let mut temps_c = [f64::NAN; MAX_INPUTS];
-    for ((r, t), name) in readings.iter_mut().zip(&mut temps_c).zip(input_names) {
+    for (j, ((r, t), name)) in readings
+        .iter_mut()
+        .zip(&mut temps_c)
+        .zip(input_names)
+        .enumerate()
+    {
         if let Some(k) = board::rtd_channel(name) {
             *r = read(k);
             if let Reading::Value(v) = *r {
                 *t = v;
             }
+        } else {
+            *r = other(j, name);
         }
     }
     (readings, temps_c)
@@ -154,18 +162,27 @@ impl<D: SpiDevice> Converter<D> {
 #[cfg(test)]
 mod tests {
     /// `T<k>` inputs are read from channel k - 1, in the model's input
-    /// order; other names stay stale and unread; faults pass through.
+    /// order; other names go to `other` with their index; faults pass through.
     #[test]
     fn gather_reads_rtd_inputs_by_name_in_model_order() {
         let mut asked = std::vec::Vec::new();
-        let (r, t) = super::gather(["T3", "speed_rpm", "T1", "T9"], |k| {
-            asked.push(k);
-            match k {
-                2 => Reading::Value(31.5),
-                0 => Reading::Fault(ChannelFault::Open),
-                _ => Reading::Stale,
-            }
-        });
+        let mut others = std::vec::Vec::new();
+        let (r, t) = super::gather(
+            ["T3", "speed_rpm", "T1", "T9"],
+            |k| {
+                asked.push(k);
+                match k {
+                    2 => Reading::Value(31.5),
+                    0 => Reading::Fault(ChannelFault::Open),
+                    _ => Reading::Stale,
+                }
+            },
+            |j, name| {
+                others.push((j, name.to_string()));
+                Reading::Stale
+            },
+        );
+        assert_eq!(others, [(1, "speed_rpm".into()), (3, "T9".into())]);
         assert_eq!(asked, [2, 0], "T9 is past the board's 8 channels");
         assert_eq!(r[0], Reading::Value(31.5));
         assert_eq!(r[1], Reading::Stale);

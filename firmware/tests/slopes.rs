@@ -149,3 +149,35 @@ fn slope_holds_then_ramps_to_zero_on_a_sensor_fault() {
     assert_eq!(n, held.ceil() as usize, "1 um/m per sample from {held}");
     assert_eq!(p.on_sample(&bad).state, HubState::Zeroed);
 }
+
+/// The axis position from the CNC (TOOL_POSITION frame) reaches the
+/// position input through `cnc_inputs::gather`, but the offsets and slope
+/// do not depend on it: the CNC applies the slope at its own position. So
+/// the frames stopping (position stale) changes nothing either.
+#[test]
+fn a_received_position_is_gathered_but_does_not_move_the_offsets() {
+    use firmware::can_rx::{encode_tool_position, ToolPosition};
+    use firmware::cnc_inputs::{gather, CncInputs};
+    let (mut with, mut without) = (pipeline(), pipeline());
+    let mut cnc = CncInputs::new(5_000);
+    let frame: RawFrame = encode_tool_position(&ToolPosition {
+        tool_mm: None,
+        position_mm: Some(450.0),
+    })
+    .unwrap();
+    cnc.on_frame(&frame, 0).unwrap();
+    for s in 0..20u32 {
+        let now_ms = s * 1_000;
+        let (r, _) = gather(with.hub(), &cnc, now_ms, |_| Reading::Value(22.0));
+        let want = if s <= 5 {
+            Reading::Direct(450.0)
+        } else {
+            Reading::Stale
+        };
+        assert_eq!(r[1], want, "sample {s}");
+        let a = with.on_sample(&r[..2]);
+        let b = without.on_sample(&[Reading::Value(22.0), Reading::Stale]);
+        assert_eq!(a, b, "sample {s}");
+        assert_eq!(a.faulty_channels, 0);
+    }
+}

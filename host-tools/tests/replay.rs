@@ -350,3 +350,129 @@ fn positional_model_replays_as_slopes_that_reproduce_predict() {
     assert!(worst <= 0.0, "beyond the slope's resolution by {worst} um");
     assert!(compared > 6500, "{compared} samples compared");
 }
+
+/// dz_um = 0.5 T1 + 0.002 speed_rpm + 0.01 tool_mm: speed and tool length
+/// come from the CNC over CAN (`firmware::can_rx`), not from the hub.
+const SPEED_SPEC: &str = r#"
+kind = "linear"
+
+[[linear]]
+output = "dz_um"
+intercept = 0.0
+coef = { T1 = 0.5, speed_rpm = 0.002, tool_mm = 0.01 }
+"#;
+
+/// Spindle speed arrives in SPINDLE frames and the offsets follow it; the
+/// tool length arrives twice (tool changes) and stays latched; when the
+/// speed frames stop, the value is used for the 5 s timeout, then the input
+/// is stale: hold 60 s, ramp at 1 um/s to zero (supervisor defaults).
+#[test]
+fn speed_from_can_frames_follows_then_times_out_holds_and_ramps() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(dir.path(), "s.toml", SPEED_SPEC);
+    let blob = dir.path().join("m.bin");
+    ok(&["model", "build", "--spec", &spec, "--out", p(&blob)]);
+    // 1 s rows; speed ramps 0 -> 6000 rpm over 100 s; the CNC stops
+    // sending it from row 300 on; tools of 100 and 200 mm at rows 0, 150.
+    let mut run = String::from("t_s,T1,speed_rpm,tool_mm\n");
+    for k in 0..420 {
+        let speed = if k < 300 {
+            format!("{}", (60 * k).min(6000))
+        } else {
+            String::new()
+        };
+        let tool = match k {
+            0 => "100.0",
+            150 => "200.0",
+            _ => "",
+        };
+        run.push_str(&format!("{k},20.0,{speed},{tool}\n"));
+    }
+    let run = write(dir.path(), "run.csv", &run);
+    let (log, trace) = (dir.path().join("out.log"), dir.path().join("trace.csv"));
+    let j = ok_json(&[
+        "replay",
+        "--model",
+        p(&blob),
+        "--data",
+        &run,
+        "--candump",
+        p(&log),
+        "--trace",
+        p(&trace),
+        "--json",
+    ]);
+    let r = &j["runs"][0];
+    assert_eq!(r["samples"], 420);
+    assert_eq!(
+        r["rx_frames"],
+        300 + 2,
+        "a SPINDLE per speed cell, two tool changes"
+    );
+    // The frames from the CNC are in the log, before each sample's own.
+    let text = std::fs::read_to_string(&log).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.iter().filter(|l| l.contains(" 201#")).count(), 300);
+    let tools: Vec<&&str> = lines.iter().filter(|l| l.contains(" 301#")).collect();
+    // 100 mm = 100000 = 0x0186A0, position not available.
+    assert_eq!(*tools[0], "(0.000000) can0 301#A0860100FFFFFF7F");
+    assert!(tools[1].starts_with("(150.000000) "));
+    assert!(lines[0].contains(" 201#") && lines[2].contains(" 181#"));
+
+    let t = read_csv(p(&trace));
+    let (state, sent, speed) = (&t["state"], &t["dz_um_sent"], &t["speed_rpm"]);
+    // Follows: 10 um from T1 (PT100 quantisation: +-0.02 um), 0.002 um/rpm,
+    // 0.01 um/mm of tool; frames carry 0.1 um.
+    for (k, want) in [
+        (50, 10.0 + 6.0 + 1.0),
+        (120, 10.0 + 12.0 + 1.0),
+        (250, 24.0),
+    ] {
+        assert!(
+            (sent[k] - want).abs() <= 0.08,
+            "sample {k}: {} vs {want}",
+            sent[k]
+        );
+        assert_eq!(state[k], 1.0);
+    }
+    assert_eq!(t["tool_mm"][299], 200.0, "latched, never stale");
+    // The last speed frame came at sample 299; it serves samples 300..=304.
+    assert!(state[..305].iter().all(|s| *s == 1.0));
+    assert_eq!(speed[304], 6000.0);
+    assert!(speed[305].is_nan(), "stale from sample 305");
+    let first_bad = state.iter().position(|s| *s != 1.0).unwrap();
+    assert_eq!(first_bad, 305);
+    // Hold 60 samples, flagged STALE (bit 2).
+    let held = sent[304];
+    for k in 305..365 {
+        assert_eq!(state[k], 2.0, "sample {k}");
+        assert_eq!(sent[k], held);
+        assert_ne!((t["flags"][k] as u16) & (1 << 2), 0);
+    }
+    // STATUS names the stale input: FaultyChannels has speed_rpm's bit only.
+    let header = std::fs::read_to_string(&trace).unwrap();
+    let speed_input = header
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "speed_rpm")
+        .unwrap()
+        - 1;
+    let status = lines
+        .iter()
+        .find(|l| l.starts_with("(305.000000) ") && l.contains(" 281#"))
+        .unwrap();
+    let hex = status.rsplit_once('#').unwrap().1;
+    let faulty = u32::from_str_radix(&hex[4..6], 16).unwrap();
+    assert_eq!(faulty, 1 << speed_input, "{status}");
+    assert_eq!(state[365], 3.0, "ramping after the hold time");
+    assert!((sent[365] - (held - 1.0)).abs() < 1e-9, "1 um/s");
+    let zeroed = state.iter().position(|s| *s == 4.0).unwrap();
+    assert_eq!(
+        zeroed,
+        365 + held.ceil() as usize - 1,
+        "{held} um at 1 um/s"
+    );
+    assert_eq!(*sent.last().unwrap(), 0.0);
+}

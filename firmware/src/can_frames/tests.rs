@@ -214,7 +214,7 @@ fn vector(name: &str, f: &RawFrame, signals: &[(&str, f64)]) -> std::string::Str
 }
 
 fn flag_signals(flags: StatusFlags) -> std::vec::Vec<(&'static str, f64)> {
-    const NAMES: [&str; 9] = [
+    const NAMES: [&str; 10] = [
         "SensorFault",
         "SpikeRejected",
         "Stale",
@@ -224,6 +224,7 @@ fn flag_signals(flags: StatusFlags) -> std::vec::Vec<(&'static str, f64)> {
         "NoModel",
         "Uploading",
         "Recovering",
+        "Extrapolating",
     ];
     NAMES
         .iter()
@@ -288,7 +289,8 @@ fn vectors() -> std::string::String {
         StatusFlags::SENSOR_FAULT
             | StatusFlags::STALE
             | StatusFlags::CLAMPED
-            | StatusFlags::RECOVERING,
+            | StatusFlags::RECOVERING
+            | StatusFlags::EXTRAPOLATING,
     );
     fault.faulty_channels = 0x80_0005;
     let info = StatusInfo {
@@ -338,6 +340,70 @@ fn vectors() -> std::string::String {
     }
     let f: RawFrame = encode_heartbeat(NmtState::Operational).unwrap();
     out.push(vector("heartbeat_operational", &f, &[("NmtState", 5.0)]));
+
+    // Frames the hub receives (`can_rx`); "not available" is the raw
+    // 0x7FFF.. value, which the DBC decodes as its scaled number.
+    use crate::can_rx::{
+        decode_rx, encode_spindle, encode_tool_position, RxMessage, Spindle, ToolPosition,
+        NOT_AVAILABLE_I16, NOT_AVAILABLE_I32, POSITION_MM_PER_BIT, POWER_KW_PER_BIT,
+        SPEED_RPM_PER_BIT, TOOL_MM_PER_BIT,
+    };
+    let na32 = |scale: f64| f64::from(NOT_AVAILABLE_I32) * scale;
+    for (name, speed, power) in [
+        ("cnc_spindle_nominal", Some(12_000.0), Some(15.5)),
+        ("cnc_spindle_reverse_braking", Some(-800.25), Some(-2.5)),
+        ("cnc_spindle_not_available", None, None),
+        ("cnc_spindle_saturated", Some(1e12), Some(-1e9)),
+    ] {
+        let f: RawFrame = encode_spindle(&Spindle {
+            speed_rpm: speed,
+            power_kw: power,
+        })
+        .unwrap();
+        let Ok(RxMessage::Spindle(m)) = decode_rx(&f) else {
+            panic!()
+        };
+        out.push(vector(
+            name,
+            &f,
+            &[
+                (
+                    "SpindleSpeed",
+                    m.speed_rpm.unwrap_or(na32(SPEED_RPM_PER_BIT)),
+                ),
+                (
+                    "SpindlePower",
+                    m.power_kw
+                        .unwrap_or(f64::from(NOT_AVAILABLE_I16) * POWER_KW_PER_BIT),
+                ),
+            ],
+        ));
+    }
+    for (name, tool, position) in [
+        ("cnc_tool_position_nominal", Some(123.456), Some(-0.5)),
+        ("cnc_tool_only", Some(250.0), None),
+        ("cnc_position_only", None, Some(600.0)),
+    ] {
+        let f: RawFrame = encode_tool_position(&ToolPosition {
+            tool_mm: tool,
+            position_mm: position,
+        })
+        .unwrap();
+        let Ok(RxMessage::ToolPosition(m)) = decode_rx(&f) else {
+            panic!()
+        };
+        out.push(vector(
+            name,
+            &f,
+            &[
+                ("ToolLength", m.tool_mm.unwrap_or(na32(TOOL_MM_PER_BIT))),
+                (
+                    "AxisPosition",
+                    m.position_mm.unwrap_or(na32(POSITION_MM_PER_BIT)),
+                ),
+            ],
+        ));
+    }
     format!("{{\n  \"vectors\": [\n{}\n  ]\n}}\n", out.join(",\n"))
 }
 

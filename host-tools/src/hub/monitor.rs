@@ -14,7 +14,7 @@ pub struct Names {
 }
 
 /// `StatusFlags` bits and their names (bit positions: the wire format).
-const FLAGS: [(u16, &str); 9] = [
+const FLAGS: [(u16, &str); 10] = [
     (StatusFlags::SENSOR_FAULT, "SENSOR_FAULT"),
     (StatusFlags::SPIKE_REJECTED, "SPIKE_REJECTED"),
     (StatusFlags::STALE, "STALE"),
@@ -24,6 +24,7 @@ const FLAGS: [(u16, &str); 9] = [
     (StatusFlags::NO_MODEL, "NO_MODEL"),
     (StatusFlags::UPLOADING, "UPLOADING"),
     (StatusFlags::RECOVERING, "RECOVERING"),
+    (StatusFlags::EXTRAPOLATING, "EXTRAPOLATING"),
 ];
 
 /// The state's name (`NoModel`, `Running`, ...), or `state N` if unknown.

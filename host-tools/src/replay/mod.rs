@@ -12,8 +12,23 @@
 //! model, the board's default for a static one; inputs are interpolated
 //! linearly onto that grid, and a missing cell reads as a stale sample.
 //!
-//! What differs from the board: no timing (conversions are instant), and
-//! a temperature outside the PT100's range is a converter fault.
+//! The inputs the CNC sends the hub over CAN (`speed_rpm`, `power_kw`,
+//! `tool_mm`, a positional output's position; `firmware::can_rx`) arrive
+//! as CAN frames: at each sample, the run's values at that time are
+//! encoded into SPINDLE (0x201) and TOOL_POSITION (0x301) frames (an empty
+//! cell or an absent column is "not available"; a frame with nothing
+//! available is not sent), written to the candump log before that sample's
+//! own frames, and decoded by `firmware::cnc_inputs::CncInputs` as on the
+//! board. Between two rows with a value it is interpolated (a frame every
+//! sample), but never across an empty cell: a run of empty cells is a CNC
+//! that stopped sending, and the input goes stale after the timeout
+//! (`board::CNC_INPUT_TIMEOUT_MS`), holding and then ramping the offsets.
+//! The tool length is latched in the pipeline as the board does.
+//!
+//! What differs from the board: no timing (conversions are instant, a
+//! frame arrives at its sample's time), a temperature outside the PT100's
+//! range is a converter fault, and an input with no source on the board
+//! (neither an RTD nor a CNC signal) is read from its column.
 
 pub mod virtual_rtd;
 
@@ -22,7 +37,10 @@ use crate::source::RunSource;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use embedded_can::Frame as _;
+use firmware::board::CNC_INPUT_TIMEOUT_MS;
 use firmware::can_frames::{self, Heartbeat, Message, NmtState, RawFrame, StatusInfo};
+use firmware::can_rx::{encode_spindle, encode_tool_position, Spindle, ToolPosition};
+use firmware::cnc_inputs::{CncInput, CncInputs};
 use firmware::hub::Hub;
 use firmware::pipeline::{
     ChannelFault, Pipeline, PipelineConfig, Reading, POSITION_REFERENCE_MM, TOOL_INPUT,
@@ -65,14 +83,45 @@ pub struct ReplayArgs {
 enum Source {
     /// A PT100 on its own MAX31865.
     Rtd(Max31865<VirtualMax31865>, VirtualMax31865),
-    /// A value the hub reads directly (speed, power).
+    /// An input the board has no source for, read from its column.
     Direct,
-    /// A positional output's axis position: the hub does not know it (it
-    /// feeds the reference 0 mm and sends slopes), so the run file need not
-    /// have the column; the trace shows the 0 mm the hub used.
-    Position,
-    /// The tool length, set by a command when it changes.
+    /// Speed, power or a positional output's axis position, received from
+    /// the CNC in frames. The pipeline feeds a position the reference
+    /// 0 mm and sends slopes, so the run file need not have that column;
+    /// the trace shows the 0 mm the hub used.
+    Cnc(CncInput),
+    /// The tool length, received from the CNC and latched.
     Tool,
+}
+
+/// What the CNC sends at each grid time: the cell of a row at that time,
+/// or, between two rows that both have the value, the value interpolated
+/// between them (a run logged more coarsely than the hub samples does not
+/// mean the CNC sent more rarely); `None` (no frame) from a row with an
+/// empty cell to the next row with a value, and outside the run: a gap of
+/// rows is a CNC that stopped sending. Unlike `resample_linear`, which
+/// bridges gaps for the temperatures.
+fn cnc_values(t_s: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option<f64>> {
+    let cell = |r: usize| x.get(r).copied().flatten().filter(|v| v.is_finite());
+    let mut r = 0;
+    grid.iter()
+        .map(|&g| {
+            while t_s.get(r + 1).is_some_and(|&t| t <= g) {
+                r += 1;
+            }
+            let t0 = *t_s.get(r)?;
+            let x0 = cell(r)?;
+            if t0 == g {
+                return Some(x0);
+            }
+            let (t1, x1) = (*t_s.get(r + 1)?, cell(r + 1)?);
+            if !(t0 < g && g < t1) {
+                return None;
+            }
+            let w = (g - t0) / (t1 - t0);
+            Some(x0 * (1.0 - w) + x1 * w)
+        })
+        .collect()
 }
 
 /// Whether a column is a temperature the hub reads through an RTD.
@@ -85,6 +134,7 @@ fn is_rtd_column(name: &str) -> bool {
 struct Tally {
     samples: usize,
     frames: usize,
+    rx_frames: usize,
     states: [usize; 5],
     sensor_faults: usize,
     stale: usize,
@@ -101,10 +151,11 @@ pub fn run(a: &ReplayArgs) -> Result<()> {
         for r in runs {
             let st = &r["states"];
             println!(
-                "{}: {} samples, {} frames; running {}, holding {}, ramping {}, zeroed {}, no model {}",
+                "{}: {} samples, {} frames ({} from the CNC); running {}, holding {}, ramping {}, zeroed {}, no model {}",
                 r["run"].as_str().unwrap_or(""),
                 r["samples"],
                 r["frames"],
+                r["rx_frames"],
                 st["running"],
                 st["holding"],
                 st["ramping"],
@@ -120,7 +171,8 @@ pub fn run(a: &ReplayArgs) -> Result<()> {
 /// Replays every run and writes the candump log (and the trace): everything
 /// `thermcomp replay` does but print. Returns `replay --json`'s object:
 /// `model`, `candump`, `sample_period_s`, `outputs`, and per run `samples`,
-/// `frames`, `states` (samples per hub state), `sensor_fault_samples`,
+/// `frames` (sent by the hub), `rx_frames` (from the CNC), `states`
+/// (samples per hub state), `sensor_fault_samples`,
 /// `stale_samples`, `max_abs_offset_um`. `thermcomp demo` calls it too.
 pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     let bytes =
@@ -145,13 +197,9 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     );
     let map = a.runs.column_map()?;
     let columns: Vec<String> = inputs.iter().map(|n| map.column(n).to_string()).collect();
-    let is_position = |i: usize| position_inputs & (1u32 << i.min(31)) != 0;
-    let needed: Vec<String> = columns
-        .iter()
-        .enumerate()
-        .filter(|&(i, _)| !is_position(i))
-        .map(|(_, c)| c.clone())
-        .collect();
+    // The CNC's columns are optional (absent: no frames), so every column
+    // the model names is read if the file has it.
+    let needed: Vec<String> = columns.clone();
     let runs = a.runs.read(needed)?;
     let mut log = std::io::BufWriter::new(
         std::fs::File::create(&a.candump)
@@ -202,6 +250,7 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
                 "run": name,
                 "samples": t.samples,
                 "frames": t.frames,
+                "rx_frames": t.rx_frames,
                 "states": {
                     "no_model": t.states[0], "running": t.states[1], "holding": t.states[2],
                     "ramping": t.states[3], "zeroed": t.states[4],
@@ -272,12 +321,19 @@ fn replay_run(
         position_inputs,
     } = *shape;
     let is_position = |i: usize| position_inputs & (1u32 << i.min(31)) != 0;
+    let from_cnc = |i: usize, name: &str| {
+        name == TOOL_INPUT || CncInput::for_input(name, is_position(i)).is_some()
+    };
     let values: Vec<Vec<Option<f64>>> = columns
         .iter()
         .enumerate()
         .map(|(i, c)| {
-            if is_position(i) {
-                return Ok(vec![None; grid.len()]);
+            if from_cnc(i, &inputs[i]) {
+                // Absent column: the CNC never sends it.
+                return Ok(run.column(c).map_or_else(
+                    || vec![None; grid.len()],
+                    |col| cnc_values(&run.t_s, col, &grid),
+                ));
             }
             run.column(c)
                 .map(|col| resample_linear(&run.t_s, col, &grid))
@@ -295,18 +351,20 @@ fn replay_run(
         .iter()
         .enumerate()
         .map(|(i, name)| -> Result<Source> {
-            Ok(if is_position(i) {
-                Source::Position
-            } else if name == TOOL_INPUT {
-                Source::Tool
-            } else if is_rtd_column(name) {
-                let chip = VirtualMax31865::new();
-                let driver = Max31865::new(chip.clone(), rtd_cfg)
-                    .map_err(|e| anyhow!("virtual MAX31865 for {name}: {e}"))?;
-                Source::Rtd(driver, chip)
-            } else {
-                Source::Direct
-            })
+            Ok(
+                if let Some(input) = CncInput::for_input(name, is_position(i)) {
+                    Source::Cnc(input)
+                } else if name == TOOL_INPUT {
+                    Source::Tool
+                } else if is_rtd_column(name) {
+                    let chip = VirtualMax31865::new();
+                    let driver = Max31865::new(chip.clone(), rtd_cfg)
+                        .map_err(|e| anyhow!("virtual MAX31865 for {name}: {e}"))?;
+                    Source::Rtd(driver, chip)
+                } else {
+                    Source::Direct
+                },
+            )
         })
         .collect::<Result<_>>()?;
     let channel = RtdChannel::MAX31865_PT100;
@@ -315,26 +373,67 @@ fn replay_run(
         max_abs_um: vec![0.0; n_outputs],
         ..Tally::default()
     };
-    let mut tool_set: Option<f64> = None;
+    let mut cnc = CncInputs::new(CNC_INPUT_TIMEOUT_MS);
+    // The CNC's value of each of its signals at sample `k` (None: not sent).
+    let cnc_value = |want: fn(&Source) -> bool, k: usize| {
+        sources
+            .iter()
+            .zip(&values)
+            .find(|(s, _)| want(s))
+            .and_then(|(_, v)| v[k])
+    };
+    let cnc_columns: Vec<Vec<Option<f64>>> = [
+        (|s: &Source| matches!(s, Source::Cnc(CncInput::Speed))) as fn(&Source) -> bool,
+        |s| matches!(s, Source::Cnc(CncInput::Power)),
+        |s| matches!(s, Source::Tool),
+        |s| matches!(s, Source::Cnc(CncInput::Position)),
+    ]
+    .into_iter()
+    .map(|want| (0..grid.len()).map(|k| cnc_value(want, k)).collect())
+    .collect();
     let mut readings = vec![Reading::Stale; inputs.len()];
     let mut seen = vec![f64::NAN; inputs.len()];
     for (k, &t) in grid.iter().enumerate() {
+        let now_ms = ((t - t0) * 1000.0).round() as u32;
+        // The CNC's frames for this sample, as the board receives them.
+        let spindle = Spindle {
+            speed_rpm: cnc_columns[0][k],
+            power_kw: cnc_columns[1][k],
+        };
+        let tool = ToolPosition {
+            tool_mm: cnc_columns[2][k],
+            position_mm: cnc_columns[3][k],
+        };
+        let mut rx: Vec<RawFrame> = Vec::new();
+        if spindle.speed_rpm.is_some() || spindle.power_kw.is_some() {
+            rx.extend(encode_spindle::<RawFrame>(&spindle));
+        }
+        if tool.tool_mm.is_some() || tool.position_mm.is_some() {
+            rx.extend(encode_tool_position::<RawFrame>(&tool));
+        }
+        for f in &rx {
+            writeln!(log, "({t:.6}) {} {f}", a.interface)?;
+            cnc.on_frame(f, now_ms)
+                .map_err(|e| anyhow!("CNC frame {f}: {e}"))?;
+        }
+        tally.rx_frames += rx.len();
+        // The sampling task: the tool length received goes into the latch.
+        cnc.expire(now_ms);
+        if let Some(mm) = cnc.take_tool_mm() {
+            pipeline
+                .set_tool_length_mm(mm)
+                .map_err(|e| anyhow!("{}: tool_mm {mm} at t = {t} s: {e}", run.path.display()))?;
+        }
         for (i, src) in sources.iter_mut().enumerate() {
             let v = values[i][k];
             readings[i] = match (src, v) {
-                // What the hub feeds a position it does not know.
-                (Source::Position, _) => Reading::Direct(POSITION_REFERENCE_MM),
+                (Source::Cnc(input), _) => cnc.reading(*input, now_ms),
+                // What the pipeline fills the tool input with.
+                (Source::Tool, _) => pipeline
+                    .tool_length_mm()
+                    .map_or(Reading::Stale, Reading::Direct),
                 (_, None) => Reading::Stale,
                 (Source::Direct, Some(v)) => Reading::Direct(v),
-                (Source::Tool, Some(v)) => {
-                    if tool_set != Some(v) {
-                        pipeline
-                            .set_tool_length_mm(v)
-                            .map_err(|e| anyhow!("{}: tool_mm {v}: {e:?}", run.path.display()))?;
-                        tool_set = Some(v);
-                    }
-                    Reading::Direct(v)
-                }
                 (Source::Rtd(driver, chip), Some(t_c)) => {
                     match Rtd::PT100
                         .resistance_ohm(t_c)
@@ -359,6 +458,14 @@ fn replay_run(
             };
         }
         let report = pipeline.on_sample(&readings);
+        // A position input is fed the reference (`pipeline`): that is what
+        // the hub used, whatever arrived.
+        for (i, (r, v)) in readings.iter_mut().zip(&mut seen).enumerate() {
+            if is_position(i) {
+                *r = Reading::Direct(POSITION_REFERENCE_MM);
+                *v = POSITION_REFERENCE_MM;
+            }
+        }
         tally.samples += 1;
         tally.states[usize::from(report.state.code()).min(4)] += 1;
         if readings.iter().any(|r| matches!(r, Reading::Fault(_))) {
@@ -371,7 +478,6 @@ fn replay_run(
             n_inputs: pipeline.hub().input_count(),
             consecutive_faults: pipeline.hub().faults().consecutive,
         };
-        let now_ms = ((t - t0) * 1000.0).round() as u32;
         let mut frames: Vec<RawFrame> = can_frames::encode_report(&report, &info)
             .into_iter()
             .collect();
@@ -425,4 +531,30 @@ fn replay_run(
         }
     }
     Ok(tally)
+}
+
+#[cfg(test)]
+mod tests {
+    /// Interpolated between rows that both have the value, never across
+    /// an empty cell (the CNC stopped sending), nothing outside the run.
+    #[test]
+    fn cnc_values_bridge_rows_but_not_gaps() {
+        let t = [0.0, 60.0, 120.0, 180.0];
+        let x = [Some(0.0), Some(600.0), None, Some(1200.0)];
+        let grid: Vec<f64> = (0..=8).map(|k| f64::from(k) * 30.0).collect();
+        assert_eq!(
+            super::cnc_values(&t, &x, &grid),
+            [
+                Some(0.0),
+                Some(300.0),
+                Some(600.0),
+                None,
+                None,
+                None,
+                Some(1200.0),
+                None,
+                None
+            ]
+        );
+    }
 }
