@@ -8,6 +8,11 @@
 //! non-finite value into its state or out to the CNC. State lives apart from
 //! the coefficients in a [`ModelState`], so the firmware can swap a new model
 //! in without touching the running one.
+//!
+//! A model may also carry calibration [`Bounds`]: the input envelope it was
+//! calibrated on and the 95 % band of its cross-validation error.
+//! [`ValidModel::extrapolation`] says how far a sample lies outside the
+//! envelope and [`ValidModel::band_half_width`] widens the band by that much.
 
 use crate::arma::{Arma, ArmaState};
 use crate::bp::BpNet;
