@@ -55,7 +55,7 @@ cat "$work/bench.txt"
 grep -q '^qemu-bench: done$' "$work/bench.txt" || fail "no 'done' line"
 grep -q '^| all | RTD code -> C, 16 channels |' "$work/bench.txt" || fail "no RTD line"
 grep -q '^| all | frame encode (stand-in) |' "$work/bench.txt" || fail "no frame line"
-for kind in tf bp linear pcr arma; do
+for kind in tf bp linear pcr arma fbank; do
     grep -q "^| $kind | model step |" "$work/bench.txt" || fail "no '$kind' step line"
     grep -q "^| $kind | \*\*whole update\*\* |" "$work/bench.txt" || fail "no '$kind' update line"
     grep -q "^load $kind: blob [0-9]* B, decode ok true," "$work/bench.txt" ||

@@ -817,3 +817,84 @@ beta = [0.0396]
         assert!(e.contains("2 beta values for 1 components"), "{e}");
     }
 }
+
+#[cfg(test)]
+mod fbank_tests {
+    use super::*;
+
+    const FB: &str = r#"
+kind = "fbank"
+dt_s = 30.0
+
+[fbank]
+inputs = [{ name = "T1" }, { name = "T2", reference = "absolute" }]
+features = [{ input = "T1" }, { input = "T1", tau_s = 600.0 }, { input = "T2", power = 2 }]
+
+[[fbank.output]]
+output = "dz_um"
+intercept = 0.5
+coef = [1.0, 2.0, 0.01]
+
+[bounds]
+envelope = { T1 = [0.0, 10.0], T2 = [15.0, 30.0] }
+half_width = { dz_um = 1.2 }
+"#;
+
+    #[test]
+    fn fbank_with_bounds() {
+        let m = parse("fb.toml", FB).unwrap();
+        assert_eq!(m.kind(), model_core::ModelKind::Fbank);
+        assert_eq!(m.inputs()[1].reference, Reference::Absolute);
+        // exp(-30 / 600) = 0.951229424500714 (Python math.exp).
+        assert!((m.fbank_poles()[1] - 0.951_229_424_500_714).abs() < 1e-15);
+        let b = m.bounds().unwrap();
+        assert_eq!(
+            b.envelope[1],
+            Span {
+                min: 15.0,
+                max: 30.0
+            }
+        );
+        assert_eq!(b.half_width[0], 1.2);
+    }
+
+    #[test]
+    fn fbank_mistakes_are_named() {
+        let cases = [
+            (
+                "coef = [1.0, 2.0, 0.01]",
+                "coef = [1.0, 2.0]",
+                "2 coef values for 3 features",
+            ),
+            (
+                "{ input = \"T2\", power = 2 }",
+                "{ input = \"T3\" }",
+                "input T3 is not in inputs",
+            ),
+            (
+                "{ input = \"T2\", power = 2 }",
+                "{ input = \"T2\", power = 3 }",
+                "power must be 1 or 2",
+            ),
+            ("tau_s = 600.0", "tau_s = -1.0", "tau_s >= 0"),
+            (
+                ", T2 = [15.0, 30.0]",
+                "",
+                "envelope has no span for input T2",
+            ),
+            ("T2 = [15.0, 30.0]", "T2 = [30.0, 15.0]", "min > max"),
+            (
+                "dz_um = 1.2",
+                "dx_um = 1.2",
+                "half_width.dx_um: not an output",
+            ),
+            ("dt_s = 30.0", "", "is dynamic and needs dt_s"),
+        ];
+        for (from, to, expected) in cases {
+            let text = FB.replace(from, to);
+            assert_ne!(text, FB, "{from}");
+            let e = parse("fb.toml", &text).unwrap_err().to_string();
+            assert!(e.contains(expected), "{expected:?} not in {e}");
+        }
+    }
+}

@@ -42,7 +42,7 @@ fn build_show_predict_eval_seed004() {
     );
     let v = ok_json(&["model", "show", "--model", p(&blob), "--json"]);
     assert_eq!(v["kind"], "tf");
-    assert_eq!(v["format_version"], 1);
+    assert_eq!(v["format_version"], 2);
     assert_eq!(v["outputs"][0], "dz_um");
     assert_eq!(v["inputs"][1]["reference"], "first");
     // SP2's gain (16.0005 - 15.9975) / (1 - 0.99983) to f64 rounding.
@@ -85,6 +85,82 @@ fn build_show_predict_eval_seed004() {
     }
     assert_eq!(m["n"], 7200);
     assert_eq!(v.as_object().unwrap().len(), 1, "keyed by target only");
+}
+
+/// A filter bank with bounds, as README.md's "Model specs" writes one.
+const FBANK_SPEC: &str = r#"
+kind = "fbank"
+dt_s = 1.0
+
+[fbank]
+inputs = [{ name = "T1" }, { name = "ambient_c", reference = 20.0 }]
+features = [
+  { input = "T1" },
+  { input = "T1", tau_s = 600.0 },
+  { input = "ambient_c", power = 2 },
+]
+
+[[fbank.output]]
+output = "dz_um"
+intercept = 0.5
+coef = [1.0, 2.0, 0.25]
+
+[bounds]
+envelope = { T1 = [0.0, 6.0], ambient_c = [-1.0, 2.0] }
+half_width = { dz_um = 0.8 }
+"#;
+
+/// spec -> blob -> show (text and JSON) -> predict for the fbank kind.
+#[test]
+fn fbank_spec_builds_shows_and_predicts() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("fb.toml");
+    std::fs::write(&spec, FBANK_SPEC).unwrap();
+    let blob = dir.path().join("fb.bin");
+    ok(&["model", "build", "--spec", p(&spec), "--out", p(&blob)]);
+
+    let (text, _) = ok(&["model", "show", "--model", p(&blob)]);
+    for needle in [
+        "kind fbank",
+        "blob format version 2",
+        "s1 = T1 (unfiltered)",
+        "s2 = low-pass(T1), tau 10.0000 min, pole 0.99833472",
+        "s3 = ambient_c^2 (unfiltered)",
+        "dz_um = 0.5 +1 s1 +2 s2 +0.25 s3",
+        "T1           calibrated on [0, 6]",
+        "dz_um        95 % error band +-0.8",
+    ] {
+        assert!(text.contains(needle), "{needle:?} not in\n{text}");
+    }
+    let v = ok_json(&["model", "show", "--model", p(&blob), "--json"]);
+    assert_eq!(v["kind"], "fbank");
+    assert_eq!(v["format_version"], 2);
+    let f = &v["coefficients"]["features"];
+    assert_eq!(f[2]["input"], "ambient_c");
+    assert_eq!(f[2]["power"], 2);
+    // exp(-1 / 600) = 0.9983347214509387 (Python math.exp), to libm rounding.
+    let pole = f[1]["pole"].as_f64().unwrap();
+    assert!((pole - 0.998_334_721_450_938_7).abs() < 1e-15, "{pole}");
+    assert_eq!(v["coefficients"]["outputs"][0]["coef"][2], 0.25);
+    assert_eq!(v["bounds"]["envelope"][1]["max"], 2.0);
+    assert_eq!(v["bounds"]["half_width"][0]["half_width"], 0.8);
+
+    // First row: T1 20 (its own reference), ambient 20 (= the reference):
+    // every feature 0, dz = the intercept.
+    let run = write_run(dir.path(), "run.csv", &[0.0, 1.0, 2.0]);
+    let pred = dir.path().join("pred.csv");
+    ok(&[
+        "predict",
+        "--model",
+        p(&blob),
+        "--data",
+        p(&run),
+        "--out",
+        p(&pred),
+    ]);
+    let text = std::fs::read_to_string(&pred).unwrap();
+    let first: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
+    assert_eq!(first, ["0", "0.5"]);
 }
 
 #[test]

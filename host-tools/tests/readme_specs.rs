@@ -13,6 +13,6 @@ fn every_full_spec_in_the_readme_builds() {
             .unwrap_or_else(|e| panic!("{e}\n{toml}"));
         built += 1;
     }
-    // tf, linear, pcr, bp, arma.
-    assert_eq!(built, 5);
+    // tf, linear, pcr, bp, arma, fbank.
+    assert_eq!(built, 6);
 }

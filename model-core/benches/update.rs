@@ -15,7 +15,10 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{arma_2_1_d1, bp, linear_seed002, pcr_seed003, tf_bank_4x4, tf_sp1_ambient};
+use common::{
+    arma_2_1_d1, bp, fbank_3x2, fbank_wide, linear_seed002, pcr_seed003, tf_bank_4x4,
+    tf_sp1_ambient,
+};
 use criterion::Criterion;
 use model_core::blob::{self, MAX_BLOB_LEN};
 use model_core::rtd::Rtd;
@@ -35,6 +38,8 @@ fn cases() -> Vec<(&'static str, ValidModel)> {
         ("bp_4x11x3", bp(4, 11)),
         ("bp_16x24x3", bp(16, 24)),
         ("arma_2_1_d1", arma_2_1_d1()),
+        ("fbank_3in_5f_2out", fbank_3x2(true)),
+        ("fbank_32in_x4", fbank_wide(32)),
     ]
     .into_iter()
     .map(|(label, m)| (label, m.validate().expect("bench model is valid")))

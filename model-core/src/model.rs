@@ -8,6 +8,11 @@
 //! non-finite value into its state or out to the CNC. State lives apart from
 //! the coefficients in a [`ModelState`], so the firmware can swap a new model
 //! in without touching the running one.
+//!
+//! A model may also carry calibration [`Bounds`]: the input envelope it was
+//! calibrated on and the 95 % band of its cross-validation error.
+//! [`ValidModel::extrapolation`] says how far a sample lies outside the
+//! envelope and [`ValidModel::band_half_width`] widens the band by that much.
 
 use crate::arma::{Arma, ArmaState};
 use crate::bp::BpNet;
@@ -502,6 +507,8 @@ impl Model {
 /// What validation derives from the coefficients of a kind, kept for the
 /// run. One slot for all kinds: a model has only one kind, and the hub's
 /// model static is sized by its largest variant.
+// As for `Params`: no heap on the hub, so no boxing of the large variants.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 enum Derived {
     None,
@@ -1035,6 +1042,15 @@ mod tests {
         let state = core::mem::size_of::<ModelState>();
         extern crate std;
         std::eprintln!("ValidModel {model} B, ModelState {state} B");
+        std::eprintln!(
+            "of which Params {} B (FilterBank {} B, BpNet {} B, TF bank {} B), Option<Bounds> {} B, derived {} B",
+            core::mem::size_of::<Params>(),
+            core::mem::size_of::<FilterBank>(),
+            core::mem::size_of::<BpNet>(),
+            core::mem::size_of::<heapless::Vec<TfEntry, MAX_TF_ENTRIES>>(),
+            core::mem::size_of::<Option<Bounds>>(),
+            core::mem::size_of::<Derived>(),
+        );
         assert!(model + state <= 15 * 1024, "{model} + {state} bytes");
     }
 

@@ -14,7 +14,7 @@ use model_core::blob::{self, MAX_BLOB_LEN};
 use model_core::{ModelKind, ModelState};
 use panic_semihosting as _;
 use qemu_bench::clock::{known_loop, time, Clock, Cost, UNITS_PER_TICK};
-use qemu_bench::models::{self, CHANNELS, KINDS, OUTPUTS};
+use qemu_bench::models::{self, CHANNELS, KINDS, OUTPUTS, WIDE_CHANNELS};
 use qemu_bench::update::{encode_frame, Sample, FRAME_BUF};
 
 /// Runs per timed loop of the per-sample operations: SysTick resolves 40
@@ -142,10 +142,21 @@ fn bench_kind(clock: &Clock, overhead: &Cost, kind: ModelKind, buf: &mut [u8; MA
 
     // Per sample.
     let (a, b) = (Sample::warm(0.0), Sample::warm(0.05));
-    let (mut ta, mut tb) = ([0.0; CHANNELS], [0.0; CHANNELS]);
-    a.temperatures(&mut ta);
-    b.temperatures(&mut tb);
+    // A model wider than 16 channels reads two banks of 16 front ends (the
+    // second bank's codes are the first's, which costs the same).
+    let (mut ta, mut tb) = ([0.0; WIDE_CHANNELS], [0.0; WIDE_CHANNELS]);
+    for half in ta.chunks_exact_mut(CHANNELS) {
+        if let Ok(t) = <&mut [f64; CHANNELS]>::try_from(half) {
+            a.temperatures(t);
+        }
+    }
+    for half in tb.chunks_exact_mut(CHANNELS) {
+        if let Ok(t) = <&mut [f64; CHANNELS]>::try_from(half) {
+            b.temperatures(t);
+        }
+    }
     let n_in = valid.inputs().len();
+    let wide = n_in > CHANNELS;
     let mut state = ModelState::new();
     let mut out = [0.0; OUTPUTS];
     for k in 0..WARM_UP {
@@ -162,12 +173,22 @@ fn bench_kind(clock: &Clock, overhead: &Cost, kind: ModelKind, buf: &mut [u8; MA
     row(name, "model step", &step);
 
     let mut t = [0.0; CHANNELS];
+    let mut w = [0.0; WIDE_CHANNELS];
     let mut frame = [0u8; FRAME_BUF];
     let update = time(clock, overhead, REPS, || {
         k += 1;
         let s = if k & 1 == 0 { &a } else { &b };
-        let fault = black_box(s).temperatures(&mut t);
-        let refused = valid.step(&mut state, &t[..n_in], &mut out).is_err();
+        let mut fault = black_box(s).temperatures(&mut t);
+        let x: &[f64] = if wide {
+            let (lo, hi) = w.split_at_mut(CHANNELS);
+            lo.copy_from_slice(&t);
+            fault |= black_box(s).temperatures(&mut t);
+            hi.copy_from_slice(&t);
+            &w[..n_in]
+        } else {
+            &t[..n_in]
+        };
+        let refused = valid.step(&mut state, x, &mut out).is_err();
         let flags = 1 | (u8::from(fault) << 1) | (u8::from(refused) << 2);
         black_box(encode_frame(&out, &t, flags, &mut frame));
     });

@@ -5,11 +5,14 @@
 //! of order `MAX_ORDER` (8); BP 16-24-3 (`MAX_W1` = 384 = 16 x 24); linear 16
 //! inputs x 3 outputs; PCR 16 inputs, `MAX_COMPONENTS` (8) components, 3
 //! outputs; ARMA(`MAX_ARMA_ORDER`, `MAX_ARMA_ORDER`) = (10, 10), d = 1.
-//! Every model reads the same 16 temperature channels.
+//! Every model reads the same 16 temperature channels, but the filter bank:
+//! 32 channels (`WIDE_CHANNELS`, two banks of 16 front ends) x 4 features
+//! (`MAX_FB_FEATURES` = 128) into one output, the trainer's largest.
 
 use heapless::Vec;
 use model_core::arma::{Arma, MAX_ARMA_ORDER};
 use model_core::bp::{Activation, BpNet, MAX_W1};
+use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
 use model_core::linear::{Coef, Linear, LinearOutput};
 use model_core::pcr::{Component, Pcr, PcrOutput, MAX_COMPONENTS};
 use model_core::tf::{TfEntry, MAX_COEFFS, MAX_ORDER, MAX_TF_ENTRIES};
@@ -17,6 +20,8 @@ use model_core::{Channel, Model, ModelKind, Name, Params, Reference};
 
 /// Temperature channels read each sample (16 MAX31865 front ends).
 pub const CHANNELS: usize = 16;
+/// Channels of the widest model (the filter bank): the model-core maximum.
+pub const WIDE_CHANNELS: usize = model_core::model::MAX_CHANNELS;
 /// Outputs: dx, dy, dz.
 pub const OUTPUTS: usize = 3;
 /// Hidden neurons of the BP net: the most that 16 inputs allow.
@@ -24,14 +29,16 @@ pub const BP_HIDDEN: usize = MAX_W1 / CHANNELS;
 
 const _: () = assert!(MAX_TF_ENTRIES == CHANNELS, "one TF entry per channel");
 const _: () = assert!(BP_HIDDEN == 24);
+const _: () = assert!(WIDE_CHANNELS == 2 * CHANNELS && MAX_FB_FEATURES == 4 * WIDE_CHANNELS);
 
 /// The kinds, in the order of the table.
-pub const KINDS: [ModelKind; 5] = [
+pub const KINDS: [ModelKind; 6] = [
     ModelKind::Tf,
     ModelKind::Bp,
     ModelKind::Linear,
     ModelKind::Pcr,
     ModelKind::Arma,
+    ModelKind::Fbank,
 ];
 
 /// A one-line description of the size built for `kind`.
@@ -42,12 +49,14 @@ pub fn size_label(kind: ModelKind) -> &'static str {
         ModelKind::Linear => "16 in x 3 out",
         ModelKind::Pcr => "16 in, 8 comp, 3 out",
         ModelKind::Arma => "(10,10), d = 1",
+        ModelKind::Fbank => "32 in x 4 features (tau 0, 10 min, 1 h, 4 h) x 1 out",
     }
 }
 
-const NAMES: [&str; CHANNELS] = [
+const NAMES: [&str; WIDE_CHANNELS] = [
     "T1", "T2", "T3", "T4", "T5", "T6", "T7", "T8", "T9", "T10", "T11", "T12", "T13", "T14", "T15",
-    "T16",
+    "T16", "T17", "T18", "T19", "T20", "T21", "T22", "T23", "T24", "T25", "T26", "T27", "T28",
+    "T29", "T30", "T31", "T32",
 ];
 const OUTPUT_NAMES: [&str; OUTPUTS] = ["dx_um", "dy_um", "dz_um"];
 
@@ -58,6 +67,7 @@ fn name(s: &str) -> Name {
 fn inputs(reference: Reference) -> Vec<Channel, { model_core::model::MAX_CHANNELS }> {
     NAMES
         .iter()
+        .take(CHANNELS)
         .map(|n| Channel {
             name: name(n),
             reference,
@@ -252,6 +262,43 @@ pub fn arma() -> Model {
     }
 }
 
+/// Filter bank: every one of 32 channels (first-sample reference) as is and
+/// low-passed at 10 min, 1 h and 4 h (dt 1 s), into dz.
+pub fn fbank() -> Model {
+    let mut features: Vec<Feature, MAX_FB_FEATURES> = Vec::new();
+    for input in 0..WIDE_CHANNELS {
+        for tau_s in [0.0, 600.0, 3600.0, 14_400.0] {
+            let _ = features.push(Feature {
+                input: u8::try_from(input).unwrap_or(0),
+                power: 1,
+                tau_s,
+            });
+        }
+    }
+    let mut out: Vec<FbOutput, { model_core::model::MAX_OUTPUTS }> = Vec::new();
+    let _ = out.push(FbOutput {
+        output: 0,
+        intercept: 0.5,
+        coef: (0..features.len()).map(coef).collect(),
+    });
+    Model {
+        inputs: NAMES
+            .iter()
+            .map(|n| Channel {
+                name: name(n),
+                reference: Reference::First,
+            })
+            .collect(),
+        outputs: outputs(1),
+        dt_s: 1.0,
+        params: Params::Fbank(FilterBank {
+            features,
+            outputs: out,
+        }),
+        bounds: None,
+    }
+}
+
 /// The model of `kind` at its largest size.
 pub fn build(kind: ModelKind) -> Model {
     match kind {
@@ -260,6 +307,7 @@ pub fn build(kind: ModelKind) -> Model {
         ModelKind::Linear => linear(),
         ModelKind::Pcr => pcr(),
         ModelKind::Arma => arma(),
+        ModelKind::Fbank => fbank(),
     }
 }
 

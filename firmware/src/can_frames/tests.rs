@@ -72,7 +72,8 @@ fn counter_rolls_with_the_sample() {
 fn status_exact_bytes_and_round_trip() {
     let mut r = report(0x42, [0.0; 4], 4, HubState::Holding);
     r.flags = StatusFlags(StatusFlags::SENSOR_FAULT | StatusFlags::STALE);
-    // Bits above the 24 a model can have are dropped.
+    // Bits above the 24 the bus carries (inputs 25-32 of a 32-input
+    // model) are dropped; SENSOR_FAULT still says a channel failed.
     r.faulty_channels = 0xFF80_0005;
     let info = StatusInfo {
         n_inputs: 24,
@@ -91,6 +92,24 @@ fn status_exact_bytes_and_round_trip() {
             consecutive_faults: 255,
             counter: 0x42,
         }))
+    );
+}
+
+/// A 32-input model: the frozen 5-bit count saturates at 31, and a fault
+/// on input 31 alone leaves the 24-bit mask empty but the flag set.
+#[test]
+fn status_of_a_32_input_model() {
+    let mut r = report(7, [0.0; 4], 1, HubState::Holding);
+    r.flags = StatusFlags(StatusFlags::SENSOR_FAULT);
+    r.faulty_channels = 1 << 31;
+    let info = StatusInfo {
+        n_inputs: 32,
+        consecutive_faults: 1,
+    };
+    let f: RawFrame = encode_status(&r, &info).unwrap();
+    assert_eq!(
+        f.data(),
+        &[0x01, 0x00, 0x00, 0x00, 0x00, 31 | (1 << 5), 1, 7]
     );
 }
 
