@@ -890,6 +890,7 @@ mod tests {
                 max: 10.0,
             }]),
             half_width: crate::test_util::vec(&[1.0]),
+            growth: crate::test_util::vec(&[1.0]),
         });
         let m = m.validate().unwrap();
         let mut p = Pipeline::new(hub(&m), PipelineConfig::DEFAULT).unwrap();

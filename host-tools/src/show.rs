@@ -102,8 +102,8 @@ fn bounds_json(model: &ValidModel) -> Value {
         Some(b) => json!({
             "envelope": model.inputs().iter().zip(&b.envelope).map(|(c, s)| json!({
                 "input": c.name.as_str(), "min": s.min, "max": s.max})).collect::<Vec<_>>(),
-            "half_width": model.outputs().iter().zip(&b.half_width).map(|(o, h)| json!({
-                "output": o.as_str(), "half_width": h})).collect::<Vec<_>>(),
+            "half_width": model.outputs().iter().zip(&b.half_width).zip(&b.growth).map(|((o, h), g)| json!({
+                "output": o.as_str(), "half_width": h, "growth": g})).collect::<Vec<_>>(),
             "extrapolation_flag_at": ValidModel::EXTRAPOLATION_FLAG_AT,
         }),
     }
@@ -442,8 +442,12 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                     span.max
                 );
             }
-            for (o, h) in model.outputs().iter().zip(&b.half_width) {
-                let _ = writeln!(s, "    {:<12} 95 % error band +-{h}", o.as_str());
+            for ((o, h), g) in model.outputs().iter().zip(&b.half_width).zip(&b.growth) {
+                let _ = writeln!(
+                    s,
+                    "    {:<12} 95 % error band +-{h} x (1 + {g} x extrapolation)",
+                    o.as_str()
+                );
             }
         }
     }

@@ -173,6 +173,10 @@ struct BoundsSpec {
     envelope: toml::map::Map<String, toml::Value>,
     /// Per output column: the 95 % error half-width.
     half_width: toml::map::Map<String, toml::Value>,
+    /// Per output column: widening per envelope width of extrapolation
+    /// (default 1).
+    #[serde(default)]
+    growth: toml::map::Map<String, toml::Value>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -206,7 +210,7 @@ fn bounds_of(spec: &BoundsSpec, inputs: &[Channel], outputs: &[Name]) -> Result<
             bail!("envelope.{col}: not an input of the model");
         }
     }
-    for col in spec.half_width.keys() {
+    for col in spec.half_width.keys().chain(spec.growth.keys()) {
         if !outputs.iter().any(|o| o.as_str() == col) {
             bail!("half_width.{col}: not an output of the model");
         }
@@ -240,9 +244,19 @@ fn bounds_of(spec: &BoundsSpec, inputs: &[Channel], outputs: &[Name]) -> Result<
             .ok_or_else(|| anyhow!("half_width has no value for output {col}"))?;
         let _ = half_width.push(number(v, &format!("half_width.{col}"))?);
     }
+    let mut growth = heapless::Vec::new();
+    for o in outputs {
+        let col = o.as_str();
+        let g = match spec.growth.get(col) {
+            Some(v) => number(v, &format!("growth.{col}"))?,
+            None => 1.0,
+        };
+        let _ = growth.push(g);
+    }
     Ok(Bounds {
         envelope,
         half_width,
+        growth,
     })
 }
 

@@ -188,6 +188,11 @@ pub struct Bounds {
     /// Per model output: half-width of the 95 % band of the calibration cross-validation error, in the output's unit.
     #[serde(deserialize_with = "crate::wire::list")]
     pub half_width: heapless::Vec<f64, MAX_OUTPUTS>,
+    /// Per model output: how fast the band widens with extrapolation, per
+    /// envelope width (the trainer calibrates it on its cross-validation
+    /// folds, each measured against the other folds' envelope).
+    #[serde(deserialize_with = "crate::wire::list")]
+    pub growth: heapless::Vec<f64, MAX_OUTPUTS>,
 }
 
 /// Extrapolation (see [`ValidModel::extrapolation`]) above which the hub
@@ -225,7 +230,10 @@ impl Span {
 
 impl Bounds {
     fn validate(&self, n_in: usize, n_out: usize) -> Result<(), ModelError> {
-        if self.envelope.len() != n_in || self.half_width.len() != n_out {
+        if self.envelope.len() != n_in
+            || self.half_width.len() != n_out
+            || self.growth.len() != n_out
+        {
             return Err(ModelError::ShapeMismatch);
         }
         for s in &self.envelope {
@@ -235,7 +243,8 @@ impl Bounds {
             }
         }
         finite(&self.half_width)?;
-        if self.half_width.iter().any(|h| *h < 0.0) {
+        finite(&self.growth)?;
+        if self.half_width.iter().chain(&self.growth).any(|h| *h < 0.0) {
             return Err(ModelError::BadBounds);
         }
         Ok(())
@@ -705,16 +714,19 @@ impl ValidModel {
 
     /// Half-width of the 95 % error band of `output` at `extrapolation`
     /// ([`ValidModel::extrapolation`]): the calibration half-width times
-    /// `1 + extrapolation` (a negative or NaN extrapolation counts as 0).
+    /// `1 + growth * extrapolation` (a negative or NaN extrapolation counts
+    /// as 0).
     /// `None` without bounds or for an output the model does not have.
     pub fn band_half_width(&self, output: usize, extrapolation: f64) -> Option<f64> {
-        let h = *self.model.bounds.as_ref()?.half_width.get(output)?;
+        let bounds = self.model.bounds.as_ref()?;
+        let h = *bounds.half_width.get(output)?;
+        let g = *bounds.growth.get(output)?;
         let e = if extrapolation > 0.0 {
             extrapolation
         } else {
             0.0
         };
-        let w = h * (1.0 + e);
+        let w = h * (1.0 + g * e);
         Some(if w > f64::MAX { f64::MAX } else { w })
     }
 

@@ -948,6 +948,19 @@ fn fbank_and_bounds_refusals() {
             BadBounds,
         ),
         (
+            "growth short",
+            with_bounds(|b| {
+                b.growth.pop();
+            }),
+            ShapeMismatch,
+        ),
+        (
+            "growth NaN",
+            with_bounds(|b| b.growth[0] = f64::NAN),
+            NonFinite,
+        ),
+        ("growth < 0", with_bounds(|b| b.growth[1] = -1.0), BadBounds),
+        (
             "bounds on a tf model, wrong shape",
             {
                 let mut m = tf_sp2_ambient();

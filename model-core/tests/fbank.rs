@@ -255,6 +255,11 @@ fn extrapolation_and_band_on_a_small_example() {
         1.8 * (1.0 + 2.0 / 7.0)
     ));
     assert!(close(vm.band_half_width(1, 0.0).unwrap(), 0.9));
+    // Output 1 widens three times as fast (its growth is 3).
+    assert!(close(
+        vm.band_half_width(1, e).unwrap(),
+        0.9 * (1.0 + 3.0 * 2.0 / 7.0)
+    ));
     assert_eq!(vm.band_half_width(0, -1.0), Some(1.8));
     assert_eq!(vm.band_half_width(0, f64::NAN), Some(1.8));
     assert_eq!(vm.band_half_width(2, 0.0), None);

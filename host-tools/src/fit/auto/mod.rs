@@ -141,8 +141,11 @@ pub struct Band {
     pub cv_coverage_pct: f64,
 }
 
-/// Growths tried, smallest first.
-const GROWTHS: [f64; 10] = [0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
+/// Growths tried, smallest first. The floor is 1 (the band at least
+/// doubles one envelope width out): the CV folds extrapolate only a little,
+/// so they can show that the band must widen faster, never that it may
+/// widen slower.
+const GROWTHS: [f64; 7] = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
 
 /// Fewest extrapolating CV samples from which the growth is fitted; with
 /// fewer the band widens at the model-core default of 1 per envelope width.
@@ -151,7 +154,8 @@ const MIN_EXTRAPOLATING: usize = 20;
 impl Band {
     /// The half-width is the 95 % quantile of `|r|`; the growth is the
     /// smallest of [`GROWTHS`] that covers 95 % of the residuals whose
-    /// inputs lay beyond the flag threshold outside the other folds' envelope.
+    /// inputs lay beyond the flag threshold outside the other folds'
+    /// envelope (the floor, 1, with fewer than [`MIN_EXTRAPOLATING`] such).
     pub fn calibrate(r: &[f64], d: &[f64]) -> Self {
         let half_width = quantile_abs(r, 0.95);
         let flag = model_core::model::EXTRAPOLATION_FLAG_AT;
@@ -360,9 +364,9 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
             cv_table: found.table,
             cv_rmse,
             half_width_95: hw,
-            band,
+            band: band.clone(),
         });
-        winners.push((found.members, hw));
+        winners.push((found.members, band.clone()));
     }
     pb.finish_and_clear();
     let model = assemble(ds, &roles, &grid, &xs, &winners, s.dt_s)?;
@@ -399,7 +403,7 @@ fn quantile_abs(v: &[f64], q: f64) -> f64 {
 fn model_inputs(
     ds: &Dataset,
     roles: &[Role],
-    winners: &[(Vec<Member>, f64)],
+    winners: &[(Vec<Member>, Band)],
 ) -> Vec<(usize, Form, Reference)> {
     let mut out: Vec<(usize, Form, Reference)> = Vec::new();
     for form in Form::ALL {
@@ -424,7 +428,7 @@ fn assemble(
     roles: &[Role],
     grid: &[GridRun],
     xs: &[(Form, Vec<Vec<Vec<f64>>>)],
-    winners: &[(Vec<Member>, f64)],
+    winners: &[(Vec<Member>, Band)],
     dt_s: f64,
 ) -> Result<model_core::ValidModel> {
     let inputs = model_inputs(ds, roles, winners);
@@ -501,8 +505,15 @@ fn assemble(
             .push(span(grid, xs, i, form))
             .map_err(|_| anyhow!("auto: too many inputs"))?;
     }
-    let half_width =
-        heapless::Vec::from_slice(&winners.iter().map(|(_, hw)| *hw).collect::<Vec<_>>())
+    let half_width = heapless::Vec::from_slice(
+        &winners
+            .iter()
+            .map(|(_, b)| b.half_width)
+            .collect::<Vec<_>>(),
+    )
+    .map_err(|_| anyhow!("auto: too many outputs"))?;
+    let growth =
+        heapless::Vec::from_slice(&winners.iter().map(|(_, b)| b.growth).collect::<Vec<_>>())
             .map_err(|_| anyhow!("auto: too many outputs"))?;
     let model = Model {
         inputs: channels,
@@ -515,6 +526,7 @@ fn assemble(
         bounds: Some(Bounds {
             envelope,
             half_width,
+            growth,
         }),
     };
     model
