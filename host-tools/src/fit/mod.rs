@@ -113,6 +113,12 @@ pub struct AutoArgs {
     /// auto: how many of the best candidates the model averages.
     #[arg(long, default_value_t = 5)]
     pub auto_ensemble: usize,
+    /// auto: how many of the best candidates also try dropping temperature
+    /// sensors (backward elimination by CV, one-standard-error rule; 0: off,
+    /// the default: on the development split it lost more than it won,
+    /// docs/validation-auto.md).
+    #[arg(long, default_value_t = 0)]
+    pub auto_eliminate: usize,
 }
 
 /// Columns `auto` reads besides the temperatures when the runs have them.
@@ -250,6 +256,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
                 folds: a.auto.auto_folds,
                 ensemble: a.auto.auto_ensemble,
                 dt_s: a.arx.dt_s,
+                eliminate: a.auto.auto_eliminate,
             };
             auto::fit(&ds, &params.check(&ds)?)?.0
         }

@@ -63,6 +63,9 @@ pub struct AutoParams {
     pub ensemble: usize,
     /// Sample time, s (None: the first run's median step).
     pub dt_s: Option<f64>,
+    /// How many of the best candidates also try dropping temperature
+    /// sensors by backward elimination (0: every sensor stays).
+    pub eliminate: usize,
 }
 
 impl Default for AutoParams {
@@ -71,6 +74,7 @@ impl Default for AutoParams {
             folds: 6,
             ensemble: 5,
             dt_s: None,
+            eliminate: 0,
         }
     }
 }
@@ -100,6 +104,7 @@ impl AutoParams {
                 lambdas: lambda_grid(),
                 ensemble: self.ensemble,
                 max_features: MAX_FB_FEATURES,
+                eliminate: self.eliminate,
                 dt_s,
             },
         })
@@ -343,7 +348,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
             roles: &roles,
         })
         .collect();
-    let per_target = s.temp_sets.len() * s.heat_sets.len() * forms.len();
+    let per_target = s.temp_sets.len() * s.heat_sets.len() * forms.len() + s.eliminate;
     let pb = super::arx::progress(per_target * ds.targets.len(), "auto: candidates");
     let mut choices = Vec::new();
     let mut winners = Vec::new();

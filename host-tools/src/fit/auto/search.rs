@@ -54,6 +54,9 @@ pub struct CvRow {
     pub cv_rmse: f64,
     /// Standard error of the fold-mean squared error, as an rmse spread.
     pub cv_se: f64,
+    /// Temperature inputs left out (indices into the fit's `inputs`), when
+    /// the candidate comes from the sensor elimination.
+    pub dropped_inputs: Vec<usize>,
     /// Whether the winner averages this candidate.
     pub chosen: bool,
 }
@@ -81,6 +84,8 @@ pub struct SearchSettings {
     pub ensemble: usize,
     /// Most feature columns the averaged model may have (the hub's capacity).
     pub max_features: usize,
+    /// How many of the best candidates also try dropping sensors (0: none).
+    pub eliminate: usize,
     /// Sample time, s.
     pub dt_s: f64,
 }
@@ -126,6 +131,72 @@ fn columns(data: &FormData, defs: &[FeatureDef], dt_s: f64) -> Vec<Vec<f64>> {
 struct Scored {
     row: CvRow,
     mse: f64,
+    /// Index into the designs.
+    design: usize,
+    /// Feature columns of that design the candidate uses.
+    idx: Vec<usize>,
+}
+
+/// The best penalty for the columns `idx` of a design.
+fn best_lambda_of(
+    design: &Design,
+    idx: &[usize],
+    lambdas: &[f64],
+    intercept: bool,
+) -> Option<(f64, CvScore)> {
+    lambdas
+        .iter()
+        .filter_map(|&l| design.cv(idx, l, intercept).map(|s| (l, s)))
+        .min_by(|a, b| a.1.mse.total_cmp(&b.1.mse))
+}
+
+/// Backward elimination of whole temperature sensors (every feature of
+/// one input) from a candidate, by CV with the penalty re-chosen at each
+/// step; of the path, the smallest set whose CV error is within one
+/// standard error of the path's best ("prefer the simpler model when CV
+/// errors are within noise"). `None` when nothing can be dropped.
+fn eliminate(
+    design: &Design,
+    defs: &[FeatureDef],
+    roles: &[Role],
+    lambdas: &[f64],
+    intercept: bool,
+) -> Option<(Vec<usize>, Vec<usize>, f64, CvScore)> {
+    let mut kept: Vec<usize> = (0..roles.len())
+        .filter(|&i| roles[i] == Role::Temperature && defs.iter().any(|d| d.input == i))
+        .collect();
+    let cols = |kept: &[usize]| -> Vec<usize> {
+        (0..defs.len())
+            .filter(|&j| roles[defs[j].input] != Role::Temperature || kept.contains(&defs[j].input))
+            .collect()
+    };
+    let mut path: Vec<(Vec<usize>, f64, CvScore)> = Vec::new();
+    while kept.len() > 1 {
+        let step = kept
+            .iter()
+            .filter_map(|&drop| {
+                let rest: Vec<usize> = kept.iter().copied().filter(|&i| i != drop).collect();
+                let (l, cv) = best_lambda_of(design, &cols(&rest), lambdas, intercept)?;
+                Some((rest, l, cv))
+            })
+            .min_by(|a, b| a.2.mse.total_cmp(&b.2.mse))?;
+        kept.clone_from(&step.0);
+        path.push(step);
+    }
+    let best = path.iter().map(|p| p.2.mse).fold(f64::INFINITY, f64::min);
+    let best_se = path
+        .iter()
+        .find(|p| p.2.mse == best)
+        .map_or(0.0, |p| p.2.se);
+    let (kept, lambda, cv) = path
+        .into_iter()
+        .filter(|p| p.2.mse <= best + best_se)
+        .min_by_key(|p| p.0.len())?;
+    let all: Vec<usize> = (0..roles.len())
+        .filter(|&i| roles[i] == Role::Temperature && defs.iter().any(|d| d.input == i))
+        .collect();
+    let dropped = all.into_iter().filter(|i| !kept.contains(i)).collect();
+    Some((cols(&kept), dropped, lambda, cv))
 }
 
 /// The best penalty for one (form, filters) candidate.
@@ -171,7 +242,10 @@ pub fn search(
                 else {
                     continue;
                 };
+                let idx: Vec<usize> = (0..defs.len()).collect();
                 scored.push(Scored {
+                    design: designs.len(),
+                    idx,
                     row: CvRow {
                         form: data.form,
                         temp_taus_s: temp.clone(),
@@ -180,11 +254,42 @@ pub fn search(
                         features: defs.len(),
                         cv_rmse: cv.mse.sqrt(),
                         cv_se: cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE)),
+                        dropped_inputs: Vec::new(),
                         chosen: false,
                     },
                     mse: cv.mse,
                 });
                 designs.push((data.form, defs, design));
+            }
+        }
+    }
+    // Sensor elimination from the best few candidates of each form.
+    if s.eliminate > 0 {
+        let mut order: Vec<usize> = (0..scored.len()).collect();
+        order.sort_by(|&a, &b| scored[a].mse.total_cmp(&scored[b].mse));
+        for &i in order.iter().take(s.eliminate) {
+            progress();
+            let (form, defs, design) = &designs[scored[i].design];
+            let roles = forms.iter().find(|d| d.form == *form)?.roles;
+            if let Some((idx, dropped, lambda, cv)) =
+                eliminate(design, defs, roles, &s.lambdas, form.intercept())
+            {
+                if dropped.is_empty() {
+                    continue;
+                }
+                let mut row = scored[i].row.clone();
+                row.lambda = lambda;
+                row.features = idx.len();
+                row.cv_rmse = cv.mse.sqrt();
+                row.cv_se = cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE));
+                row.dropped_inputs = dropped;
+                let design = scored[i].design;
+                scored.push(Scored {
+                    row,
+                    mse: cv.mse,
+                    design,
+                    idx,
+                });
             }
         }
     }
@@ -200,12 +305,14 @@ pub fn search(
         if members.len() >= s.ensemble.max(1) {
             break;
         }
-        let (form, defs, design) = &designs[i];
+        let (form, all_defs, design) = &designs[scored[i].design];
         if *form != best_form {
             continue;
         }
+        let idx = &scored[i].idx;
+        let defs: Vec<FeatureDef> = idx.iter().map(|&j| all_defs[j]).collect();
         let mut grown = union.clone();
-        for d in defs {
+        for d in &defs {
             if !grown.contains(d) {
                 grown.push(*d);
             }
@@ -214,18 +321,17 @@ pub fn search(
             continue;
         }
         let lambda = scored[i].row.lambda;
-        let all: Vec<usize> = (0..defs.len()).collect();
-        let Some(coefs) = design.fit(&all, lambda, form.intercept(), None) else {
+        let Some(coefs) = design.fit(idx, lambda, form.intercept(), None) else {
             continue;
         };
         let fold_coefs = (0..n_folds)
-            .map(|f| design.fit(&all, lambda, form.intercept(), Some(f)))
+            .map(|f| design.fit(idx, lambda, form.intercept(), Some(f)))
             .collect();
         union = grown;
         scored[i].row.chosen = true;
         members.push(Member {
             form: *form,
-            features: defs.clone(),
+            features: defs,
             coefs,
             lambda,
             fold_coefs,
