@@ -18,9 +18,10 @@ Methods:
              at 30 and 120 min, penalty by 6-fold contiguous-block CV on
              the calibration rows (one fixed feature recipe, chosen a
              priori: the "new user with numpy" baseline)
-  gp         scikit-learn GaussianProcessRegressor (RBF with ARD + white
-             noise, normalised target) on the same features, fitted on
-             every 4th calibration row (O(n^3))
+  gp         scikit-learn GaussianProcessRegressor (isotropic RBF + white
+             noise on standardised features, normalised target, marginal
+             likelihood maximised) on the same features, fitted on every 4th
+             calibration row (O(n^3))
 
 usage: scripts/validate_real.py [path/to/thermcomp] [--no-gp]   (~3-6 min)
 """
@@ -99,7 +100,7 @@ def gp_fit(x, y):
     mu, sd = x.mean(0), x.std(0)
     sd[sd == 0] = 1
     z = (x - mu) / sd
-    k = ConstantKernel(1.0) * RBF(length_scale=np.full(z.shape[1], 3.0)) + WhiteKernel(0.1)
+    k = ConstantKernel(1.0) * RBF(length_scale=5.0) + WhiteKernel(0.1)
     gp = GaussianProcessRegressor(k, normalize_y=True, n_restarts_optimizer=0, random_state=0)
     gp.fit(z[::4], y[::4])
     return lambda xn: gp.predict((xn - mu) / sd)

@@ -110,8 +110,10 @@ pub struct AutoArgs {
     /// run (several runs: one fold per run).
     #[arg(long, default_value_t = 6)]
     pub auto_folds: usize,
-    /// auto: how many of the best candidates the model averages.
-    #[arg(long, default_value_t = 5)]
+    /// auto: how many of the best candidates the model averages (as many
+    /// as fit the hub's 128 features; 20 won on the development split,
+    /// scripts/auto_dev_split.sh).
+    #[arg(long, default_value_t = 20)]
     pub auto_ensemble: usize,
     /// auto: how many of the best candidates also try dropping temperature
     /// sensors (backward elimination by CV, one-standard-error rule; 0: off,

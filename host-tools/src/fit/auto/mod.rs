@@ -72,7 +72,7 @@ impl Default for AutoParams {
     fn default() -> Self {
         Self {
             folds: 6,
-            ensemble: 5,
+            ensemble: 20,
             dt_s: None,
             eliminate: 0,
         }
@@ -92,8 +92,8 @@ impl AutoParams {
         if !(2..=32).contains(&self.folds) {
             bail!("auto: --auto-folds {} must be 2..32", self.folds);
         }
-        if !(1..=20).contains(&self.ensemble) {
-            bail!("auto: --auto-ensemble {} must be 1..20", self.ensemble);
+        if !(1..=100).contains(&self.ensemble) {
+            bail!("auto: --auto-ensemble {} must be 1..100", self.ensemble);
         }
         let dt_s = super::arx::sample_time(ds, self.dt_s)?;
         Ok(ValidAutoParams {
