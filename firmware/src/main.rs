@@ -278,14 +278,14 @@ mod host {
     #[cfg(feature = "model")]
     fn print_model_slot() {
         use firmware::hub::{Hub, MAX_INPUTS, MAX_OUTPUTS};
-        use model_core::blob::{FORMAT_VERSION, MAX_BLOB_LEN};
+        use model_core::blob::{FORMAT_VERSION, MAX_BLOB_LEN, OLDEST_READ_VERSION};
         use model_core::{ModelState, ValidModel};
         use std::mem::size_of;
 
         let bytes = |n: usize| format!("{n} B ({:.1} KiB)", n as f64 / 1024.0);
         println!("Model slots (boot: the committed slot with the highest generation, upload::select_boot_slot)");
         println!(
-            "  {:<19} {FORMAT_VERSION} (magic \"TCMB\")",
+            "  {:<19} {FORMAT_VERSION} (magic \"TCMB\"; reads {OLDEST_READ_VERSION} to {FORMAT_VERSION})",
             "blob format version"
         );
         println!(
