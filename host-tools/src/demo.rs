@@ -757,7 +757,13 @@ fn replay_agreement(model: &ValidModel, trace: &Path, data: &Path) -> Result<Agr
             a.limited += 1;
             continue;
         };
-        if st != running || fl != 0.0 {
+        // Any flag but Extrapolating (information: the offsets are the
+        // model's, outside its calibration envelope) means the hub changed
+        // or held what the model said.
+        let informational = firmware::report::StatusFlags::EXTRAPOLATING;
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let acted = (fl as u16) & !informational != 0;
+        if st != running || acted {
             a.limited += 1;
             continue;
         }

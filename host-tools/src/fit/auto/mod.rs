@@ -6,8 +6,11 @@
 //! low-pass filters of the temperatures and of the heat sources (spindle
 //! speed and power, linear and squared), which is a transfer-function bank
 //! with fixed real poles: the hub evaluates it exactly (model-core `fbank`).
-//! Plain least squares on the temperatures (`mlr`) is one of the candidates
-//! (no filters, the smallest penalty).
+//! Without heat-source columns, plain least squares on the temperatures
+//! (`mlr`, ridge-stabilised) is one of the candidates (no filters, the
+//! smallest penalty). With them, every candidate reads them: a candidate
+//! set that could leave them out lost on the development split
+//! (docs/fit.md).
 //!
 //! Cross-validation: leave one run out when the calibration has several
 //! runs (a fold then holds conditions no other fold saw, as a new day does);
