@@ -255,6 +255,13 @@ mod host {
                     sup.recover_time_s
                 ),
             ),
+            (
+                "flapping",
+                format!(
+                    "{} separate faults within {} s fail an input (ramp, then recover)",
+                    sup.flap_faults, sup.flap_window_s
+                ),
+            ),
             ("slew", format!("{:?} um/s per output", lim.slew_um_per_s)),
             ("clamp", format!("{:?} um per output", lim.clamp_um)),
             (

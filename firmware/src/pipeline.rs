@@ -75,7 +75,7 @@ pub use crate::offsets::POSITION_REFERENCE_MM;
 use crate::offsets::{MAX_INPUTS, MAX_OUTPUTS};
 use crate::report::{HubState, Report, StatusFlags};
 use crate::spike::{SpikeConfig, SpikeState};
-use crate::supervisor::{ramp_toward_zero, Phase, Supervisor, SupervisorConfig};
+use crate::supervisor::{ramp_toward_zero, Phase, Supervisor, SupervisorConfig, SupervisorSamples};
 
 // One bit per input in `Report::faulty_channels`.
 const _: () = assert!(MAX_INPUTS <= 32);
@@ -265,8 +265,7 @@ impl core::error::Error for SwapError {}
 struct Timing {
     dt_s: f64,
     spike_limit_k: f64,
-    hold_samples: u32,
-    recover_samples: u32,
+    supervisor: SupervisorSamples,
     ramp_step_um: f64,
     slew_step_um: [f64; MAX_OUTPUTS],
     /// um of offset -> um/m of slope at the configured stroke.
@@ -282,8 +281,7 @@ impl Timing {
         Self {
             dt_s,
             spike_limit_k: config.spike.limit_k(dt_s),
-            hold_samples: config.supervisor.hold_samples(dt_s),
-            recover_samples: config.supervisor.recover_samples(dt_s),
+            supervisor: SupervisorSamples::new(&config.supervisor, dt_s),
             ramp_step_um: config.supervisor.ramp_step_um(dt_s),
             slew_step_um,
             per_stroke_m: 1000.0 / config.slope_stroke_mm,
@@ -674,7 +672,7 @@ impl Pipeline {
             .enumerate()
         {
             let good = model_out.is_some() && affected & bit8(k) == 0;
-            *phase = sup.step(good, self.timing.hold_samples, self.timing.recover_samples);
+            *phase = sup.step(good, &self.timing.supervisor);
             if *phase == Phase::Ramp && good {
                 flags.set(StatusFlags::RECOVERING);
             }
@@ -922,6 +920,54 @@ mod tests {
             .on_sample(&[Reading::Value(20.0)])
             .flags
             .has(StatusFlags::EXTRAPOLATING));
+    }
+
+    /// Issue 14 C: T1 faulty on every second sample for 300 s. The fault
+    /// count in the flap window fails the input at its 5th fault (sample 8:
+    /// faults at samples 0, 2, 4, 6, 8), and it ramps from then on: it never
+    /// reads good 10 s in a row while flapping. Then 10 good samples in a
+    /// row bring it back.
+    #[test]
+    fn a_flapping_input_fails_and_ramps_until_good_for_the_recovery_time() {
+        let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        p.set_tool_length_mm(0.0).unwrap();
+        // Settle on dz = 10 um at 21 C.
+        for _ in 0..10 {
+            p.on_sample(&[Reading::Value(21.0)]);
+        }
+        assert_eq!(p.offsets_um()[0], 10.0);
+        let mut states = [0usize; 5];
+        let mut first_ramp = None;
+        for k in 0..300usize {
+            let reading = if k % 2 == 0 {
+                Reading::Fault(ChannelFault::Open)
+            } else {
+                Reading::Value(21.0)
+            };
+            let r = p.on_sample(&[reading]);
+            states[usize::from(r.state.code())] += 1;
+            if r.state != HubState::Holding && r.state != HubState::Running {
+                first_ramp.get_or_insert(k);
+            }
+        }
+        // Holding at faults 1..4 (samples 0, 2, 4, 6), Running between them
+        // (1, 3, 5, 7), failed from sample 8 on: 292 samples ramping or at 0.
+        assert_eq!(first_ramp, Some(8));
+        assert_eq!(states[2], 4, "holding {states:?}");
+        assert_eq!(states[1], 4, "running {states:?}");
+        assert_eq!(states[3] + states[4], 292, "{states:?}");
+        assert_eq!(p.offsets_um()[0], 0.0, "ramped to zero");
+        // Good from sample 299 on: 9 samples recovering (299 and 8 more),
+        // the 10th good one follows.
+        for _ in 0..8 {
+            let r = p.on_sample(&[Reading::Value(21.0)]);
+            assert_eq!(r.state, HubState::Zeroed);
+            assert!(r.flags.has(StatusFlags::RECOVERING));
+        }
+        assert_eq!(
+            p.on_sample(&[Reading::Value(21.0)]).state,
+            HubState::Running
+        );
     }
 
     #[test]
