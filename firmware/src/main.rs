@@ -230,7 +230,7 @@ mod host {
     #[cfg(feature = "model")]
     fn print_fault_handling() {
         let c = firmware::pipeline::PipelineConfig::DEFAULT;
-        let (sup, lim, spike) = (c.supervisor, c.limiter, c.spike);
+        let (sup, lim, spike, plaus) = (c.supervisor, c.limiter, c.spike, c.plausible);
         println!("Fault handling and limits (pipeline::PipelineConfig::DEFAULT)");
         let rows = [
             (
@@ -239,6 +239,29 @@ mod host {
                 "a jump beyond {} K/s x dt + {} K is a spike; a level lasting {} samples is real",
                 spike.max_rate_k_per_s, spike.noise_k, spike.persist_samples
             ),
+            ),
+            (
+                "plausible",
+                format!(
+                    "{}..={} C, else IMPLAUSIBLE (a sensor fault)",
+                    plaus.min_c, plaus.max_c
+                ),
+            ),
+            (
+                "rate of change",
+                format!(
+                    "over {} K from the anchor within {} s ({} K/s) is RATE_OF_CHANGE",
+                    plaus.max_rate_k_per_s * plaus.rate_window_s,
+                    plaus.rate_window_s,
+                    plaus.max_rate_k_per_s
+                ),
+            ),
+            (
+                "stuck",
+                format!(
+                    "one value for {} s while another temperature moves is STUCK",
+                    plaus.stuck_time_s
+                ),
             ),
             (
                 "hold",
