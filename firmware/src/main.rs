@@ -259,8 +259,8 @@ mod host {
             (
                 "stuck",
                 format!(
-                    "one value for {} s while another temperature moves is STUCK",
-                    plaus.stuck_time_s
+                    "one value for {} s while another temperature moved {} K is STUCK",
+                    plaus.stuck_time_s, plaus.stuck_others_k
                 ),
             ),
             (

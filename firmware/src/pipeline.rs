@@ -608,13 +608,13 @@ impl Pipeline {
         let mut inputs = [0.0; MAX_INPUTS];
         let mut faulty = 0u32;
         let pn = self.timing.plausible;
-        // Temperatures that changed within the stuck time (last sample's).
+        // Temperatures that moved in their last stuck window.
         let moving = self
             .plausible
             .iter()
             .take(n_in)
             .enumerate()
-            .filter(|(_, p)| p.moving(&pn))
+            .filter(|(_, p)| p.moving())
             .fold(0u32, |m, (j, _)| m | bit(j));
         for (j, ((x, state), plaus)) in inputs
             .iter_mut()
@@ -1066,29 +1066,35 @@ mod tests {
         assert_eq!(p.offsets_um()[0], 0.0);
     }
 
-    /// Issue 14 B: T1 frozen on one value (one converter code) for 600 s
-    /// while T2 moves is stuck from sample 600; with both frozen (a machine
-    /// at rest in a stable room) nothing is flagged.
+    /// Issue 14 B: T1 frozen on one value (one converter code) for 1800 s
+    /// while T2 rises by 5.4 K is stuck from sample 1800 (T2's first window,
+    /// samples 0..=1799, moved by over 1 K); with T2 moving by less than
+    /// 1 K a window, or both frozen (a machine at rest), nothing is flagged.
     #[test]
     fn a_frozen_temperature_while_another_moves_is_stuck() {
         let mut p = Pipeline::new(hub(&two_rtd_model()), PipelineConfig::DEFAULT).unwrap();
-        let t2 = |k: usize| if k.is_multiple_of(2) { 20.0 } else { 20.1 };
+        let t2 = |k: usize| 20.0 + 0.003 * k as f64;
         let (states, first, count) = run_states(
             &mut p,
-            700,
+            1900,
             |k| [Reading::Value(21.0), Reading::Value(t2(k))],
             StatusFlags::STUCK,
         );
-        assert_eq!((first, count), (Some(600), 100));
-        assert_eq!(states, [0, 600, 60, 11, 29], "{states:?}");
-        let mut q = Pipeline::new(hub(&two_rtd_model()), PipelineConfig::DEFAULT).unwrap();
-        let (states, first, _) = run_states(
-            &mut q,
-            900,
-            |_| [Reading::Value(21.0), Reading::Value(20.5)],
-            StatusFlags::STUCK,
-        );
-        assert_eq!((first, states), (None, [0, 900, 0, 0, 0]));
+        assert_eq!((first, count), (Some(1800), 100));
+        assert_eq!(states, [0, 1800, 60, 40, 0], "{states:?}");
+        for t2 in [
+            (|k: usize| if k.is_multiple_of(2) { 20.0 } else { 20.1 }) as fn(usize) -> f64,
+            |_| 20.5,
+        ] {
+            let mut q = Pipeline::new(hub(&two_rtd_model()), PipelineConfig::DEFAULT).unwrap();
+            let (states, first, _) = run_states(
+                &mut q,
+                4000,
+                |k| [Reading::Value(21.0), Reading::Value(t2(k))],
+                StatusFlags::STUCK,
+            );
+            assert_eq!((first, states), (None, [0, 4000, 0, 0, 0]));
+        }
     }
 
     /// Issue 14 C: T1 faulty on every second sample for 300 s. The fault

@@ -23,13 +23,15 @@
 //!   first window.
 //! * **Stuck**: a temperature whose value (hence its raw converter code:
 //!   the conversion is a pure function of it) has not changed at all for
-//!   `stuck_time_s`, while another temperature input has changed within
-//!   that time (STATUS `Stuck`). A live PT100 on a MAX31865 (0.03 K per
-//!   code) flickers by a code at least every few minutes; a frozen code
-//!   while the machine around it warms is a dead converter or a stuck bus
-//!   buffer. The "others move" condition keeps a machine at rest in a
-//!   stable room from faulting every input; with a single temperature
-//!   input the check is off.
+//!   `stuck_time_s`, while another temperature input moved by at least
+//!   `stuck_others_k` within its last completed window of that length
+//!   (STATUS `Stuck`). A frozen code (0.03 K per code on a MAX31865) for
+//!   half an hour while the machine around it warms by a kelvin is a dead
+//!   converter or a stuck bus buffer, not physics. A quiet code alone is
+//!   not enough: a well-shielded PT100 in a steady phase can keep one code
+//!   for many minutes (the FL_THERMAL run does), so the others must move;
+//!   a machine at rest faults nothing, and with a single temperature input
+//!   the check is off.
 //!
 //! Coefficients ([`PlausibilityConfig`]) are apart from state
 //! ([`PlausibleState`]), as the spike filter's.
@@ -50,6 +52,9 @@ pub struct PlausibilityConfig {
     /// How long an unchanged value, while another temperature moves, makes
     /// a sensor stuck, s (0: off).
     pub stuck_time_s: f64,
+    /// How far another temperature must have moved within a window of
+    /// `stuck_time_s` for the frozen one to be stuck, K.
+    pub stuck_others_k: f64,
 }
 
 impl PlausibilityConfig {
@@ -63,14 +68,17 @@ impl PlausibilityConfig {
     ///   seed 002's fastest rise is 0.06 K/s (T9, +1.84 K in ~30 s at
     ///   spindle start-up); 0.1 K/s sustained for a minute is nearly twice
     ///   that. 0.05 K/s would refuse that real start-up.
-    /// * `stuck_time_s = 600`: ten minutes without one code of change, at
-    ///   0.03 K per code, while another input moved.
+    /// * `stuck_time_s = 1800`, `stuck_others_k = 1`: half an hour without
+    ///   one code of change (0.03 K) while another input moved by 1 K or
+    ///   more: structures coupled to the same machine cannot differ that
+    ///   much in behaviour. Ten minutes of one code happen in real logs.
     pub const DEFAULT: Self = Self {
         min_c: -20.0,
         max_c: 120.0,
         max_rate_k_per_s: 0.1,
         rate_window_s: 60.0,
-        stuck_time_s: 600.0,
+        stuck_time_s: 1800.0,
+        stuck_others_k: 1.0,
     };
 
     /// Checks the settings once.
@@ -81,7 +89,7 @@ impl PlausibilityConfig {
         if !positive(self.max_rate_k_per_s) || !positive(self.rate_window_s) {
             return Err(ConfigError::PlausibleRate);
         }
-        if !non_negative(self.stuck_time_s) {
+        if !non_negative(self.stuck_time_s) || !non_negative(self.stuck_others_k) {
             return Err(ConfigError::StuckTime);
         }
         Ok(())
@@ -108,6 +116,8 @@ pub struct PlausibleSamples {
     pub rate_limit_k: f64,
     /// Samples of an unchanged value that make it stuck (0: off).
     pub stuck: u32,
+    /// [`PlausibilityConfig::stuck_others_k`].
+    pub stuck_others_k: f64,
 }
 
 impl PlausibleSamples {
@@ -117,6 +127,7 @@ impl PlausibleSamples {
             rate_window: samples_for(config.rate_window_s, dt_s).max(1),
             rate_limit_k: config.max_rate_k_per_s * config.rate_window_s,
             stuck: samples_for(config.stuck_time_s, dt_s),
+            stuck_others_k: config.stuck_others_k,
         }
     }
 }
@@ -135,6 +146,12 @@ pub struct PlausibleState {
     /// The last value, and how many samples in a row repeated it.
     last: f64,
     same: u32,
+    /// The stuck window's anchor, age and largest excursion, and whether
+    /// the last completed window moved by `stuck_others_k`.
+    win_anchor: f64,
+    win_age: u32,
+    win_max: f64,
+    moved: bool,
 }
 
 impl PlausibleState {
@@ -146,6 +163,10 @@ impl PlausibleState {
         rate_fault: false,
         last: f64::NAN,
         same: 0,
+        win_anchor: f64::NAN,
+        win_age: 0,
+        win_max: 0.0,
+        moved: false,
     };
 
     /// Takes one spike-filtered temperature; whether its rate is
@@ -157,6 +178,19 @@ impl PlausibleState {
             self.same = 0;
         }
         self.last = t_c;
+        if n.stuck > 0 {
+            if self.win_anchor.is_nan() {
+                self.win_anchor = t_c;
+            }
+            self.win_max = self.win_max.max((t_c - self.win_anchor).abs());
+            self.win_age = self.win_age.saturating_add(1);
+            if self.win_age >= n.stuck {
+                self.moved = self.win_max >= n.stuck_others_k;
+                self.win_anchor = t_c;
+                self.win_age = 0;
+                self.win_max = 0.0;
+            }
+        }
         if self.anchor.is_nan() {
             self.anchor = t_c;
             self.age = 0;
@@ -181,12 +215,10 @@ impl PlausibleState {
         n.stuck > 0 && self.same >= n.stuck
     }
 
-    /// Whether this channel has a value that changed within the stuck
-    /// time, even if the next reading repeats it (the pipeline asks before
-    /// the sample's readings are taken, so two inputs frozen together reach
-    /// the limit together and neither calls the other moving).
-    pub fn moving(&self, n: &PlausibleSamples) -> bool {
-        !self.last.is_nan() && self.same.saturating_add(1) < n.stuck
+    /// Whether this channel moved by `stuck_others_k` within its last
+    /// completed stuck window.
+    pub fn moving(&self) -> bool {
+        self.moved
     }
 }
 
@@ -199,7 +231,7 @@ mod tests {
         let c = PlausibilityConfig::DEFAULT;
         assert_eq!(c.validate(), Ok(()));
         let n = PlausibleSamples::new(&c, 1.0);
-        assert_eq!((n.rate_window, n.rate_limit_k, n.stuck), (60, 6.0, 600));
+        assert_eq!((n.rate_window, n.rate_limit_k, n.stuck), (60, 6.0, 1800));
         let bad = PlausibilityConfig { min_c: 130.0, ..c };
         assert_eq!(bad.validate(), Err(ConfigError::PlausibleWindow));
         let bad = PlausibilityConfig {
@@ -238,26 +270,25 @@ mod tests {
     }
 
     #[test]
-    fn unchanged_counts_repeats() {
+    fn unchanged_counts_repeats_and_moving_needs_a_window_of_motion() {
         let n = PlausibleSamples {
             rate_window: 60,
             rate_limit_k: 6.0,
             stuck: 3,
+            stuck_others_k: 1.0,
         };
         let mut s = PlausibleState::NEW;
-        assert!(!s.moving(&n));
-        s.rate_fault(20.0, &n);
-        assert!(s.moving(&n));
-        s.rate_fault(20.0, &n);
-        assert!(s.moving(&n));
-        s.rate_fault(20.0, &n);
-        assert!(
-            !s.unchanged(&n) && !s.moving(&n),
-            "the next repeat is stuck"
-        );
+        for _ in 0..3 {
+            s.rate_fault(20.0, &n);
+        }
+        assert!(!s.unchanged(&n) && !s.moving(), "2 repeats; no motion");
         s.rate_fault(20.0, &n);
         assert!(s.unchanged(&n));
-        s.rate_fault(20.03, &n);
-        assert!(!s.unchanged(&n));
+        let mut m = PlausibleState::NEW;
+        for t in [20.0, 20.5, 21.0] {
+            assert!(!m.moving());
+            m.rate_fault(t, &n);
+        }
+        assert!(m.moving(), "1 K within the window");
     }
 }

@@ -82,7 +82,7 @@ impl StatusFlags {
     /// 60 s) and is faulty until a window passes without that.
     pub const RATE_OF_CHANGE: u16 = 1 << 11;
     /// A temperature has not changed by one code for the stuck time
-    /// (default 600 s) while another temperature moved.
+    /// (default 1800 s) while another temperature moved by 1 K or more.
     pub const STUCK: u16 = 1 << 12;
 
     /// Whether every bit of `mask` is set.
