@@ -132,11 +132,14 @@ impl PlausibleSamples {
     }
 }
 
-/// Per-channel memory of the rate and stuck checks.
+/// Per-channel memory of the rate and stuck checks. Temperatures are kept
+/// as f32 (7 digits: 1e-5 K at 100 C, far below a converter code of
+/// 0.03 K, so "unchanged" still means "the same code"), to keep 32 inputs'
+/// state small in RAM.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlausibleState {
     /// The window's anchor (NaN: none yet).
-    anchor: f64,
+    anchor: f32,
     /// Samples since the anchor.
     age: u32,
     /// The limit was exceeded in this window.
@@ -144,26 +147,26 @@ pub struct PlausibleState {
     /// Faulty for its rate.
     rate_fault: bool,
     /// The last value, and how many samples in a row repeated it.
-    last: f64,
+    last: f32,
     same: u32,
     /// The stuck window's anchor, age and largest excursion, and whether
     /// the last completed window moved by `stuck_others_k`.
-    win_anchor: f64,
+    win_anchor: f32,
     win_age: u32,
-    win_max: f64,
+    win_max: f32,
     moved: bool,
 }
 
 impl PlausibleState {
     /// Nothing seen.
     pub const NEW: Self = Self {
-        anchor: f64::NAN,
+        anchor: f32::NAN,
         age: 0,
         hit: false,
         rate_fault: false,
-        last: f64::NAN,
+        last: f32::NAN,
         same: 0,
-        win_anchor: f64::NAN,
+        win_anchor: f32::NAN,
         win_age: 0,
         win_max: 0.0,
         moved: false,
@@ -172,6 +175,9 @@ impl PlausibleState {
     /// Takes one spike-filtered temperature; whether its rate is
     /// implausible (see the module doc).
     pub fn rate_fault(&mut self, t_c: f64, n: &PlausibleSamples) -> bool {
+        // Narrowing on purpose (see the type's doc); `as` cannot fail.
+        #[allow(clippy::cast_possible_truncation)]
+        let t_c = t_c as f32;
         if t_c == self.last {
             self.same = self.same.saturating_add(1);
         } else {
@@ -185,7 +191,7 @@ impl PlausibleState {
             self.win_max = self.win_max.max((t_c - self.win_anchor).abs());
             self.win_age = self.win_age.saturating_add(1);
             if self.win_age >= n.stuck {
-                self.moved = self.win_max >= n.stuck_others_k;
+                self.moved = f64::from(self.win_max) >= n.stuck_others_k;
                 self.win_anchor = t_c;
                 self.win_age = 0;
                 self.win_max = 0.0;
@@ -196,7 +202,7 @@ impl PlausibleState {
             self.age = 0;
         }
         self.age = self.age.saturating_add(1);
-        if (t_c - self.anchor).abs() > n.rate_limit_k {
+        if f64::from((t_c - self.anchor).abs()) > n.rate_limit_k {
             self.hit = true;
             self.rate_fault = true;
         }
