@@ -45,6 +45,7 @@ HAND_VECTORS = [
     (0x281, "4100010080981E09",
      {"SensorFault": 1, "SpikeRejected": 0, "Stale": 0, "ModelFault": 0, "Clamped": 0,
       "SlewLimited": 0, "NoModel": 1, "Uploading": 0, "Recovering": 0, "Extrapolating": 0,
+      "Implausible": 0, "RateOfChange": 0, "Stuck": 0,
       "FaultyChannels": 0x800001,
       "InputCount": 24, "OutputCount": 4, "ConsecutiveFaults": 30, "Counter": 9}),
     # 4th output -0.1 um
@@ -56,7 +57,23 @@ HAND_VECTORS = [
     (0x281, "0002000000230000",
      {"SensorFault": 0, "SpikeRejected": 0, "Stale": 0, "ModelFault": 0, "Clamped": 0,
       "SlewLimited": 0, "NoModel": 0, "Uploading": 0, "Recovering": 0, "Extrapolating": 1,
+      "Implausible": 0, "RateOfChange": 0, "Stuck": 0,
       "FaultyChannels": 0, "InputCount": 3, "OutputCount": 1, "ConsecutiveFaults": 0, "Counter": 0}),
+    # IMPLAUSIBLE | STUCK (bits 10, 12), Holding's inputs 0 and 2 faulty, 3 inputs, 1 output,
+    # 12 faults in a row, counter 0x77
+    (0x281, "0014050000230C77",
+     {"SensorFault": 0, "SpikeRejected": 0, "Stale": 0, "ModelFault": 0, "Clamped": 0,
+      "SlewLimited": 0, "NoModel": 0, "Uploading": 0, "Recovering": 0, "Extrapolating": 0,
+      "Implausible": 1, "RateOfChange": 0, "Stuck": 1,
+      "FaultyChannels": 5, "InputCount": 3, "OutputCount": 1, "ConsecutiveFaults": 12,
+      "Counter": 0x77}),
+    # RATE_OF_CHANGE alone (bit 11)
+    (0x281, "0008000000230000",
+     {"SensorFault": 0, "SpikeRejected": 0, "Stale": 0, "ModelFault": 0, "Clamped": 0,
+      "SlewLimited": 0, "NoModel": 0, "Uploading": 0, "Recovering": 0, "Extrapolating": 0,
+      "Implausible": 0, "RateOfChange": 1, "Stuck": 0,
+      "FaultyChannels": 0, "InputCount": 3, "OutputCount": 1, "ConsecutiveFaults": 0,
+      "Counter": 0}),
     # From the CNC: 12000 rpm (1,200,000 x 0.01 rpm), 15.5 kW (1550 x 0.01 kW)
     (0x201, "804F12000E060000", {"SpindleSpeed": 12000.0, "SpindlePower": 15.5}),
     # -1 rpm, power not available (0x7FFF)

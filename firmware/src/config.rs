@@ -26,6 +26,14 @@ pub enum ConfigError {
     RampRate,
     /// The recovery time is not finite and non-negative.
     RecoverTime,
+    /// The flap window is not finite and non-negative.
+    FlapWindow,
+    /// The plausibility window is not finite or empty.
+    PlausibleWindow,
+    /// The plausible rate or its window is not finite and positive.
+    PlausibleRate,
+    /// The stuck time is not finite and non-negative.
+    StuckTime,
     /// The ramp is faster than an output's slew limit, so the limiter, not
     /// the configured ramp, would set the rate.
     RampFasterThanSlew {
@@ -58,6 +66,12 @@ impl fmt::Display for ConfigError {
             Self::HoldTime => write!(f, "hold time must be finite and >= 0 s"),
             Self::RampRate => write!(f, "ramp rate must be finite and > 0 um/s"),
             Self::RecoverTime => write!(f, "recovery time must be finite and >= 0 s"),
+            Self::FlapWindow => write!(f, "flap window must be finite and >= 0 s"),
+            Self::PlausibleWindow => write!(f, "plausible temperatures must be finite, min < max"),
+            Self::PlausibleRate => {
+                write!(f, "plausible rate and its window must be finite and > 0")
+            }
+            Self::StuckTime => write!(f, "stuck time must be finite and >= 0 s"),
             Self::RampFasterThanSlew { output } => {
                 write!(f, "ramp rate exceeds the slew rate of output #{output}")
             }

@@ -56,6 +56,7 @@ pub mod ram_flash;
 
 pub mod config;
 pub mod limiter;
+pub mod plausible;
 pub mod spike;
 pub mod supervisor;
 

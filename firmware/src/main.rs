@@ -230,7 +230,7 @@ mod host {
     #[cfg(feature = "model")]
     fn print_fault_handling() {
         let c = firmware::pipeline::PipelineConfig::DEFAULT;
-        let (sup, lim, spike) = (c.supervisor, c.limiter, c.spike);
+        let (sup, lim, spike, plaus) = (c.supervisor, c.limiter, c.spike, c.plausible);
         println!("Fault handling and limits (pipeline::PipelineConfig::DEFAULT)");
         let rows = [
             (
@@ -239,6 +239,29 @@ mod host {
                 "a jump beyond {} K/s x dt + {} K is a spike; a level lasting {} samples is real",
                 spike.max_rate_k_per_s, spike.noise_k, spike.persist_samples
             ),
+            ),
+            (
+                "plausible",
+                format!(
+                    "{}..={} C, else IMPLAUSIBLE (a sensor fault)",
+                    plaus.min_c, plaus.max_c
+                ),
+            ),
+            (
+                "rate of change",
+                format!(
+                    "over {} K from the anchor within {} s ({} K/s) is RATE_OF_CHANGE",
+                    plaus.max_rate_k_per_s * plaus.rate_window_s,
+                    plaus.rate_window_s,
+                    plaus.max_rate_k_per_s
+                ),
+            ),
+            (
+                "stuck",
+                format!(
+                    "one value for {} s while another temperature moved {} K is STUCK",
+                    plaus.stuck_time_s, plaus.stuck_others_k
+                ),
             ),
             (
                 "hold",
@@ -253,6 +276,13 @@ mod host {
                 format!(
                     "a failed input must read good {} s in a row (RECOVERING)",
                     sup.recover_time_s
+                ),
+            ),
+            (
+                "flapping",
+                format!(
+                    "{} separate faults within {} s fail an input (ramp, then recover)",
+                    sup.flap_faults, sup.flap_window_s
                 ),
             ),
             ("slew", format!("{:?} um/s per output", lim.slew_um_per_s)),

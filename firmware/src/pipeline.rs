@@ -29,7 +29,11 @@
 //!    [`Reading::Direct`] from the CNC's frames, [`Reading::Stale`] once
 //!    their timeout has passed (`cnc_inputs`). A temperature
 //!    ([`Reading::Value`]) must be finite and on the RTD curve (-200..=850 C)
-//!    and passes the spike filter (`spike`); a [`Reading::Direct`] value
+//!    (else `SENSOR_FAULT`), within the plausibility window (default
+//!    -20..=120 C, else `IMPLAUSIBLE`), pass the spike filter (`spike`),
+//!    and pass the rate and stuck checks (`plausible`: `RATE_OF_CHANGE`,
+//!    `STUCK`); each failure makes the channel faulty like a broken
+//!    sensor (held, then ramped). A [`Reading::Direct`] value
 //!    (speed, power, position) must be finite and within model-core's input
 //!    range and is not spike-filtered. Anything else makes the channel
 //!    faulty for this sample.
@@ -73,9 +77,10 @@ use crate::hub::Hub;
 use crate::limiter::{limit, LimiterConfig};
 pub use crate::offsets::POSITION_REFERENCE_MM;
 use crate::offsets::{MAX_INPUTS, MAX_OUTPUTS};
+use crate::plausible::{PlausibilityConfig, PlausibleSamples, PlausibleState};
 use crate::report::{HubState, Report, StatusFlags};
 use crate::spike::{SpikeConfig, SpikeState};
-use crate::supervisor::{ramp_toward_zero, Phase, Supervisor, SupervisorConfig};
+use crate::supervisor::{ramp_toward_zero, Phase, Supervisor, SupervisorConfig, SupervisorSamples};
 
 // One bit per input in `Report::faulty_channels`.
 const _: () = assert!(MAX_INPUTS <= 32);
@@ -176,6 +181,8 @@ pub struct PipelineConfig {
     pub default_sample_period_s: f64,
     /// Spike filter for temperature inputs.
     pub spike: SpikeConfig,
+    /// Plausibility window, rate and stuck checks for temperature inputs.
+    pub plausible: PlausibilityConfig,
     /// Hold time and ramp to zero on faults.
     pub supervisor: SupervisorConfig,
     /// Slew rate and clamp per output.
@@ -193,6 +200,7 @@ impl PipelineConfig {
     pub const DEFAULT: Self = Self {
         default_sample_period_s: board::SAMPLE_PERIOD_MS as f64 / 1000.0,
         spike: SpikeConfig::DEFAULT,
+        plausible: PlausibilityConfig::DEFAULT,
         supervisor: SupervisorConfig::DEFAULT,
         limiter: LimiterConfig::DEFAULT,
         slope_stroke_mm: 1000.0,
@@ -206,6 +214,7 @@ impl PipelineConfig {
             return Err(ConfigError::SamplePeriod);
         }
         self.spike.validate()?;
+        self.plausible.validate()?;
         self.supervisor.validate()?;
         self.limiter.validate()?;
         if !crate::config::positive(self.slope_stroke_mm) {
@@ -265,8 +274,8 @@ impl core::error::Error for SwapError {}
 struct Timing {
     dt_s: f64,
     spike_limit_k: f64,
-    hold_samples: u32,
-    recover_samples: u32,
+    plausible: PlausibleSamples,
+    supervisor: SupervisorSamples,
     ramp_step_um: f64,
     slew_step_um: [f64; MAX_OUTPUTS],
     /// um of offset -> um/m of slope at the configured stroke.
@@ -282,8 +291,8 @@ impl Timing {
         Self {
             dt_s,
             spike_limit_k: config.spike.limit_k(dt_s),
-            hold_samples: config.supervisor.hold_samples(dt_s),
-            recover_samples: config.supervisor.recover_samples(dt_s),
+            plausible: PlausibleSamples::new(&config.plausible, dt_s),
+            supervisor: SupervisorSamples::new(&config.supervisor, dt_s),
             ramp_step_um: config.supervisor.ramp_step_um(dt_s),
             slew_step_um,
             per_stroke_m: 1000.0 / config.slope_stroke_mm,
@@ -389,6 +398,8 @@ pub struct Pipeline {
     timing: Timing,
     /// Spike-filter memory per model input.
     spike: [SpikeState; MAX_INPUTS],
+    /// Rate and stuck memory per model input.
+    plausible: [PlausibleState; MAX_INPUTS],
     /// Inputs filled from `tool_mm` rather than from a reading.
     tool_mask: u32,
     tool_mm: Option<f64>,
@@ -422,6 +433,7 @@ impl Pipeline {
             config,
             timing,
             spike: [SpikeState::NEW; MAX_INPUTS],
+            plausible: [PlausibleState::NEW; MAX_INPUTS],
             tool_mm: None,
             supervisors: [Supervisor::NEW; MAX_OUTPUTS],
             offsets_um: [0.0; MAX_OUTPUTS],
@@ -501,6 +513,7 @@ impl Pipeline {
         let mut slopes_um_per_m = [0.0; MAX_OUTPUTS];
         let mut supervisors = [Supervisor::NEW; MAX_OUTPUTS];
         let mut spike = [SpikeState::NEW; MAX_INPUTS];
+        let mut plausible = [PlausibleState::NEW; MAX_INPUTS];
         let positional = hub.positional();
         if let Some(old) = self.hub.model() {
             for (j, name) in new.outputs().iter().enumerate() {
@@ -524,9 +537,15 @@ impl Pipeline {
                     }
                 }
             }
-            for (state, channel) in spike.iter_mut().zip(new.inputs()) {
+            for ((state, plaus), channel) in spike.iter_mut().zip(&mut plausible).zip(new.inputs())
+            {
                 if let Some(k) = old.inputs().iter().position(|c| c.name == channel.name) {
                     *state = self.spike.get(k).copied().unwrap_or(SpikeState::NEW);
+                    *plaus = self
+                        .plausible
+                        .get(k)
+                        .copied()
+                        .unwrap_or(PlausibleState::NEW);
                 }
             }
         }
@@ -538,6 +557,7 @@ impl Pipeline {
         self.slopes_um_per_m = slopes_um_per_m;
         self.offsets_um = offsets_um;
         self.spike = spike;
+        self.plausible = plausible;
         self.hub = hub;
         Ok(())
     }
@@ -587,9 +607,19 @@ impl Pipeline {
         // 1. Validate and spike-filter each input.
         let mut inputs = [0.0; MAX_INPUTS];
         let mut faulty = 0u32;
-        for (j, (x, state)) in inputs
+        let pn = self.timing.plausible;
+        // Temperatures that moved in their last stuck window.
+        let moving = self
+            .plausible
+            .iter()
+            .take(n_in)
+            .enumerate()
+            .filter(|(_, p)| p.moving())
+            .fold(0u32, |m, (j, _)| m | bit(j));
+        for (j, ((x, state), plaus)) in inputs
             .iter_mut()
             .zip(self.spike.iter_mut())
+            .zip(self.plausible.iter_mut())
             .take(n_in)
             .enumerate()
         {
@@ -602,17 +632,27 @@ impl Pipeline {
             };
             let good = match reading {
                 Reading::Value(t_c) if t_c.is_finite() && (T_MIN_C..=T_MAX_C).contains(&t_c) => {
-                    if self
+                    if !self.config.plausible.in_window(t_c) {
+                        state.miss();
+                        flags.set(StatusFlags::IMPLAUSIBLE);
+                        false
+                    } else if !self
                         .config
                         .spike
                         .filter(state, t_c, self.timing.spike_limit_k)
                         .accepted()
                     {
-                        *x = t_c;
-                        true
-                    } else {
                         flags.set(StatusFlags::SPIKE_REJECTED);
                         false
+                    } else if plaus.rate_fault(t_c, &pn) {
+                        flags.set(StatusFlags::RATE_OF_CHANGE);
+                        false
+                    } else if plaus.unchanged(&pn) && moving & !bit(j) != 0 {
+                        flags.set(StatusFlags::STUCK);
+                        false
+                    } else {
+                        *x = t_c;
+                        true
                     }
                 }
                 Reading::Direct(v) if v.is_finite() && v.abs() <= MAX_INPUT_MAGNITUDE => {
@@ -674,7 +714,7 @@ impl Pipeline {
             .enumerate()
         {
             let good = model_out.is_some() && affected & bit8(k) == 0;
-            *phase = sup.step(good, self.timing.hold_samples, self.timing.recover_samples);
+            *phase = sup.step(good, &self.timing.supervisor);
             if *phase == Phase::Ramp && good {
                 flags.set(StatusFlags::RECOVERING);
             }
@@ -900,16 +940,16 @@ mod tests {
                 .has(StatusFlags::EXTRAPOLATING)
         };
         assert!(!flagged(&mut p, 20.0));
-        // Climb slowly (the spike filter passes 0.5 K a sample).
+        // Climb at a plausible 0.05 K/s (the rate check allows 6 K/min).
         let mut t: f64 = 20.0;
         while t < 30.5 {
-            t += 0.4;
+            t += 0.05;
             p.on_sample(&[Reading::Value(t.min(30.5))]);
         }
         assert!(!flagged(&mut p, 30.5), "5 % outside: not flagged");
         let mut t: f64 = 30.5;
         while t < 33.0 {
-            t += 0.4;
+            t += 0.05;
             p.on_sample(&[Reading::Value(t.min(33.0))]);
         }
         let r = p.on_sample(&[Reading::Value(33.0)]);
@@ -922,6 +962,187 @@ mod tests {
             .on_sample(&[Reading::Value(20.0)])
             .flags
             .has(StatusFlags::EXTRAPOLATING));
+    }
+
+    /// dz_um = 10 * (T1 - 20) + 10 * (T2 - 20): two temperatures.
+    fn two_rtd_model() -> ValidModel {
+        let t = |n: &str| Channel {
+            name: name(n),
+            reference: Reference::Value(20.0),
+        };
+        let c = |channel: u8| Coef {
+            channel,
+            value: 10.0,
+        };
+        Model {
+            inputs: vec(&[t("T1"), t("T2")]),
+            outputs: vec(&[name("dz_um")]),
+            dt_s: 0.0,
+            params: Params::Linear(Linear {
+                outputs: vec(&[LinearOutput {
+                    output: 0,
+                    intercept: 0.0,
+                    coef: vec(&[c(0), c(1)]),
+                    position: None,
+                }]),
+            }),
+            bounds: None,
+        }
+        .validate()
+        .unwrap()
+    }
+
+    /// Samples per state over `n` samples of `reading(k)`; the first
+    /// sample that sets `flag`, and how many set it.
+    fn run_states(
+        p: &mut Pipeline,
+        n: usize,
+        reading: impl Fn(usize) -> [Reading; 2],
+        flag: u16,
+    ) -> ([usize; 5], Option<usize>, usize) {
+        let (mut states, mut first, mut count) = ([0; 5], None, 0);
+        for k in 0..n {
+            let r = p.on_sample(&reading(k));
+            states[usize::from(r.state.code())] += 1;
+            if r.flags.has(flag) {
+                first.get_or_insert(k);
+                count += 1;
+                assert_eq!(r.faulty_channels & 1, 1, "{k}: {r:?}");
+            }
+        }
+        (states, first, count)
+    }
+
+    /// A tool-model pipeline settled at dz = 10 um (T1 = 21 C).
+    fn settled() -> Pipeline {
+        let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        p.set_tool_length_mm(0.0).unwrap();
+        for _ in 0..10 {
+            p.on_sample(&[Reading::Value(21.0)]);
+        }
+        assert_eq!(p.offsets_um()[0], 10.0);
+        p
+    }
+
+    /// Issue 14 B: T1 stuck at 850 C or 200 C from mid-run (on the PT100
+    /// curve, past the spike filter's persistence) is implausible on every
+    /// sample: 60 holding, 9 ramping (10 um at 1 um/s), 131 zeroed; the
+    /// spike filter never sees it.
+    #[test]
+    fn a_temperature_stuck_far_outside_the_machine_range_is_implausible() {
+        for stuck_c in [850.0, 200.0, -30.0] {
+            let mut p = settled();
+            let (states, first, count) = run_states(
+                &mut p,
+                200,
+                |_| [Reading::Value(stuck_c), Reading::Stale],
+                StatusFlags::IMPLAUSIBLE,
+            );
+            assert_eq!((first, count), (Some(0), 200), "{stuck_c}");
+            assert_eq!(states, [0, 0, 60, 9, 131], "{stuck_c}");
+            assert_eq!(p.offsets_um()[0], 0.0);
+        }
+    }
+
+    /// Issue 14 B: T1 drifting at 0.4 K/s (under the spike filter's
+    /// 0.5 K/s) from 21 C: the anchor is 21 C (sample 0 of the window), so
+    /// the change passes 6 K at 27.4 C, the 16th drift sample; faulty from
+    /// then on (later also implausible, past 120 C). The offset followed to
+    /// 10 + 2 um/s x 15 = 40 um, held 60 s, ramped 40 s.
+    #[test]
+    fn a_drift_under_the_spike_rate_is_a_rate_fault() {
+        let mut p = settled();
+        let (states, first, count) = run_states(
+            &mut p,
+            300,
+            |k| [Reading::Value(21.0 + 0.4 * (k + 1) as f64), Reading::Stale],
+            StatusFlags::RATE_OF_CHANGE,
+        );
+        assert_eq!(first, Some(15));
+        // 27.4 .. 119.8 C (drift samples 15..=246) are rate faults; above
+        // 120 C the reading is refused before the rate check.
+        assert_eq!(count, 232);
+        assert_eq!(states, [0, 15, 60, 39, 186]);
+        assert_eq!(p.offsets_um()[0], 0.0);
+    }
+
+    /// Issue 14 B: T1 frozen on one value (one converter code) for 1800 s
+    /// while T2 rises by 5.4 K is stuck from sample 1800 (T2's first window,
+    /// samples 0..=1799, moved by over 1 K); with T2 moving by less than
+    /// 1 K a window, or both frozen (a machine at rest), nothing is flagged.
+    #[test]
+    fn a_frozen_temperature_while_another_moves_is_stuck() {
+        let mut p = Pipeline::new(hub(&two_rtd_model()), PipelineConfig::DEFAULT).unwrap();
+        let t2 = |k: usize| 20.0 + 0.003 * k as f64;
+        let (states, first, count) = run_states(
+            &mut p,
+            1900,
+            |k| [Reading::Value(21.0), Reading::Value(t2(k))],
+            StatusFlags::STUCK,
+        );
+        assert_eq!((first, count), (Some(1800), 100));
+        assert_eq!(states, [0, 1800, 60, 40, 0], "{states:?}");
+        for t2 in [
+            (|k: usize| if k.is_multiple_of(2) { 20.0 } else { 20.1 }) as fn(usize) -> f64,
+            |_| 20.5,
+        ] {
+            let mut q = Pipeline::new(hub(&two_rtd_model()), PipelineConfig::DEFAULT).unwrap();
+            let (states, first, _) = run_states(
+                &mut q,
+                4000,
+                |k| [Reading::Value(21.0), Reading::Value(t2(k))],
+                StatusFlags::STUCK,
+            );
+            assert_eq!((first, states), (None, [0, 4000, 0, 0, 0]));
+        }
+    }
+
+    /// Issue 14 C: T1 faulty on every second sample for 300 s. The fault
+    /// count in the flap window fails the input at its 5th fault (sample 8:
+    /// faults at samples 0, 2, 4, 6, 8), and it ramps from then on: it never
+    /// reads good 10 s in a row while flapping. Then 10 good samples in a
+    /// row bring it back.
+    #[test]
+    fn a_flapping_input_fails_and_ramps_until_good_for_the_recovery_time() {
+        let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
+        p.set_tool_length_mm(0.0).unwrap();
+        // Settle on dz = 10 um at 21 C.
+        for _ in 0..10 {
+            p.on_sample(&[Reading::Value(21.0)]);
+        }
+        assert_eq!(p.offsets_um()[0], 10.0);
+        let mut states = [0usize; 5];
+        let mut first_ramp = None;
+        for k in 0..300usize {
+            let reading = if k.is_multiple_of(2) {
+                Reading::Fault(ChannelFault::Open)
+            } else {
+                Reading::Value(21.0)
+            };
+            let r = p.on_sample(&[reading]);
+            states[usize::from(r.state.code())] += 1;
+            if r.state != HubState::Holding && r.state != HubState::Running {
+                first_ramp.get_or_insert(k);
+            }
+        }
+        // Holding at faults 1..4 (samples 0, 2, 4, 6), Running between them
+        // (1, 3, 5, 7), failed from sample 8 on: 292 samples ramping or at 0.
+        assert_eq!(first_ramp, Some(8));
+        assert_eq!(states[2], 4, "holding {states:?}");
+        assert_eq!(states[1], 4, "running {states:?}");
+        assert_eq!(states[3] + states[4], 292, "{states:?}");
+        assert_eq!(p.offsets_um()[0], 0.0, "ramped to zero");
+        // Good from sample 299 on: 9 samples recovering (299 and 8 more),
+        // the 10th good one follows.
+        for _ in 0..8 {
+            let r = p.on_sample(&[Reading::Value(21.0)]);
+            assert_eq!(r.state, HubState::Zeroed);
+            assert!(r.flags.has(StatusFlags::RECOVERING));
+        }
+        assert_eq!(
+            p.on_sample(&[Reading::Value(21.0)]).state,
+            HubState::Running
+        );
     }
 
     #[test]

@@ -75,6 +75,15 @@ impl StatusFlags {
     /// more than `EXTRAPOLATION_FLAG_AT` of its calibration range outside the
     /// model's envelope (models with bounds: `fit --model auto`).
     pub const EXTRAPOLATING: u16 = 1 << 9;
+    /// A temperature on the RTD curve but outside the plausibility window
+    /// (default -20..=120 C) was refused (`plausible`).
+    pub const IMPLAUSIBLE: u16 = 1 << 10;
+    /// A temperature changed faster than a machine can (default 6 K within
+    /// 60 s) and is faulty until a window passes without that.
+    pub const RATE_OF_CHANGE: u16 = 1 << 11;
+    /// A temperature has not changed by one code for the stuck time
+    /// (default 1800 s) while another temperature moved by 1 K or more.
+    pub const STUCK: u16 = 1 << 12;
 
     /// Whether every bit of `mask` is set.
     pub const fn has(self, mask: u16) -> bool {

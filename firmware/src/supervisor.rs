@@ -26,6 +26,13 @@
 //!   the model again (until then they keep ramping or stay at zero): an
 //!   intermittent contact that reads good one second in five would
 //!   otherwise switch the compensation on and off all day.
+//! * Faults are also counted: the `flap_faults`-th separate fault (a bad
+//!   sample after a good one) within `flap_window_s` of the first fails the
+//!   input at once, even if no fault lasted the hold time: a contact bad
+//!   every second sample would otherwise alternate Holding/Running forever
+//!   and never ramp. It then recovers like any failed input. The window is
+//!   a fixed one, started by the first fault after the last window ran out
+//!   (two counters per output, no history buffer).
 //! * Either way the slew limiter takes the offsets from wherever they are
 //!   to the model's value, so there is no jump in either direction.
 //!
@@ -59,6 +66,10 @@ pub struct SupervisorConfig {
     /// How long a failed input (fault past the hold time) must read good
     /// in a row before the offsets follow the model again, s.
     pub recover_time_s: f64,
+    /// Window over which separate faults are counted, s.
+    pub flap_window_s: f64,
+    /// Separate faults within the window that fail the input (ramp), 0: off.
+    pub flap_faults: u8,
 }
 
 impl SupervisorConfig {
@@ -75,10 +86,15 @@ impl SupervisorConfig {
     /// * `recover_time_s = 10`: a reconnected sensor is stable within a
     ///   second; ten seconds of good readings in a row rule out a contact
     ///   that flickers, and cost well under 1 um of thermal drift.
+    /// * `flap_window_s = 60`, `flap_faults = 5`: seed 002's worst burst of
+    ///   spikes is three in about three minutes; five separate faults in a
+    ///   minute is a bad contact, not a glitch, and is failed on the spot.
     pub const DEFAULT: Self = Self {
         hold_time_s: 60.0,
         ramp_um_per_s: 1.0,
         recover_time_s: 10.0,
+        flap_window_s: 60.0,
+        flap_faults: 5,
     };
 
     /// Checks the settings once.
@@ -92,12 +108,20 @@ impl SupervisorConfig {
         if !non_negative(self.recover_time_s) {
             return Err(ConfigError::RecoverTime);
         }
+        if !non_negative(self.flap_window_s) {
+            return Err(ConfigError::FlapWindow);
+        }
         Ok(())
     }
 
     /// The recovery time in whole samples of `dt_s` (rounded up).
     pub fn recover_samples(&self, dt_s: f64) -> u32 {
         samples_for(self.recover_time_s, dt_s)
+    }
+
+    /// The flap window in whole samples of `dt_s` (rounded up).
+    pub fn flap_window_samples(&self, dt_s: f64) -> u32 {
+        samples_for(self.flap_window_s, dt_s)
     }
 
     /// The hold time in whole samples of `dt_s` (rounded up).
@@ -141,12 +165,42 @@ impl Phase {
     }
 }
 
-/// The fault timer: consecutive bad samples, and good ones after a failure.
+/// A [`SupervisorConfig`] in whole samples of one period.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SupervisorSamples {
+    /// [`SupervisorConfig::hold_samples`].
+    pub hold: u32,
+    /// [`SupervisorConfig::recover_samples`].
+    pub recover: u32,
+    /// [`SupervisorConfig::flap_window_samples`].
+    pub flap_window: u32,
+    /// [`SupervisorConfig::flap_faults`] (0: no fault counting).
+    pub flap_faults: u8,
+}
+
+impl SupervisorSamples {
+    /// `config` at a sample period of `dt_s`.
+    pub fn new(config: &SupervisorConfig, dt_s: f64) -> Self {
+        Self {
+            hold: config.hold_samples(dt_s),
+            recover: config.recover_samples(dt_s),
+            flap_window: config.flap_window_samples(dt_s),
+            flap_faults: config.flap_faults,
+        }
+    }
+}
+
+/// The fault timer: consecutive bad samples, good ones after a failure,
+/// and separate faults in the current flap window.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Supervisor {
     bad_run: u32,
     good_run: u32,
     failed: bool,
+    /// Samples left in the flap window (0: no window open).
+    window_left: u32,
+    /// Separate faults since the window opened.
+    faults: u8,
 }
 
 impl Supervisor {
@@ -155,16 +209,35 @@ impl Supervisor {
         bad_run: 0,
         good_run: 0,
         failed: false,
+        window_left: 0,
+        faults: 0,
     };
 
-    /// One sample: `good` as in the module doc; `hold_samples` and
-    /// `recover_samples` from [`SupervisorConfig::hold_samples`] and
-    /// [`SupervisorConfig::recover_samples`].
-    pub fn step(&mut self, good: bool, hold_samples: u32, recover_samples: u32) -> Phase {
+    /// One sample: `good` as in the module doc; `n` from
+    /// [`SupervisorSamples::new`].
+    pub fn step(&mut self, good: bool, n: &SupervisorSamples) -> Phase {
+        self.window_left = self.window_left.saturating_sub(1);
+        if !good && self.bad_run == 0 && n.flap_faults > 0 {
+            // A new fault: count it in the window (opening one if none).
+            if self.window_left == 0 {
+                self.window_left = n.flap_window;
+                self.faults = 0;
+            }
+            self.faults = self.faults.saturating_add(1);
+            if self.faults >= n.flap_faults {
+                self.failed = true;
+            }
+        }
+        let (hold_samples, recover_samples) = (n.hold, n.recover);
         if good {
             self.good_run = self.good_run.saturating_add(1);
             if self.failed && self.good_run < recover_samples {
                 return Phase::Ramp;
+            }
+            if self.failed {
+                // Recovered: a new count starts with the next fault.
+                self.window_left = 0;
+                self.faults = 0;
             }
             self.failed = false;
             self.bad_run = 0;
@@ -182,7 +255,7 @@ impl Supervisor {
     }
 
     /// Consecutive bad samples up to and including the last one (0 after a
-    /// good sample).
+    /// good sample, and after recovery from a failure).
     pub fn bad_run(&self) -> u32 {
         self.bad_run
     }
@@ -203,26 +276,66 @@ pub fn ramp_toward_zero(prev_um: f64, step_um: f64) -> f64 {
 mod tests {
     use super::*;
 
+    /// Hold and recovery counts, no fault counting.
+    fn n(hold: u32, recover: u32) -> SupervisorSamples {
+        SupervisorSamples {
+            hold,
+            recover,
+            flap_window: 0,
+            flap_faults: 0,
+        }
+    }
+
+    /// The 5th separate fault within the window fails the input at once;
+    /// four do not, and a window that ran out starts the count again.
+    #[test]
+    fn counted_faults_fail_a_flapping_input() {
+        let c = SupervisorSamples {
+            hold: 60,
+            recover: 3,
+            flap_window: 10,
+            flap_faults: 5,
+        };
+        let mut s = Supervisor::NEW;
+        for _ in 0..4 {
+            assert_eq!(s.step(false, &c), Phase::Hold);
+            assert_eq!(s.step(true, &c), Phase::Follow);
+        }
+        // Window (10 samples from the first fault) runs out: count restarts.
+        assert_eq!(s.step(true, &c), Phase::Follow);
+        assert_eq!(s.step(true, &c), Phase::Follow);
+        for _ in 0..4 {
+            assert_eq!(s.step(false, &c), Phase::Hold);
+            assert_eq!(s.step(true, &c), Phase::Follow);
+        }
+        assert_eq!(s.step(false, &c), Phase::Ramp, "5th fault in 10 samples");
+        assert_eq!(s.step(true, &c), Phase::Ramp);
+        assert_eq!(s.step(true, &c), Phase::Ramp);
+        assert_eq!(s.step(true, &c), Phase::Follow, "3 good in a row");
+        assert_eq!(s.step(false, &c), Phase::Hold, "count restarted");
+    }
+
     #[test]
     fn holds_exactly_hold_samples_then_ramps_then_recovers() {
         let cfg = SupervisorConfig {
             hold_time_s: 5.0,
             ramp_um_per_s: 1.0,
             recover_time_s: 0.0,
+            ..SupervisorConfig::DEFAULT
         };
         let hold = cfg.hold_samples(1.0);
         assert_eq!(hold, 5);
         let mut s = Supervisor::NEW;
-        assert_eq!(s.step(true, hold, 0), Phase::Follow);
+        assert_eq!(s.step(true, &n(hold, 0)), Phase::Follow);
         for _ in 0..5 {
-            assert_eq!(s.step(false, hold, 0), Phase::Hold);
+            assert_eq!(s.step(false, &n(hold, 0)), Phase::Hold);
         }
-        assert_eq!(s.step(false, hold, 0), Phase::Ramp);
+        assert_eq!(s.step(false, &n(hold, 0)), Phase::Ramp);
         assert_eq!(s.bad_run(), 6);
-        assert_eq!(s.step(true, hold, 0), Phase::Follow);
+        assert_eq!(s.step(true, &n(hold, 0)), Phase::Follow);
         assert_eq!(s.bad_run(), 0);
         // A new fault starts a new hold.
-        assert_eq!(s.step(false, hold, 0), Phase::Hold);
+        assert_eq!(s.step(false, &n(hold, 0)), Phase::Hold);
     }
 
     /// A glitch inside the hold time recovers at the first good sample; a
@@ -232,27 +345,27 @@ mod tests {
     fn a_failed_input_must_read_good_for_the_recovery_time() {
         let (hold, recover) = (3, 4);
         let mut s = Supervisor::NEW;
-        assert_eq!(s.step(false, hold, recover), Phase::Hold);
-        assert_eq!(s.step(true, hold, recover), Phase::Follow, "glitch");
+        assert_eq!(s.step(false, &n(hold, recover)), Phase::Hold);
+        assert_eq!(s.step(true, &n(hold, recover)), Phase::Follow, "glitch");
         for _ in 0..3 {
-            assert_eq!(s.step(false, hold, recover), Phase::Hold);
+            assert_eq!(s.step(false, &n(hold, recover)), Phase::Hold);
         }
-        assert_eq!(s.step(false, hold, recover), Phase::Ramp, "failed");
+        assert_eq!(s.step(false, &n(hold, recover)), Phase::Ramp, "failed");
         for _ in 0..3 {
-            assert_eq!(s.step(true, hold, recover), Phase::Ramp, "proving");
+            assert_eq!(s.step(true, &n(hold, recover)), Phase::Ramp, "proving");
         }
-        assert_eq!(s.step(false, hold, recover), Phase::Ramp, "flicker");
+        assert_eq!(s.step(false, &n(hold, recover)), Phase::Ramp, "flicker");
         for _ in 0..3 {
-            assert_eq!(s.step(true, hold, recover), Phase::Ramp);
+            assert_eq!(s.step(true, &n(hold, recover)), Phase::Ramp);
         }
-        assert_eq!(s.step(true, hold, recover), Phase::Follow, "4 in a row");
-        assert_eq!(s.step(false, hold, recover), Phase::Hold, "a new hold");
+        assert_eq!(s.step(true, &n(hold, recover)), Phase::Follow, "4 in a row");
+        assert_eq!(s.step(false, &n(hold, recover)), Phase::Hold, "a new hold");
     }
 
     #[test]
     fn zero_hold_ramps_at_once() {
         let mut s = Supervisor::NEW;
-        assert_eq!(s.step(false, 0, 0), Phase::Ramp);
+        assert_eq!(s.step(false, &n(0, 0)), Phase::Ramp);
     }
 
     #[test]
@@ -292,5 +405,10 @@ mod tests {
         };
         assert_eq!(bad.validate(), Err(ConfigError::RecoverTime));
         assert_eq!(SupervisorConfig::DEFAULT.recover_samples(1.0), 10);
+        let bad = SupervisorConfig {
+            flap_window_s: -1.0,
+            ..SupervisorConfig::DEFAULT
+        };
+        assert_eq!(bad.validate(), Err(ConfigError::FlapWindow));
     }
 }

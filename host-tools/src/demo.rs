@@ -759,8 +759,12 @@ fn replay_agreement(model: &ValidModel, trace: &Path, data: &Path) -> Result<Agr
         };
         // Any flag but Extrapolating (information: the offsets are the
         // model's, outside its calibration envelope) means the hub changed
-        // or held what the model said.
-        let informational = firmware::report::StatusFlags::EXTRAPOLATING;
+        // or held what the model said. So do the plausibility faults, but
+        // in Running they name an input no output reads: the simulated
+        // ambient and coolant are exact constants, which the hub calls
+        // stuck while the machine warms.
+        use firmware::report::StatusFlags as F;
+        let informational = F::EXTRAPOLATING | F::IMPLAUSIBLE | F::RATE_OF_CHANGE | F::STUCK;
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let acted = (fl as u16) & !informational != 0;
         if st != running || acted {

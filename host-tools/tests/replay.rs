@@ -73,7 +73,13 @@ fn replay_agrees_with_predict_within_the_frame_resolution() {
     assert_eq!(run["samples"], 80281);
     // OFFSETS + STATUS every sample, HEARTBEAT every 1 s.
     assert_eq!(run["frames"], 3 * 80281);
-    assert_eq!(run["states"]["running"], 80281);
+    // Rows are held until the next one (the hub never sees a later row),
+    // so a change of more than the spike filter's 1 K between two rows
+    // 60 s apart reaches the hub as one step: rejected for two samples
+    // (Holding), then accepted. That happens at 4 rows of this run; a run
+    // logged at the hub's period has no such steps.
+    assert_eq!(run["states"]["running"], 80281 - 8);
+    assert_eq!(run["states"]["holding"], 8);
     // The model as predict runs it, on the inputs exactly as the hub read
     // them (after the RTD converter's quantisation): the only difference
     // left is the frame's 0.1 um step, where no limiter acted.
@@ -92,14 +98,17 @@ fn replay_agrees_with_predict_within_the_frame_resolution() {
         .iter()
         .filter(|f| (**f as u16) & (1 << 5) != 0)
         .count();
-    // Power-up: offsets start at 0 and climb at 2 um/s to the model's.
-    assert!(slewed < 30, "{slewed} slew-limited samples");
+    // Power-up: offsets start at 0 and climb at 2 um/s to the model's; and
+    // the held rows move the model's offsets once a minute, at some rows by
+    // more than one slew step (164 samples on this run).
+    assert!(slewed < 200, "{slewed} slew-limited samples");
     let mut worst = 0.0f64;
     for out in ["ch1_um", "ch3_um", "ch5_um"] {
         let sent = &t[&format!("{out}_sent")];
         let want = &pr[&format!("{out}_pred")];
         for k in 0..sent.len() {
-            if (flags[k] as u16) & (1 << 5) == 0 {
+            // Where no limiter acted and no spike was held (Running).
+            if (flags[k] as u16) & (1 << 5) == 0 && t["state"][k] == 1.0 {
                 worst = worst.max((sent[k] - want[k]).abs());
             }
         }
@@ -134,7 +143,7 @@ fn replay_agrees_with_predict_within_the_frame_resolution() {
         let want = &raw[&format!("{out}_pred")];
         // Row r of the run is sample 60 r of the replay.
         let worst = (0..want.len())
-            .filter(|&r| (flags[60 * r] as u16) & (1 << 5) == 0)
+            .filter(|&r| (flags[60 * r] as u16) & (1 << 5) == 0 && t["state"][60 * r] == 1.0)
             .map(|r| (sent[60 * r] - want[r]).abs())
             .fold(0.0, f64::max);
         assert!(worst <= bound, "{out}: {worst} > {bound}");
@@ -174,10 +183,17 @@ fn a_sensor_that_fails_mid_run_holds_then_ramps_to_zero() {
     ]);
     let t = read_csv(p(&trace));
     let state = &t["state"];
-    // The last interpolated value sits at row 99 (sample 5940); samples
-    // after it read stale. Hold 60 s (60 samples), then ramp at 1 um/s.
-    let first_bad = state.iter().position(|s| *s != 1.0).unwrap();
-    assert_eq!(first_bad, 5941);
+    // Row 99 (sample 5940) is the last with T5; the hub reads it until
+    // row 100 (sample 6000), whose empty cell is the first stale sample
+    // (never a value from after a sample's time). Hold 60 s (60
+    // samples), then ramp at 1 um/s.
+    let stale = |f: &f64| (*f as u16) & (1 << 2) != 0;
+    let first_bad = t["flags"].iter().position(stale).unwrap();
+    assert_eq!(first_bad, 6000);
+    assert_eq!(
+        t["flags"].iter().filter(|f| stale(f)).count(),
+        200 * 60 - 6000 - 59
+    );
     assert!(state[first_bad..first_bad + 60].iter().all(|s| *s == 2.0));
     let held = t["ch3_um_sent"][first_bad - 1];
     assert!(t["ch3_um_sent"][first_bad..first_bad + 60]
@@ -475,4 +491,165 @@ fn speed_from_can_frames_follows_then_times_out_holds_and_ramps() {
         "{held} um at 1 um/s"
     );
     assert_eq!(*sent.last().unwrap(), 0.0);
+}
+
+/// dz_um = 10 * T1 + T2 (absolute temperatures).
+const GAP_SPEC: &str = "kind = \"linear\"\n\n[[linear]]\noutput = \"dz_um\"\nintercept = -270.0\ncoef = { T1 = 10.0, T2 = 1.0 }\n";
+
+/// A run logged every 1 s (the hub's period), T2 moving; `t1_missing`
+/// rows have an empty T1 cell, `rows` are the times logged.
+fn gap_run(rows: impl Iterator<Item = u32>, t1_missing: impl Fn(u32) -> bool) -> String {
+    let mut text = String::from("t_s,T1,T2\n");
+    for t in rows {
+        let t2 = 20.0 + 0.01 * f64::from(t % 7);
+        if t1_missing(t) {
+            text += &format!("{t},,{t2}\n");
+        } else {
+            text += &format!("{t},25.0,{t2}\n");
+        }
+    }
+    text
+}
+
+/// Replays `run` with the GAP_SPEC model; the trace as columns.
+fn replay_gap(dir: &std::path::Path, run: &str) -> (serde_json::Value, HashMap<String, Vec<f64>>) {
+    let spec = write(dir, "gap.toml", GAP_SPEC);
+    let blob = dir.join("gap.bin");
+    ok(&["model", "build", "--spec", &spec, "--out", p(&blob)]);
+    let run = write(dir, "gap.csv", run);
+    let (log, trace) = (dir.join("gap.log"), dir.join("gap_trace.csv"));
+    let j = ok_json(&[
+        "replay",
+        "--model",
+        p(&blob),
+        "--data",
+        &run,
+        "--candump",
+        p(&log),
+        "--trace",
+        p(&trace),
+        "--json",
+    ]);
+    (j, read_csv(p(&trace)))
+}
+
+/// Issue 14 A: 60 s of empty T1 cells in the middle of a 1 s run read as
+/// 60 stale samples (hold 60 s), exactly as the hub would see them, not
+/// as 60 good samples interpolated towards the value after the gap.
+#[test]
+fn a_60_s_dropout_reads_as_60_stale_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let (j, t) = replay_gap(dir.path(), &gap_run(0..300, |t| (100..160).contains(&t)));
+    let run = &j["runs"][0];
+    assert_eq!(run["samples"], 300);
+    assert_eq!(run["stale_samples"], 60);
+    assert_eq!(run["states"]["running"], 240);
+    assert_eq!(run["states"]["holding"], 60);
+    let stale = |k: usize| (t["flags"][k] as u16) & (1 << 2) != 0;
+    assert!((100..160).all(stale), "every sample in the gap is stale");
+    assert!(!(0..100).any(stale) && !(160..300).any(stale));
+    assert!((100..160).all(|k| t["T1"][k].is_nan()), "no value read");
+    assert!((100..160).all(|k| t["state"][k] == 2.0));
+}
+
+/// Issue 14 A: a logging gap (no rows for 1000 s) is 1000 samples without
+/// a reading, not 1000 interpolated "Running" samples: hold 60 s, ramp to
+/// zero, and back to Running 10 s after the rows return.
+#[test]
+fn a_logging_gap_is_stale_holds_and_ramps() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = (0..200).chain(1200..1300);
+    let (j, t) = replay_gap(dir.path(), &gap_run(rows, |_| false));
+    let run = &j["runs"][0];
+    assert_eq!(run["samples"], 1300);
+    assert_eq!(run["stale_samples"], 1000, "samples 200..=1199");
+    let st = &run["states"];
+    assert_eq!(st["holding"], 60);
+    // 200 before, 91 after: recovering 1200..=1208, following from 1209.
+    assert_eq!(st["running"], 291);
+    let (ramping, zeroed) = (st["ramping"].as_u64(), st["zeroed"].as_u64());
+    assert_eq!(ramping.unwrap() + zeroed.unwrap(), 949);
+    assert!((0..200).all(|k| t["state"][k] == 1.0));
+    assert!((200..1209).all(|k| t["state"][k] != 1.0));
+    assert!((1209..1300).all(|k| t["state"][k] == 1.0));
+}
+
+/// The GAP_SPEC model's blob, built once.
+fn gap_blob() -> &'static [u8] {
+    static BLOB: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    BLOB.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = write(dir.path(), "gap.toml", GAP_SPEC);
+        let blob = dir.path().join("gap.bin");
+        ok(&["model", "build", "--spec", &spec, "--out", p(&blob)]);
+        std::fs::read(&blob).unwrap()
+    })
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+
+    /// Issue 14 A, for random dropouts (empty cells) and logging gaps
+    /// (missing rows) in a run logged at the hub's period: every sample
+    /// inside a gap longer than one period is stale (and through the
+    /// pipeline, faulty for that input: never Running on it), and every
+    /// value read is the cell of a row at or before the sample's time.
+    #[test]
+    fn gaps_are_stale_and_nothing_comes_from_the_future(
+        rows in proptest::collection::vec((proptest::bool::weighted(0.8), proptest::bool::weighted(0.85)), 2..300),
+        dt in proptest::sample::select(vec![0.5f64, 1.0, 2.0]),
+    ) {
+        use firmware::hub::Hub;
+        use firmware::pipeline::{Pipeline, PipelineConfig, Reading};
+        use firmware::report::{HubState, StatusFlags};
+        use host_tools::replay::causal_values;
+        use host_tools::runfile::uniform_grid;
+        // Row k at k * dt, unless dropped from the log; its cell empty
+        // unless `present`. Values tell the row: 20 + k / 1000 C.
+        let (mut t_s, mut x) = (Vec::new(), Vec::new());
+        for (k, &(logged, present)) in rows.iter().enumerate() {
+            if logged || k == 0 || k + 1 == rows.len() {
+                t_s.push(k as f64 * dt);
+                x.push(present.then_some(20.0 + k as f64 / 1000.0));
+            }
+        }
+        let grid = uniform_grid(t_s[0], *t_s.last().unwrap(), dt).unwrap();
+        let v = causal_values(&t_s, &x, &grid, dt);
+        proptest::prop_assert_eq!(v.len(), grid.len());
+        // The valid rows' times: a gap is the span between two of them.
+        let valid: Vec<f64> = t_s.iter().zip(&x).filter(|(_, c)| c.is_some()).map(|(t, _)| *t).collect();
+        for (&g, got) in grid.iter().zip(&v) {
+            if let Some(val) = got {
+                // From a row at or before g, and that row's own cell.
+                let k = ((val - 20.0) * 1000.0).round();
+                let row_t = k * dt;
+                proptest::prop_assert!(row_t <= g + 1e-9, "{g}: value of row {k}");
+                proptest::prop_assert!(t_s.iter().any(|&t| (t - row_t).abs() < 1e-9));
+                proptest::prop_assert!(g - row_t < dt, "{g}: row {k} is a period old");
+            }
+            // Strictly inside a gap longer than one period: stale.
+            let before = valid.iter().rev().find(|&&t| t <= g + 1e-9);
+            let after = valid.iter().find(|&&t| t > g + 1e-9);
+            let in_long_gap = match (before, after) {
+                (Some(&b), Some(&a)) => a - b > dt * (1.0 + 1e-9) && g > b + 1e-9,
+                (Some(&b), None) => g > b + 1e-9,
+                _ => true,
+            };
+            if in_long_gap {
+                proptest::prop_assert!(got.is_none(), "{g}: in a gap but read {got:?}");
+            }
+        }
+        // Through the pipeline (dz = 10 T1 + T2): a sample with no value is
+        // stale and faulty for T1, and the hub does not run on it.
+        let mut p = Pipeline::new(Hub::load(gap_blob()), PipelineConfig::DEFAULT).unwrap();
+        for (k, got) in v.iter().enumerate() {
+            let t1 = got.map_or(Reading::Stale, Reading::Value);
+            let r = p.on_sample(&[t1, Reading::Value(20.0)]);
+            if got.is_none() {
+                proptest::prop_assert!(r.flags.has(StatusFlags::STALE), "{k}: {r:?}");
+                proptest::prop_assert_eq!(r.faulty_channels, 0b01);
+                proptest::prop_assert!(r.state != HubState::Running, "{k}: {r:?}");
+            }
+        }
+    }
 }

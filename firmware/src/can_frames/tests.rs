@@ -233,7 +233,7 @@ fn vector(name: &str, f: &RawFrame, signals: &[(&str, f64)]) -> std::string::Str
 }
 
 fn flag_signals(flags: StatusFlags) -> std::vec::Vec<(&'static str, f64)> {
-    const NAMES: [&str; 10] = [
+    const NAMES: [&str; 13] = [
         "SensorFault",
         "SpikeRejected",
         "Stale",
@@ -244,6 +244,9 @@ fn flag_signals(flags: StatusFlags) -> std::vec::Vec<(&'static str, f64)> {
         "Uploading",
         "Recovering",
         "Extrapolating",
+        "Implausible",
+        "RateOfChange",
+        "Stuck",
     ];
     NAMES
         .iter()
@@ -336,6 +339,17 @@ fn vectors() -> std::string::String {
     none.flags = StatusFlags(StatusFlags::NO_MODEL | StatusFlags::UPLOADING);
     offsets("offsets_no_model", &none, &mut out);
     status("status_no_model", &none, &StatusInfo::default(), &mut out);
+
+    // The plausibility faults (bits 10-12), T1 and T3 faulty, Holding.
+    let mut implausible = report(0x77, [3.0, 0.0, 0.0, 0.0], 1, HubState::Holding);
+    implausible.flags =
+        StatusFlags(StatusFlags::IMPLAUSIBLE | StatusFlags::RATE_OF_CHANGE | StatusFlags::STUCK);
+    implausible.faulty_channels = 0b101;
+    let info = StatusInfo {
+        n_inputs: 3,
+        consecutive_faults: 12,
+    };
+    status("status_implausible", &implausible, &info, &mut out);
 
     for (name, slope, reference, output, counter) in [
         ("slope_nominal", 11.5, 250.0, 2, 7),

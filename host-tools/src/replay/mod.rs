@@ -9,8 +9,13 @@
 //! the model, supervises faults, slew-limits and clamps; and
 //! `firmware::can_frames` encodes the frames, written in candump's log
 //! format. The sample period is the hub's: the model's `dt_s` for a dynamic
-//! model, the board's default for a static one; inputs are interpolated
-//! linearly onto that grid, and a missing cell reads as a stale sample.
+//! model, the board's default for a static one. Inputs reach that grid
+//! causally, as the hub would read them ([`causal_values`]): at each sample
+//! the latest row at or before it, never a row after it; an empty cell, or
+//! a row older than the log's own period (a dropout or a logging gap), is
+//! a stale sample, which holds and then ramps the offsets as on the board.
+//! A run logged more coarsely than the hub samples is held between rows
+//! (not interpolated towards the next row, which the hub cannot know).
 //!
 //! The inputs the CNC sends the hub over CAN (`speed_rpm`, `power_kw`,
 //! `tool_mm`, a positional output's position; `firmware::can_rx`) arrive
@@ -32,7 +37,7 @@
 
 pub mod virtual_rtd;
 
-use crate::runfile::{is_temperature_column, resample_linear, uniform_grid, RunFile};
+use crate::runfile::{is_temperature_column, uniform_grid, RunFile};
 use crate::source::RunSource;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
@@ -99,8 +104,7 @@ enum Source {
 /// between them (a run logged more coarsely than the hub samples does not
 /// mean the CNC sent more rarely); `None` (no frame) from a row with an
 /// empty cell to the next row with a value, and outside the run: a gap of
-/// rows is a CNC that stopped sending. Unlike `resample_linear`, which
-/// bridges gaps for the temperatures.
+/// rows is a CNC that stopped sending.
 fn cnc_values(t_s: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option<f64>> {
     let cell = |r: usize| x.get(r).copied().flatten().filter(|v| v.is_finite());
     let mut r = 0;
@@ -120,6 +124,42 @@ fn cnc_values(t_s: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option<f64>> 
             }
             let w = (g - t0) / (t1 - t0);
             Some(x0 * (1.0 - w) + x1 * w)
+        })
+        .collect()
+}
+
+/// What the hub reads from a logged column at each `grid` time, causally:
+/// the value of the latest row at or before the time (row times `t_s`,
+/// cells `x`), while that row is younger than `period_s`; `None` (a stale
+/// sample) for an empty or non-finite cell, a row `period_s` old or older,
+/// or before the first row. `period_s` is the longer of the hub's sample
+/// period and the log's own (its median row interval), so a run logged
+/// every 60 s is held between rows, and a gap longer than that period
+/// (missing rows or empty cells) is stale for every sample inside it, as
+/// on the board: no sample uses a row from after its time.
+///
+/// A relative slack of 1e-6 of the period absorbs rounding in the grid
+/// times; a log whose rows jitter by more than that around the hub's
+/// period reads a late row as one stale sample.
+pub fn causal_values(
+    t_s: &[f64],
+    x: &[Option<f64>],
+    grid: &[f64],
+    period_s: f64,
+) -> Vec<Option<f64>> {
+    let slack = 1e-6 * period_s;
+    let mut r = 0usize;
+    grid.iter()
+        .map(|&g| {
+            // The latest row at or before g (within the slack).
+            while t_s.get(r + 1).is_some_and(|&t| t <= g + slack) {
+                r += 1;
+            }
+            let t0 = *t_s.get(r)?;
+            if t0 > g + slack || g - t0 >= period_s - slack {
+                return None;
+            }
+            x.get(r).copied().flatten().filter(|v| v.is_finite())
         })
         .collect()
 }
@@ -308,7 +348,7 @@ fn replay_run(
             .is_some_and(|m| (m - dt).abs() <= 1e-6 * dt))
     {
         eprintln!(
-            "note: {}: the hub samples every {dt} s: inputs interpolated onto that grid ({} samples)",
+            "note: {}: the hub samples every {dt} s: each logged value is read until the next row ({} samples)",
             run.path.display(),
             grid.len()
         );
@@ -320,6 +360,8 @@ fn replay_run(
         positional,
         position_inputs,
     } = *shape;
+    // How long a logged row stands for the hub's reading (`causal_values`).
+    let hold_s = sampling.dt_median_s.map_or(dt, |m| m.max(dt));
     let is_position = |i: usize| position_inputs & (1u32 << i.min(31)) != 0;
     let from_cnc = |i: usize, name: &str| {
         name == TOOL_INPUT || CncInput::for_input(name, is_position(i)).is_some()
@@ -336,7 +378,7 @@ fn replay_run(
                 ));
             }
             run.column(c)
-                .map(|col| resample_linear(&run.t_s, col, &grid))
+                .map(|col| causal_values(&run.t_s, col, &grid, hold_s))
                 .ok_or_else(|| {
                     anyhow!(
                         "{}: the model needs column \"{c}\" (columns: {})",
