@@ -15,7 +15,7 @@ use anyhow::{bail, Context, Result};
 use std::fmt;
 use std::fs::File;
 use std::io::{self, Read, Write};
-use std::os::unix::fs::{FileTypeExt, MetadataExt};
+use std::os::unix::fs::{FileTypeExt, MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 
 /// Largest text file (spec, machine) read: far above any hand-written TOML
@@ -139,6 +139,9 @@ where
     let tmp = tempfile::Builder::new()
         .prefix(".thermcomp-")
         .suffix(".tmp")
+        // As `File::create` would make it (0666 less the umask), not the
+        // temporary file's private 0600.
+        .permissions(std::fs::Permissions::from_mode(0o666))
         .tempfile_in(dir)
         .with_context(ctx)?;
     let mut w = io::BufWriter::new(tmp);
@@ -225,6 +228,17 @@ mod tests {
         assert!(check_distinct(&[named("--data", &a)], &[named("--out", &b)]).is_ok());
         let e = check_distinct(&[], &[named("--a", &b), named("--b", &b)]).unwrap_err();
         assert!(e.to_string().contains("its own file"), "{e}");
+    }
+
+    #[test]
+    fn atomic_output_has_the_mode_of_a_created_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (plain, atomic) = (dir.path().join("plain"), dir.path().join("atomic"));
+        File::create(&plain).unwrap();
+        write_bytes_atomic(&atomic, b"x").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode();
+        assert_eq!(mode(&atomic), mode(&plain));
+        assert_eq!(std::fs::read(&atomic).unwrap(), b"x");
     }
 
     #[test]
