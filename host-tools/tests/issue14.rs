@@ -138,6 +138,20 @@ fn huge_channel_in_diagnose_is_refused() {
     );
 }
 
+#[test]
+fn huge_column_in_refit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "huge.csv", &run_text(400, true));
+    let b = blob(dir.path());
+    let out = dir.path().join("new.bin");
+    fails_with(
+        &["refit", "--model", &b, "--data", &data, "--out", p(&out)],
+        &format!(
+            "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
+        ),
+    );
+}
+
 // ---- 2. stdout write failures: no panic -----------------------------------
 
 /// A pipe whose reader is already closed: every write to it is EPIPE.

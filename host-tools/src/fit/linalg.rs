@@ -3,7 +3,7 @@
 //! of the data's: correlated temperature sensors make that fatal).
 
 use anyhow::{anyhow, bail, Result};
-use nalgebra::{DMatrix, DVector, Dyn, SVD};
+use nalgebra::{DMatrix, DVector, Dyn, SymmetricEigen, SVD};
 
 /// Refuses a column whose values cannot be centred and scaled in f64: their
 /// sum, or the sum of squares of the centred values, overflows (values near
@@ -29,6 +29,17 @@ where
 /// dbdsqr), so `6 k^2` is generous for any data that converges at all.
 fn svd_max_iterations(k: usize) -> usize {
     6 * k.max(1) * k.max(1) + 100
+}
+
+/// The eigen-decomposition of the symmetric matrix `a`, refusing
+/// non-finite entries and capped in iterations like [`svd`].
+pub fn symmetric_eigen(a: DMatrix<f64>) -> Result<SymmetricEigen<f64, Dyn>> {
+    if a.iter().any(|v| !v.is_finite()) {
+        bail!("eigen-decomposition: a non-finite entry (inputs too large?)");
+    }
+    let cap = svd_max_iterations(a.nrows());
+    a.try_symmetric_eigen(f64::EPSILON, cap)
+        .ok_or_else(|| anyhow!("eigen-decomposition: no convergence in {cap} iterations"))
 }
 
 /// The SVD of `a` (U and V computed), refusing non-finite entries and capped
