@@ -250,3 +250,13 @@ fn check_column(run: &RunFile, name: &str, values: &[Option<f64>]) -> Result<()>
     let label = format!("{}: column {name}", run.path.display());
     crate::fit::linalg::check_scalable(&label, values.iter().flatten().copied())
 }
+
+/// Refuses any column read from `run` that is too large to centre and
+/// scale, naming file and column: for callers that fit or rank on every
+/// column they read (refit, select).
+pub fn check_scalable_columns(run: &RunFile) -> Result<()> {
+    for (name, values) in run.iter_columns() {
+        check_column(run, name, values)?;
+    }
+    Ok(())
+}

@@ -499,16 +499,6 @@ fn verdict_json(v: &Verdict) -> Value {
     })
 }
 
-/// Refuses a column of `run` too large to centre and scale, naming it
-/// (see [`crate::fit::linalg::check_scalable`]).
-fn check_columns(run: &RunFile) -> Result<()> {
-    for (name, values) in run.iter_columns() {
-        let label = format!("{}: column {name}", run.path.display());
-        crate::fit::linalg::check_scalable(&label, values.iter().flatten().copied())?;
-    }
-    Ok(())
-}
-
 /// Runs `thermcomp refit`.
 pub fn run(a: &RefitArgs) -> Result<()> {
     if !(a.holdout_fraction > 0.0 && a.holdout_fraction < 1.0) {
@@ -559,7 +549,7 @@ pub fn run(a: &RefitArgs) -> Result<()> {
     let runs = crate::source::read_runs(&a.data, &opts)?;
     let baseline = crate::source::read_runs(&a.baseline, &opts)?;
     for r in runs.iter().chain(&baseline) {
-        check_columns(r)?;
+        crate::dataset::check_scalable_columns(r)?;
     }
     let outputs: Vec<String> = old.outputs().iter().map(|o| o.to_string()).collect();
     let ys: Vec<Vec<&[Option<f64>]>> = runs

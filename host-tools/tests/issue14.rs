@@ -152,6 +152,23 @@ fn huge_column_in_refit_is_refused() {
     );
 }
 
+#[test]
+fn huge_column_in_select_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "huge.csv", &run_text(400, true));
+    for method in ["grey", "wgrey", "maxtree"] {
+        fails_with(
+            &[
+                "select", "--data", &data, "--target", "dz_um", "--inputs", "T1,T2", "--method",
+                method, "--json",
+            ],
+            &format!(
+                "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
+            ),
+        );
+    }
+}
+
 // ---- 2. stdout write failures: no panic -----------------------------------
 
 /// A pipe whose reader is already closed: every write to it is EPIPE.

@@ -333,6 +333,7 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
                 );
             }
         }
+        crate::dataset::check_scalable_columns(run)?;
     }
     Ok((files, inputs))
 }
