@@ -409,3 +409,18 @@ fn devices_and_large_files_are_refused_early() {
         "{se}"
     );
 }
+
+#[test]
+fn too_many_columns_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let names: Vec<String> = (1..=10_001).map(|i| format!("c{i}")).collect();
+    let data = write(
+        dir.path(),
+        "wide.csv",
+        &format!("t_s,{}\n0{}\n", names.join(","), ",1".repeat(10_001)),
+    );
+    fails_with(
+        &["eval", "--spec", SP2_AMB, "--data", &data],
+        &format!("error: {data}:1: more than 10000 columns (not a run file?)"),
+    );
+}
