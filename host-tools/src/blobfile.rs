@@ -1,12 +1,12 @@
 //! Reading and writing blob files, with the file named in every error.
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use model_core::ValidModel;
 use std::path::Path;
 
 /// Reads and validates a blob; returns the model and the raw bytes.
 pub fn read(path: &Path) -> Result<(ValidModel, Vec<u8>)> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = crate::fsio::read_capped(path, model_core::blob::MAX_BLOB_LEN as u64)?;
     let model = model_core::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     Ok((model, bytes))
 }
@@ -15,7 +15,7 @@ pub fn read(path: &Path) -> Result<(ValidModel, Vec<u8>)> {
 pub fn write(model: &ValidModel, path: &Path) -> Result<Vec<u8>> {
     let bytes = model_core::blob::encode_to_vec(model)
         .map_err(|e| anyhow!("cannot encode the model: {e}"))?;
-    std::fs::write(path, &bytes).with_context(|| format!("cannot write {}", path.display()))?;
+    crate::fsio::write_bytes_atomic(path, &bytes)?;
     Ok(bytes)
 }
 

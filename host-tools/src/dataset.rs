@@ -120,6 +120,12 @@ impl Dataset {
                 .iter()
                 .map(|c| column(run, c).map(<[_]>::to_vec))
                 .collect::<Result<_>>()?;
+            for (name, c) in inputs.iter().zip(&raw) {
+                check_column(run, name, c)?;
+            }
+            for (name, c) in targets.iter().zip(&y) {
+                check_column(run, name, c)?;
+            }
             // The reference is the first row where every input has a value:
             // the same row at which the hub (and `predict`) captures it.
             let first = (0..run.len()).find(|&r| raw.iter().all(|c| c[r].is_some()));
@@ -236,4 +242,21 @@ impl Dataset {
         }
         Ok(out)
     }
+}
+
+/// Refuses a column too large to centre and scale, naming file and column
+/// (see [`crate::fit::linalg::check_scalable`]).
+fn check_column(run: &RunFile, name: &str, values: &[Option<f64>]) -> Result<()> {
+    let label = format!("{}: column {name}", run.path.display());
+    crate::fit::linalg::check_scalable(&label, values.iter().flatten().copied())
+}
+
+/// Refuses any column read from `run` that is too large to centre and
+/// scale, naming file and column: for callers that fit or rank on every
+/// column they read (refit, select).
+pub fn check_scalable_columns(run: &RunFile) -> Result<()> {
+    for (name, values) in run.iter_columns() {
+        check_column(run, name, values)?;
+    }
+    Ok(())
 }

@@ -220,9 +220,9 @@ impl Progress {
 pub fn run(a: &DemoArgs) -> Result<()> {
     let out = demo(a)?;
     if a.json {
-        println!("{out}");
+        crate::fsio::print_line(&out.to_string())?;
     } else {
-        print!("{}", summary_text(&out));
+        crate::fsio::print(&summary_text(&out))?;
     }
     Ok(())
 }
@@ -434,15 +434,11 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
     let model_bin = dir.join("model.bin");
     let bytes =
         std::fs::read(best_blob).with_context(|| format!("cannot read {}", best_blob.display()))?;
-    std::fs::write(&model_bin, &bytes)
-        .with_context(|| format!("cannot write {}", model_bin.display()))?;
+    crate::fsio::write_bytes_atomic(&model_bin, &bytes)?;
     let described = crate::show::describe_json(best_model, &bytes);
     let model_txt = dir.join("model.txt");
-    std::fs::write(
-        &model_txt,
-        crate::show::describe_text(&model_bin, best_model, &bytes),
-    )
-    .with_context(|| format!("cannot write {}", model_txt.display()))?;
+    let text = crate::show::describe_text(&model_bin, best_model, &bytes);
+    crate::fsio::write_bytes_atomic(&model_txt, text.as_bytes())?;
     let t = p.end(&format!(
         "{} bytes, {} model, format v{}, CRC {}, dt {} s, inputs {}",
         bytes.len(),

@@ -7,6 +7,7 @@ use anyhow::{anyhow, Result};
 use clap::Args;
 use model_core::metrics::{Metrics, MetricsAccumulator};
 use serde_json::{json, Map, Value};
+use std::fmt::Write as _;
 
 /// Arguments of `thermcomp eval`.
 #[derive(Args)]
@@ -115,15 +116,18 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         out.insert(name.to_string(), obj);
     }
     if a.json {
-        println!("{}", Value::Object(out));
+        crate::fsio::print_line(&Value::Object(out).to_string())?;
     } else {
-        print_table(&out);
+        crate::fsio::print(&table_text(&out))?;
     }
     Ok(())
 }
 
-fn print_table(out: &Map<String, Value>) {
-    println!(
+/// The text table of `eval`: one row per target, then per run.
+fn table_text(out: &Map<String, Value>) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
         "{:<10} {:>8} {:>9} {:>8} {:>7} {:>8} {:>9} {:>10} {:>8} {:>10}",
         "target",
         "n",
@@ -138,7 +142,8 @@ fn print_table(out: &Map<String, Value>) {
     );
     for (name, m) in out {
         let f = |k: &str| m.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
-        println!(
+        let _ = writeln!(
+            s,
             "{:<10} {:>8} {:>9.3} {:>8.2} {:>7.4} {:>8.2} {:>9.3} {:>10.3} {:>8.3} {:>10.2}",
             name,
             m.get("n").and_then(Value::as_u64).unwrap_or(0),
@@ -155,7 +160,8 @@ fn print_table(out: &Map<String, Value>) {
             if runs.len() > 1 {
                 for r in runs {
                     let g = |k: &str| r.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
-                    println!(
+                    let _ = writeln!(
+                        s,
                         "  {:<30} rmse {:>8.3}  fit {:>7.2}%  dpk {:>8.3}  reduction {:>7.2}%",
                         r.get("file").and_then(Value::as_str).unwrap_or("?"),
                         g("rmse_um"),
@@ -167,4 +173,5 @@ fn print_table(out: &Map<String, Value>) {
             }
         }
     }
+    s
 }

@@ -9,6 +9,7 @@ pub mod diagnose;
 pub mod distributions;
 pub mod eval;
 pub mod fit;
+pub mod fsio;
 pub mod hub;
 pub mod predict;
 pub mod refit;

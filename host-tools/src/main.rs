@@ -5,6 +5,7 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
+use host_tools::fsio::{self, named};
 use host_tools::{
     bench, blobfile, demo, diagnose, eval, fit, hub, predict, refit, replay, select, show,
     simulate, spec,
@@ -117,10 +118,11 @@ struct ShowArgs {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Model(ModelCommand::Build(a)) => {
+            fsio::check_distinct(&[named("--spec", &a.spec)], &[named("--out", &a.out)])?;
             let model = spec::load(&a.spec)?;
             let bytes = blobfile::write(&model, &a.out)?;
             if a.json {
-                println!("{}", show::describe_json(&model, &bytes));
+                fsio::print_line(&show::describe_json(&model, &bytes).to_string())?;
             } else {
                 eprintln!(
                     "wrote {} ({} bytes, {} model, {} inputs, {} outputs)",
@@ -136,9 +138,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Model(ModelCommand::Show(a)) => {
             let (model, bytes) = blobfile::read(&a.model)?;
             if a.json {
-                println!("{}", show::describe_json(&model, &bytes));
+                fsio::print_line(&show::describe_json(&model, &bytes).to_string())?;
             } else {
-                print!("{}", show::describe_text(&a.model, &model, &bytes));
+                fsio::print(&show::describe_text(&a.model, &model, &bytes))?;
             }
             Ok(())
         }
@@ -159,6 +161,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of stdout has what it wanted: a quiet success (fsio).
+        Err(e) if e.downcast_ref::<fsio::StdoutClosed>().is_some() => ExitCode::SUCCESS,
         Err(e) => {
             // `{:#}` joins the context chain on one line.
             eprintln!("error: {e:#}");

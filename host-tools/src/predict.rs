@@ -1,9 +1,11 @@
 //! `thermcomp predict`: a model's outputs for run files, row for row.
 
-use crate::runner;
+use crate::runfile::RunFile;
+use crate::runner::{self, ColumnMap};
 use crate::source::{ModelSource, RunSource};
 use anyhow::{Context, Result};
 use clap::Args;
+use model_core::ValidModel;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -47,9 +49,35 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     }
     let map = a.runs.column_map()?;
     let runs = a.runs.read(map.model_columns(&model, false))?;
-    let file = std::fs::File::create(&a.out)
-        .with_context(|| format!("cannot write {}", a.out.display()))?;
-    let mut w = std::io::BufWriter::new(file);
+    let inputs = [a.model.paths(), a.runs.paths()].concat();
+    crate::fsio::check_distinct(&inputs, &[crate::fsio::named("--out", &a.out)])?;
+    let (rows, missing) =
+        crate::fsio::write_atomic(&a.out, |w| write_predictions(a, &model, &runs, &map, w))?;
+    if a.json {
+        crate::fsio::print_line(
+            &serde_json::json!({"out": a.out.display().to_string(), "runs": runs.len(), "rows": rows,
+                "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
+                "missing_cells": missing})
+            .to_string(),
+        )?;
+    } else {
+        eprintln!(
+            "wrote {} ({rows} rows from {} run(s))",
+            a.out.display(),
+            runs.len()
+        );
+    }
+    Ok(())
+}
+
+/// Writes the prediction table of `runs` to `w`; returns (rows, missing cells).
+fn write_predictions(
+    a: &PredictArgs,
+    model: &ValidModel,
+    runs: &[RunFile],
+    map: &ColumnMap,
+    w: &mut dyn Write,
+) -> Result<(usize, usize)> {
     let several = runs.len() > 1;
     let mut header: Vec<String> = Vec::new();
     if several {
@@ -67,8 +95,8 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     writeln!(w, "{}", header.join(",")).with_context(write_err)?;
     let mut rows = 0usize;
     let mut missing = 0usize;
-    for run in &runs {
-        let p = runner::predict(&model, run, &map)?;
+    for run in runs {
+        let p = runner::predict(model, run, map)?;
         for note in &p.notes {
             eprintln!("note: {}: {note}", run.path.display());
         }
@@ -100,20 +128,5 @@ pub fn run(a: &PredictArgs) -> Result<()> {
             rows += 1;
         }
     }
-    w.flush().with_context(write_err)?;
-    if a.json {
-        println!(
-            "{}",
-            serde_json::json!({"out": a.out.display().to_string(), "runs": runs.len(), "rows": rows,
-                "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
-                "missing_cells": missing})
-        );
-    } else {
-        eprintln!(
-            "wrote {} ({rows} rows from {} run(s))",
-            a.out.display(),
-            runs.len()
-        );
-    }
-    Ok(())
+    Ok((rows, missing))
 }

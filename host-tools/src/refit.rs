@@ -30,7 +30,7 @@ use crate::eval::metrics_json;
 use crate::runfile::{ReadOptions, RunFile};
 use crate::runner::{self, ColumnMap};
 use crate::score::{score, TargetScore};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use model_core::linear::LinearOutput;
 use model_core::pcr::{Pcr, PcrOutput};
@@ -328,7 +328,7 @@ fn gains_ls(rows: &[Vec<f64>], y: &[f64], m: usize) -> Result<Vec<f64>> {
             0.0
         }
     });
-    let svd = a.svd(true, true);
+    let svd = crate::fit::linalg::svd(a)?;
     let tol = 1e-10 * svd.singular_values.max();
     let g = svd
         .solve(&DVector::from_column_slice(y), tol)
@@ -507,6 +507,16 @@ pub fn run(a: &RefitArgs) -> Result<()> {
             a.holdout_fraction
         );
     }
+    let reads: Vec<_> = [crate::fsio::named("--model", &a.model)]
+        .into_iter()
+        .chain(a.data.iter().map(|p| crate::fsio::named("--data", p)))
+        .chain(
+            a.baseline
+                .iter()
+                .map(|p| crate::fsio::named("--baseline", p)),
+        )
+        .collect();
+    crate::fsio::check_distinct(&reads, &[crate::fsio::named("--out", &a.out)])?;
     if !(a.alpha > 0.0 && a.alpha < 1.0) {
         bail!("--alpha {} must be in (0, 1)", a.alpha);
     }
@@ -538,6 +548,9 @@ pub fn run(a: &RefitArgs) -> Result<()> {
     };
     let runs = crate::source::read_runs(&a.data, &opts)?;
     let baseline = crate::source::read_runs(&a.baseline, &opts)?;
+    for r in runs.iter().chain(&baseline) {
+        crate::dataset::check_scalable_columns(r)?;
+    }
     let outputs: Vec<String> = old.outputs().iter().map(|o| o.to_string()).collect();
     let ys: Vec<Vec<&[Option<f64>]>> = runs
         .iter()
@@ -730,8 +743,7 @@ pub fn run(a: &RefitArgs) -> Result<()> {
     let out_bytes = match &final_model {
         Some(m) => crate::blobfile::write(m, &a.out)?,
         None => {
-            std::fs::write(&a.out, &old_bytes)
-                .with_context(|| format!("cannot write {}", a.out.display()))?;
+            crate::fsio::write_bytes_atomic(&a.out, &old_bytes)?;
             old_bytes.clone()
         }
     };
@@ -746,9 +758,8 @@ pub fn run(a: &RefitArgs) -> Result<()> {
             .zip(&verdicts)
             .map(|(o, v)| (o.clone(), verdict_json(v)))
             .collect();
-        println!(
-            "{}",
-            json!({
+        crate::fsio::print_line(
+            &json!({
                 "changed": changed,
                 "test": {
                     "rule": "per target: changed if (HAC Wald p < alpha on r ~ c0 + c1 tau_h + c2 yhat, and max|fitted| >= min_effect_um) or (baseline given and new rmse or dpk > tolerance x baseline and >= min_effect_um above it)",
@@ -777,20 +788,18 @@ pub fn run(a: &RefitArgs) -> Result<()> {
                 "out": a.out.display().to_string(),
                 "bytes": out_bytes.len(),
             })
-        );
+            .to_string(),
+        )?;
     } else {
-        print!(
-            "{}",
-            text_report(
-                &outputs,
-                &verdicts,
-                decision,
-                &before,
-                &after,
-                kept,
-                &kept_targets
-            )
-        );
+        crate::fsio::print(&text_report(
+            &outputs,
+            &verdicts,
+            decision,
+            &before,
+            &after,
+            kept,
+            &kept_targets,
+        ))?;
         eprintln!(
             "wrote {} ({} bytes, {} model)",
             a.out.display(),

@@ -48,6 +48,17 @@ pub const MAX_GRID_POINTS: usize = 10_000_000;
 /// one-line message.
 const MAX_SHOWN_CELL_CHARS: usize = 40;
 
+/// Longest line read, bytes: a run file's rows are a few hundred bytes, and
+/// even 10 000 columns of 20-character cells fit. A longer "line" is a binary
+/// file or a device (`/dev/zero`) that would otherwise be read without end.
+pub const MAX_LINE_BYTES: u64 = 1 << 20;
+/// Most columns in a header (far above any machine's sensor count).
+pub const MAX_COLUMNS: usize = 10_000;
+/// Most data rows in one file: 100 days at 10 Hz; memory stays bounded.
+pub const MAX_ROWS: usize = 100_000_000;
+/// Most cells (rows x columns) in one file: 1.6 GB of values at most.
+pub const MAX_CELLS: usize = 100_000_000;
+
 /// UTF-8 byte order mark, written by some spreadsheet programs.
 const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
 
@@ -257,6 +268,14 @@ impl RunFile {
             return Err(RunFileError::EmptyFile { file });
         }
         let header = Header::parse(&record, line_of(&mut rdr, &record), &file)?;
+        if header.columns.len() > MAX_COLUMNS {
+            return Err(RunFileError::TooLarge {
+                file,
+                line: 1,
+                what: format!("more than {MAX_COLUMNS} columns"),
+            });
+        }
+        let max_rows = MAX_ROWS.min(MAX_CELLS / (header.columns.len() + 1));
 
         let read: Vec<bool> = header
             .columns
@@ -271,6 +290,16 @@ impl RunFile {
             // Asked for every row, not only bad ones, so that `LineStarts`
             // can drop what is behind it.
             let line = line_of(&mut rdr, &record);
+            if t_s.len() + skipped.len() >= max_rows {
+                return Err(RunFileError::TooLarge {
+                    file,
+                    line,
+                    what: format!(
+                        "more than {max_rows} data rows of {} columns",
+                        header.columns.len() + 1
+                    ),
+                });
+            }
             match header.parse_row(&record, t_s.last().copied(), &read, &mut row) {
                 Ok(t) => {
                     t_s.push(t);
@@ -313,6 +342,18 @@ impl RunFile {
     }
 }
 
+/// The error [`LineStarts`] raises past [`MAX_LINE_BYTES`]: the line.
+#[derive(Debug)]
+struct LineTooLong(u64);
+
+impl fmt::Display for LineTooLong {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "line {} is longer than {MAX_LINE_BYTES} bytes", self.0)
+    }
+}
+
+impl std::error::Error for LineTooLong {}
+
 /// Read the next CSV record into `record`; `Ok(false)` at the end of input.
 fn next_record<R: io::Read>(
     rdr: &mut csv::Reader<LineStarts<R>>,
@@ -322,9 +363,19 @@ fn next_record<R: io::Read>(
     rdr.read_byte_record(record).map_err(|e| {
         let message = e.to_string();
         match e.into_kind() {
-            csv::ErrorKind::Io(source) => RunFileError::Io {
-                file: file.to_owned(),
-                source,
+            csv::ErrorKind::Io(source) => match source
+                .get_ref()
+                .and_then(|e| e.downcast_ref::<LineTooLong>())
+            {
+                Some(&LineTooLong(line)) => RunFileError::TooLarge {
+                    file: file.to_owned(),
+                    line,
+                    what: format!("line longer than {MAX_LINE_BYTES} bytes"),
+                },
+                None => RunFileError::Io {
+                    file: file.to_owned(),
+                    source,
+                },
             },
             // Not produced with byte records and `flexible`, but csv may add
             // kinds; report them rather than assume.
@@ -366,6 +417,8 @@ struct LineStarts<R> {
     at_line_start: bool,
     /// (byte offset, line) of line starts with content, in input order.
     starts: VecDeque<(u64, u64)>,
+    /// Bytes since the last `\n`, checked against [`MAX_LINE_BYTES`].
+    line_bytes: u64,
 }
 
 impl<R> LineStarts<R> {
@@ -376,6 +429,7 @@ impl<R> LineStarts<R> {
             line: 1,
             at_line_start: true,
             starts: VecDeque::new(),
+            line_bytes: 0,
         }
     }
 
@@ -400,6 +454,7 @@ impl<R: io::Read> io::Read for LineStarts<R> {
                 b'\n' => {
                     self.line += 1;
                     self.at_line_start = true;
+                    self.line_bytes = 0;
                 }
                 b'\r' => self.at_line_start = true,
                 _ => {
@@ -410,6 +465,13 @@ impl<R: io::Read> io::Read for LineStarts<R> {
                 }
             }
             self.offset += 1;
+            self.line_bytes += 1;
+            if self.line_bytes > MAX_LINE_BYTES {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidData,
+                    LineTooLong(self.line),
+                ));
+            }
         }
         Ok(n)
     }
@@ -699,6 +761,17 @@ pub enum RunFileError {
     },
     /// A data row is bad and rows are not being skipped.
     Row(RowError),
+    /// The file is beyond a size limit ([`MAX_LINE_BYTES`],
+    /// [`MAX_COLUMNS`], [`MAX_ROWS`], [`MAX_CELLS`]): most likely not a run
+    /// file at all.
+    TooLarge {
+        /// File name as given.
+        file: String,
+        /// Line at which the limit was passed.
+        line: u64,
+        /// Which limit, in words.
+        what: String,
+    },
     /// The file has a header but no usable data row.
     NoDataRows {
         /// File name as given.
@@ -737,6 +810,9 @@ impl fmt::Display for RunFileError {
                 "{file}:{line}: name of column {column} is not UTF-8 text (save the file as UTF-8)"
             ),
             Self::Row(e) => e.fmt(f),
+            Self::TooLarge { file, line, what } => {
+                write!(f, "{file}:{line}: {what} (not a run file?)")
+            }
             Self::NoDataRows {
                 file,
                 skipped,

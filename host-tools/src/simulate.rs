@@ -1,6 +1,7 @@
 //! `thermcomp simulate`: run the thermal twin ([`crate::twin`]) and write a
 //! run file (CONTRACT.md section 2).
 
+use crate::fsio::{named, Named};
 use crate::twin::calibrate;
 use crate::twin::effects::EffectSet;
 use crate::twin::machine::{Machine, DEFAULT_MACHINE_TOML, N_NODES};
@@ -9,7 +10,6 @@ use crate::twin::sim::{self, SimOptions, Summary};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::fmt::Write as _;
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -73,7 +73,7 @@ pub struct SimulateArgs {
 /// Runs `thermcomp simulate`.
 pub fn run(a: &SimulateArgs) -> Result<()> {
     if a.print_machine {
-        print!("{DEFAULT_MACHINE_TOML}");
+        crate::fsio::print(DEFAULT_MACHINE_TOML)?;
         return Ok(());
     }
     if let Some(real) = &a.calibrate {
@@ -82,6 +82,7 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
     let Some(out) = &a.out else {
         bail!("--out FILE.csv is needed");
     };
+    check_paths(a, &[])?;
     let machine = match &a.machine {
         Some(p) => Machine::load(p)?,
         None => Machine::default_machine(),
@@ -98,10 +99,9 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
     let (summary, n_sensors) = write_run(&machine, &schedule, &opts, out)?;
     let elapsed_s = started.elapsed().as_secs_f64();
     if a.json {
-        println!(
-            "{}",
-            summary_json(&summary, a, &profile, &effects, n_sensors, out, elapsed_s)
-        );
+        crate::fsio::print_line(
+            &summary_json(&summary, a, &profile, &effects, n_sensors, out, elapsed_s).to_string(),
+        )?;
     } else {
         eprintln!(
             "wrote {} ({} rows, {} sensors, max |dz| {:.1} um, effects: {}) in {:.2} s",
@@ -125,16 +125,14 @@ fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
     let Some(save) = &a.save_machine else {
         bail!("--calibrate needs --save-machine CAL.toml");
     };
+    check_paths(a, &[named("--calibrate", real)])?;
     // The run file fixes the time grid and the speed; the nominal twin
     // (no effects) is what gets calibrated.
     if a.hours.is_some() || !a.effects.trim().is_empty() || a.sensors.is_some() {
         bail!("--hours, --effects and --sensors do not apply to --calibrate (the run file sets the grid, the speed and the sensors)");
     }
     let (text, label) = match &a.machine {
-        Some(p) => (
-            std::fs::read_to_string(p).with_context(|| format!("cannot read {}", p.display()))?,
-            p.display().to_string(),
-        ),
+        Some(p) => (crate::fsio::read_text_capped(p)?, p.display().to_string()),
         None => (DEFAULT_MACHINE_TOML.to_string(), "<default machine>".into()),
     };
     let base = crate::twin::machine::parse(&label, &text)?;
@@ -145,7 +143,7 @@ fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
     };
     let cal = calibrate::calibrate(&base, &data, &opts)?;
     let toml = calibrate::to_toml(&text, &cal, &real.display().to_string())?;
-    std::fs::write(save, toml).with_context(|| format!("cannot write {}", save.display()))?;
+    crate::fsio::write_bytes_atomic(save, toml.as_bytes())?;
     let mut v = calibrate::to_json(&cal);
     v["machine"] = save.display().to_string().into();
     if let Some(out) = &a.out {
@@ -158,12 +156,33 @@ fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
         v["out"] = out.display().to_string().into();
     }
     if a.json {
-        println!("{v}");
+        crate::fsio::print_line(&v.to_string())?;
     } else {
         eprint!("{}", calibration_table(&cal));
         eprintln!("wrote {}", save.display());
     }
     Ok(())
+}
+
+/// Refuses outputs (`--out`, `--save-machine`) that are the same file as an
+/// input (`--machine`, a `file:` profile, `extra`) or as each other.
+fn check_paths(a: &SimulateArgs, extra: &[Named<'_>]) -> Result<()> {
+    let profile_file = a
+        .profile
+        .trim()
+        .strip_prefix("file:")
+        .map(std::path::Path::new);
+    let mut reads: Vec<Named<'_>> = extra.to_vec();
+    reads.extend(a.machine.as_deref().map(|p| named("--machine", p)));
+    reads.extend(profile_file.map(|p| named("--profile file:", p)));
+    let mut writes = Vec::new();
+    writes.extend(a.out.as_deref().map(|p| named("--out", p)));
+    writes.extend(
+        a.save_machine
+            .as_deref()
+            .map(|p| named("--save-machine", p)),
+    );
+    crate::fsio::check_distinct(&reads, &writes)
 }
 
 /// A human-readable summary of a calibration (stderr).
@@ -202,9 +221,21 @@ pub fn write_run(
     out: &std::path::Path,
 ) -> Result<(Summary, usize)> {
     let n_sensors = opts.sensors.unwrap_or(machine.sensors.sites.len());
-    let file =
-        std::fs::File::create(out).with_context(|| format!("cannot write {}", out.display()))?;
-    let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
+    let summary = crate::fsio::write_atomic(out, |w| {
+        write_rows(machine, schedule, opts, n_sensors, w, out)
+    })?;
+    Ok((summary, n_sensors))
+}
+
+/// The body of [`write_run`]: the header and one row per sample into `w`.
+fn write_rows(
+    machine: &Machine,
+    schedule: &profile::Schedule,
+    opts: &SimOptions,
+    n_sensors: usize,
+    w: &mut dyn std::io::Write,
+    out: &std::path::Path,
+) -> Result<Summary> {
     let write_err = || format!("cannot write {}", out.display());
     let mut header = String::from("t_s,speed_rpm,power_kw,ambient_c,coolant_c,tool_mm");
     for name in machine.sensors.names.iter().take(n_sensors) {
@@ -270,8 +301,7 @@ pub fn write_run(
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    w.flush().with_context(write_err)?;
-    Ok((summary, n_sensors))
+    Ok(summary)
 }
 
 /// Appends `v` with four decimals (0.1 mK, 0.1 nm: below every noise

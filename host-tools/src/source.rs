@@ -1,6 +1,7 @@
 //! The arguments that name a model and the runs to apply it to, shared by
 //! every subcommand that runs a model (`predict`, `eval`, and later `replay`).
 
+use crate::fsio::{named, Named};
 use crate::runfile::{ReadOptions, RunFile};
 use crate::runner::ColumnMap;
 use anyhow::Result;
@@ -24,6 +25,14 @@ impl ModelSource {
     pub fn load(&self) -> Result<ValidModel> {
         crate::blobfile::load(self.model.as_deref(), self.spec.as_deref())
     }
+
+    /// The files read, with their flags, for [`crate::fsio::check_distinct`].
+    pub fn paths(&self) -> Vec<Named<'_>> {
+        let model = self.model.iter().map(|p| named("--model", p));
+        model
+            .chain(self.spec.iter().map(|p| named("--spec", p)))
+            .collect()
+    }
 }
 
 /// `--data` (repeatable), `--map`, `--skip-bad-rows`.
@@ -43,6 +52,11 @@ pub struct RunSource {
 }
 
 impl RunSource {
+    /// The files read, with their flags, for [`crate::fsio::check_distinct`].
+    pub fn paths(&self) -> Vec<Named<'_>> {
+        self.data.iter().map(|p| named("--data", p)).collect()
+    }
+
     /// The `--map` pairs.
     pub fn column_map(&self) -> Result<ColumnMap> {
         ColumnMap::parse(&self.map)

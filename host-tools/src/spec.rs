@@ -6,7 +6,7 @@
 //! does not agree) from the span of the `[[tf]]`/`[[linear]]`/... entry at
 //! fault.
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use model_core::bp::{Activation, BpNet};
 use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
 use model_core::linear::{Coef, Linear, LinearOutput};
@@ -368,8 +368,7 @@ fn activation(s: Option<&str>, default: Activation) -> Result<Activation> {
 
 /// Reads and validates a spec file.
 pub fn load(path: &Path) -> Result<ValidModel> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = crate::fsio::read_text_capped(path)?;
     parse(&path.display().to_string(), &text)
 }
 

@@ -443,9 +443,9 @@ pub fn run(a: &GapArgs) -> Result<()> {
     if a.json {
         let mut v = summary;
         v["per_case"] = Value::Array(outs.iter().map(Outcome::to_json).collect());
-        println!("{v}");
+        crate::fsio::print_line(&v.to_string())?;
     } else {
-        print!("{}", report::text(&outs, &s, wall_s));
+        crate::fsio::print(&report::text(&outs, &s, wall_s))?;
     }
     Ok(())
 }

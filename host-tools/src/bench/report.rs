@@ -15,7 +15,7 @@ pub fn write(dir: &Path, outs: &[Outcome], s: &Summary, summary: &Value) -> Resu
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let put = |name: &str, text: String| -> Result<()> {
         let p = dir.join(name);
-        std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))
+        crate::fsio::write_bytes_atomic(&p, text.as_bytes())
     };
     put("cases.csv", cases_csv(outs))?;
     put("confusion.md", markdown(outs, s))?;

@@ -104,6 +104,17 @@ pub fn read(sim_path: &Path, real_path: &Path) -> Result<Aligned> {
             real_path.display()
         );
     }
+    let inputs = ["speed_rpm", "power_kw", "ambient_c", "coolant_c"];
+    let used = names_sorted.iter().map(String::as_str).chain(inputs);
+    for name in used {
+        for (run, path) in [(&sim, sim_path), (&real, real_path)] {
+            let Some(values) = run.column(name) else {
+                continue;
+            };
+            let label = format!("{}: column {name}", path.display());
+            crate::fit::linalg::check_scalable(&label, values.iter().flatten().copied())?;
+        }
+    }
     let grid = &real.t_s;
     let speed = filled(&real, "speed_rpm", grid)
         .or_else(|| filled(&sim, "speed_rpm", grid))

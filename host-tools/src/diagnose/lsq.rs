@@ -66,7 +66,7 @@ pub fn fit(cols: &[Vec<f64>], y: &[f64], n_fit: usize) -> Option<LinearFit> {
     let k = live.len();
     let r = qr.r();
     let qtb = b.rows(0, k).into_owned();
-    let svd = r.svd(true, true);
+    let svd = crate::fit::linalg::svd(r).ok()?;
     let smax = svd.singular_values.max();
     let x = svd.solve(&qtb, smax * 1e-10).ok()?;
     let mut coef = vec![0.0; cols.len()];

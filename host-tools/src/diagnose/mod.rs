@@ -68,11 +68,21 @@ pub struct DiagnoseArgs {
 /// Runs `thermcomp diagnose`.
 pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let started = std::time::Instant::now();
+    let page = a.report.as_ref().map(|d| d.join("index.html"));
+    let writes: Vec<_> = page
+        .iter()
+        .map(|p| crate::fsio::named("--report", p))
+        .collect();
+    let reads = [
+        crate::fsio::named("--sim", &a.sim),
+        crate::fsio::named("--real", &a.real),
+    ];
+    crate::fsio::check_distinct(&reads, &writes)?;
     let v = diagnose_files(&a.sim, &a.real, a.holdout_from_s, a.report.as_deref())?;
     if a.json {
-        println!("{v}");
+        crate::fsio::print_line(&v.to_string())?;
     } else {
-        print!("{}", text_table(&v));
+        crate::fsio::print(&text_table(&v))?;
     }
     eprintln!("diagnose: {:.2} s", started.elapsed().as_secs_f64());
     Ok(())

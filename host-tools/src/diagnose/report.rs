@@ -296,7 +296,7 @@ pub fn write(
         esc(&pretty)
     );
     let path = dir.join("index.html");
-    std::fs::write(&path, html).with_context(|| format!("cannot write {}", path.display()))?;
+    crate::fsio::write_bytes_atomic(&path, html.as_bytes())?;
     Ok(())
 }
 

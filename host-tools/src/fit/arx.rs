@@ -530,7 +530,7 @@ impl Triangle {
                 0.0
             }
         });
-        let svd = scaled.svd(true, true);
+        let svd = crate::fit::linalg::svd(scaled)?;
         let tol = 1e-10 * svd.singular_values.max();
         let beta = svd
             .solve(&zz, tol)

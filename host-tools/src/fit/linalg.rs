@@ -2,8 +2,66 @@
 //! by SVD (never the normal equations, whose condition number is the square
 //! of the data's: correlated temperature sensors make that fatal).
 
-use anyhow::{bail, Result};
-use nalgebra::{DMatrix, DVector};
+use anyhow::{anyhow, bail, Result};
+use nalgebra::{DMatrix, DVector, Dyn, SymmetricEigen, SVD};
+
+/// Refuses a column whose values cannot be centred and scaled in f64: their
+/// sum, or the sum of squares of the centred values, overflows (values near
+/// 1e154 and beyond). Such data would reach the decompositions as inf/NaN.
+/// `name` says which column (and file) in the one-line error.
+pub fn check_scalable<I>(name: &str, values: I) -> Result<()>
+where
+    I: Iterator<Item = f64> + Clone,
+{
+    let (n, sum) = values
+        .clone()
+        .fold((0usize, 0.0), |(n, s), v| (n + 1, s + v));
+    let mean = sum / n.max(1) as f64;
+    let ss: f64 = values.map(|v| (v - mean) * (v - mean)).sum();
+    if !mean.is_finite() || !ss.is_finite() {
+        bail!("{name}: values too large to centre and scale (their sum of squares overflows)");
+    }
+    Ok(())
+}
+
+/// Iteration cap of [`svd`] for a matrix whose smaller side is `k`: LAPACK's
+/// bidiagonal QR allows 6 sweeps per singular value pair (`MAXITR = 6`,
+/// dbdsqr), so `6 k^2` is generous for any data that converges at all.
+fn svd_max_iterations(k: usize) -> usize {
+    6 * k.max(1) * k.max(1) + 100
+}
+
+/// The eigen-decomposition of the symmetric matrix `a`, refusing
+/// non-finite entries and capped in iterations like [`svd`].
+pub fn symmetric_eigen(a: DMatrix<f64>) -> Result<SymmetricEigen<f64, Dyn>> {
+    if a.iter().any(|v| !v.is_finite()) {
+        bail!("eigen-decomposition: a non-finite entry (inputs too large?)");
+    }
+    let cap = svd_max_iterations(a.nrows());
+    a.try_symmetric_eigen(f64::EPSILON, cap)
+        .ok_or_else(|| anyhow!("eigen-decomposition: no convergence in {cap} iterations"))
+}
+
+/// The SVD of `a` (U and V computed), refusing non-finite entries and capped
+/// in iterations, so that it ends with an error where nalgebra's `svd()`
+/// would loop forever or panic on a NaN singular value. Singular values come
+/// unordered: the callers only take their maximum and solve.
+pub fn svd(a: DMatrix<f64>) -> Result<SVD<f64, Dyn, Dyn>> {
+    if let Some(i) = a.iter().position(|v| !v.is_finite()) {
+        bail!(
+            "least squares: column {} of the scaled design matrix has a non-finite value (inputs too large?)",
+            i / a.nrows().max(1) + 1
+        );
+    }
+    let cap = svd_max_iterations(a.nrows().min(a.ncols()));
+    let svd = a
+        .try_svd_unordered(true, true, f64::EPSILON, cap)
+        .ok_or_else(|| anyhow!("least squares: the SVD did not converge in {cap} iterations"))?;
+    if svd.singular_values.iter().any(|v| !v.is_finite()) {
+        bail!("least squares: the SVD gave non-finite singular values (inputs too large?)");
+    }
+    Ok(svd)
+}
 
 /// Column means and standard deviations (sample, n - 1) of row vectors.
 pub fn moments(rows: &[Vec<f64>], m: usize) -> (Vec<f64>, Vec<f64>) {
@@ -55,7 +113,7 @@ pub fn least_squares(x: &[Vec<f64>], y: &[f64]) -> Result<(f64, Vec<f64>)> {
     let z = standardised(x, &mean, &std);
     let y_mean = y.iter().sum::<f64>() / n as f64;
     let yc = DVector::from_iterator(n, y.iter().map(|v| v - y_mean));
-    let svd = z.svd(true, true);
+    let svd = svd(z)?;
     let tol = 1e-10 * svd.singular_values.max();
     let beta = match svd.solve(&yc, tol) {
         Ok(b) => b,

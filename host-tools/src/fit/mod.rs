@@ -219,6 +219,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
         only: Some(Vec::new()),
     };
     let first = a.data.first().ok_or_else(|| anyhow!("no --data"))?;
+    check_paths(a)?;
     // An ARMA forecaster reads the very series it forecasts, as logged.
     let arma = a.model == FitKind::Arma;
     if arma && (a.target.len() != 1 || !a.inputs.is_empty()) {
@@ -308,13 +309,24 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
     })
 }
 
+/// Refuses an `--out` that is the same file as a `--data` or `--validate` run.
+fn check_paths(a: &FitArgs) -> Result<()> {
+    let data = a.data.iter().map(|p| crate::fsio::named("--data", p));
+    let validate = a
+        .validate
+        .iter()
+        .map(|p| crate::fsio::named("--validate", p));
+    let reads: Vec<_> = data.chain(validate).collect();
+    crate::fsio::check_distinct(&reads, &[crate::fsio::named("--out", &a.out)])
+}
+
 /// Runs `thermcomp fit`.
 pub fn run(a: &FitArgs) -> Result<()> {
     let o = fit_files(a)?;
     if a.json {
-        println!("{}", o.json);
+        crate::fsio::print_line(&o.json.to_string())?;
     } else {
-        print!("{}", scores_text(&o.scores));
+        crate::fsio::print(&scores_text(&o.scores))?;
         eprintln!(
             "wrote {} ({} bytes, {} model on {} inputs, {} calibration rows)",
             a.out.display(),

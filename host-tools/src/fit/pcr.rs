@@ -41,7 +41,7 @@ pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
     let (mean, std) = linalg::moments(&x, m);
     let z = linalg::standardised(&x, &mean, &std);
     let corr = (z.transpose() * &z) / (n as f64 - 1.0);
-    let eig = corr.symmetric_eigen();
+    let eig = linalg::symmetric_eigen(corr)?;
     let mut order: Vec<usize> = (0..m).collect();
     order.sort_by(|a, b| eig.eigenvalues[*b].total_cmp(&eig.eigenvalues[*a]));
     let values: Vec<f64> = order.iter().map(|&j| eig.eigenvalues[j].max(0.0)).collect();

@@ -305,7 +305,9 @@ pub fn fit_target(
                 }
             });
             let b = DVector::from_fn(k + p, |i, _| if i < k { z[i] } else { 0.0 });
-            let svd = a.svd(true, true);
+            let Ok(svd) = crate::fit::linalg::svd(a) else {
+                break 'outer;
+            };
             let tol = 1e-13 * svd.singular_values.max();
             let Ok(delta) = svd.solve(&b, tol) else {
                 break 'outer;

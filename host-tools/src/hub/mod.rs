@@ -177,15 +177,14 @@ fn ping(a: &PingArgs) -> Result<()> {
     let (protocol, rtt) = s.ping(timeout).map_err(|e| anyhow!("ping: {e}"))?;
     let rtt_ms = rtt.as_secs_f64() * 1e3;
     if a.json {
-        println!(
-            "{}",
-            serde_json::json!({"protocol": protocol, "rtt_ms": rtt_ms})
-        );
+        crate::fsio::print_line(
+            &serde_json::json!({"protocol": protocol, "rtt_ms": rtt_ms}).to_string(),
+        )?;
     } else {
-        println!(
+        crate::fsio::print_line(&format!(
             "hub on {} answered: protocol {protocol}, {rtt_ms:.1} ms",
             a.port.port.display()
-        );
+        ))?;
     }
     Ok(())
 }
@@ -216,9 +215,9 @@ fn monitor(a: &MonitorArgs) -> Result<()> {
             );
         };
         if a.json {
-            println!("{}", monitor::json_line(&t, names.as_ref()));
+            crate::fsio::print_line(&monitor::json_line(&t, names.as_ref()).to_string())?;
         } else {
-            println!("{}", monitor::text_line(&t, names.as_ref()));
+            crate::fsio::print_line(&monitor::text_line(&t, names.as_ref()))?;
         }
         seen += 1;
     }

@@ -71,9 +71,10 @@ fn mean_std(v: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
 
 /// Moore-Penrose inverse of a symmetric matrix, with eigenvalues below
 /// `1e-10` of the largest treated as zero; also returns the rank.
-fn pinv_sym(a: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
+/// `None` for non-finite entries or no convergence.
+fn pinv_sym(a: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
     let sym = (a + a.transpose()) * 0.5;
-    let eig = sym.symmetric_eigen();
+    let eig = crate::fit::linalg::symmetric_eigen(sym).ok()?;
     let top = eig.eigenvalues.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     let n = a.nrows();
     let mut inv = DMatrix::zeros(n, n);
@@ -85,7 +86,7 @@ fn pinv_sym(a: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
             inv += (v * v.transpose()) / *lam;
         }
     }
-    (inv, rank)
+    Some((inv, rank))
 }
 
 /// Runs the test over `runs` (each run's samples in time order).
@@ -122,7 +123,7 @@ pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
     }
     let nf = n as f64;
     let q = x.transpose() * &x / nf;
-    let (q_inv, _) = pinv_sym(&q);
+    let (q_inv, _) = pinv_sym(&q)?;
     let c = &q_inv * (x.transpose() * &r / nf);
     let fitted = &x * &c;
     let u = &r - &fitted;
@@ -180,7 +181,7 @@ pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
     }
     omega /= nf;
     let v = &q_inv * omega * &q_inv / nf;
-    let (v_inv, dof) = pinv_sym(&v);
+    let (v_inv, dof) = pinv_sym(&v)?;
     let wald = (c.transpose() * v_inv * &c)[(0, 0)].max(0.0);
     let p_value = chi2_sf(wald, dof);
     // Back to raw units.

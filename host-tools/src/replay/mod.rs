@@ -39,7 +39,7 @@ pub mod virtual_rtd;
 
 use crate::runfile::{is_temperature_column, uniform_grid, RunFile};
 use crate::source::RunSource;
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use embedded_can::Frame as _;
 use firmware::board::CNC_INPUT_TIMEOUT_MS;
@@ -185,12 +185,12 @@ struct Tally {
 pub fn run(a: &ReplayArgs) -> Result<()> {
     let summary = replay_files(a)?;
     if a.json {
-        println!("{summary}");
+        crate::fsio::print_line(&summary.to_string())?;
     } else {
         let runs = summary["runs"].as_array().map(Vec::as_slice).unwrap_or(&[]);
         for r in runs {
             let st = &r["states"];
-            println!(
+            crate::fsio::print_line(&format!(
                 "{}: {} samples, {} frames ({} from the CNC); running {}, holding {}, ramping {}, zeroed {}, no model {}",
                 r["run"].as_str().unwrap_or(""),
                 r["samples"],
@@ -201,7 +201,7 @@ pub fn run(a: &ReplayArgs) -> Result<()> {
                 st["ramping"],
                 st["zeroed"],
                 st["no_model"]
-            );
+            ))?;
         }
         eprintln!("wrote {}", a.candump.display());
     }
@@ -215,8 +215,18 @@ pub fn run(a: &ReplayArgs) -> Result<()> {
 /// (samples per hub state), `sensor_fault_samples`,
 /// `stale_samples`, `max_abs_offset_um`. `thermcomp demo` calls it too.
 pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
-    let bytes =
-        std::fs::read(&a.model).with_context(|| format!("cannot read {}", a.model.display()))?;
+    let reads = [
+        vec![crate::fsio::named("--model", &a.model)],
+        a.runs.paths(),
+    ]
+    .concat();
+    let writes = [Some(crate::fsio::named("--candump", &a.candump))]
+        .into_iter()
+        .chain([a.trace.as_deref().map(|p| crate::fsio::named("--trace", p))])
+        .flatten()
+        .collect::<Vec<_>>();
+    crate::fsio::check_distinct(&reads, &writes)?;
+    let bytes = crate::fsio::read_capped(&a.model, model_core::blob::MAX_BLOB_LEN as u64)?;
     let probe = Hub::load(&bytes);
     if let Some(e) = probe.load_error() {
         eprintln!(
@@ -241,16 +251,12 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     // the model names is read if the file has it.
     let needed: Vec<String> = columns.clone();
     let runs = a.runs.read(needed)?;
-    let mut log = std::io::BufWriter::new(
-        std::fs::File::create(&a.candump)
-            .with_context(|| format!("cannot write {}", a.candump.display()))?,
-    );
+    // Both outputs are built in memory and written atomically at the end,
+    // so a failed run leaves no half log behind.
+    let mut log = Vec::new();
     let mut trace = match &a.trace {
-        Some(p) => {
-            let mut w = std::io::BufWriter::new(
-                std::fs::File::create(p)
-                    .with_context(|| format!("cannot write {}", p.display()))?,
-            );
+        Some(_) => {
+            let mut w = Vec::new();
             let mut header = vec!["t_s".to_string()];
             header.extend(inputs.iter().cloned());
             header.extend(outputs.iter().map(|o| format!("{o}_sent")));
@@ -279,9 +285,9 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
         let tally = replay_run(&bytes, run, &shape, a, &mut log, trace.as_mut())?;
         per_run.push((run.path.display().to_string(), tally));
     }
-    log.flush()?;
-    if let Some(w) = trace.as_mut() {
-        w.flush()?;
+    crate::fsio::write_bytes_atomic(&a.candump, &log)?;
+    if let (Some(p), Some(w)) = (&a.trace, &trace) {
+        crate::fsio::write_bytes_atomic(p, w)?;
     }
     let summary: Vec<_> = per_run
         .iter()
@@ -332,7 +338,7 @@ fn replay_run(
     shape: &Shape<'_>,
     a: &ReplayArgs,
     log: &mut impl Write,
-    mut trace: Option<&mut std::io::BufWriter<std::fs::File>>,
+    mut trace: Option<&mut Vec<u8>>,
 ) -> Result<Tally> {
     let mut pipeline = Pipeline::new(Hub::load(blob), PipelineConfig::DEFAULT)
         .map_err(|e| anyhow!("pipeline configuration: {e:?}"))?;

@@ -333,6 +333,7 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
                 );
             }
         }
+        crate::dataset::check_scalable_columns(run)?;
     }
     Ok((files, inputs))
 }
@@ -341,9 +342,9 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
 pub fn run(a: &SelectArgs) -> Result<()> {
     let out = select_files(a)?;
     if a.json {
-        println!("{}", out.json);
+        crate::fsio::print_line(&out.json.to_string())?;
     } else {
-        print!("{}", out.text);
+        crate::fsio::print(&out.text)?;
     }
     Ok(())
 }

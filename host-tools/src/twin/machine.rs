@@ -8,7 +8,7 @@
 //! printed file and the built-in machine cannot disagree.
 
 use crate::spec::{from_toml, line_col};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use serde::Deserialize;
 use std::path::Path;
 use toml::Spanned;
@@ -449,8 +449,7 @@ impl Machine {
 
     /// Reads and validates a machine file.
     pub fn load(path: &Path) -> Result<Machine> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
+        let text = crate::fsio::read_text_capped(path)?;
         parse(&path.display().to_string(), &text)
     }
 }

@@ -1,0 +1,426 @@
+//! Regressions of issue 14: huge values that hung the SVD, stdout write
+//! failures that panicked, outputs that overwrote inputs, and reads without a
+//! bound. Every case must end within seconds with its exact outcome.
+
+mod common;
+
+use common::{fails_one_line, p, write};
+use std::io::Read;
+use std::os::fd::OwnedFd;
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const SP2_AMB: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../examples/seed004_sp2_ambient.toml"
+);
+
+/// How long a case may take before it counts as a hang.
+const DEADLINE: Duration = Duration::from_secs(60);
+
+/// Runs `thermcomp` with `args` and `stdout`, killing it past [`DEADLINE`]
+/// (a hang fails the test instead of stalling the suite).
+fn run_bounded(args: &[&str], stdout: Stdio) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_thermcomp"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(stdout)
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("thermcomp runs");
+    let mut stderr = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        let _ = stderr.read_to_end(&mut s);
+        s
+    });
+    let started = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if started.elapsed() > DEADLINE {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("thermcomp {args:?} still running after {DEADLINE:?}: hang");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    Output {
+        status,
+        stdout: Vec::new(),
+        stderr: reader.join().unwrap(),
+    }
+}
+
+/// Fails within [`DEADLINE`] with exactly `expected` as its one stderr line.
+fn fails_with(args: &[&str], expected: &str) {
+    let out = run_bounded(args, Stdio::null());
+    let se = String::from_utf8(out.stderr).unwrap();
+    assert!(!out.status.success(), "thermcomp {args:?} should fail");
+    assert_eq!(se, format!("{expected}\n"), "thermcomp {args:?}");
+}
+
+/// A run of `n` rows: t_s, speed_rpm, T1 (alternating +-1e308 when `huge`),
+/// T2, ambient_c, dz_um.
+fn run_text(n: usize, huge: bool) -> String {
+    let mut s = String::from("t_s,speed_rpm,T1,T2,ambient_c,dz_um\n");
+    for k in 0..n {
+        let t1 = if huge {
+            if k % 2 == 0 {
+                "1e308".to_string()
+            } else {
+                "-1e308".to_string()
+            }
+        } else {
+            format!("{}", 20.0 + (k % 7) as f64 * 0.3)
+        };
+        let speed = if (k / 50) % 2 == 0 { 3000 } else { 9000 };
+        let t2 = 20.0 + (k as f64 * 0.37).sin();
+        let dz = 0.5 * (k as f64 * 0.11).cos() + k as f64 * 0.01;
+        s.push_str(&format!("{k},{speed},{t1},{t2},20.5,{dz}\n"));
+    }
+    s
+}
+
+fn blob(dir: &Path) -> String {
+    let out = dir.join("sp2.bin");
+    common::ok(&["model", "build", "--spec", SP2_AMB, "--out", p(&out)]);
+    p(&out).to_string()
+}
+
+// ---- 1. huge values: no hang, one line naming the column -----------------
+
+#[test]
+fn huge_column_mlr_six_rows_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "huge.csv", &run_text(6, true));
+    let out = dir.path().join("m.bin");
+    fails_with(
+        &[
+            "fit", "--data", &data, "--target", "dz_um", "--inputs", "T1,T2", "--model", "mlr",
+            "--out", p(&out),
+        ],
+        &format!(
+            "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
+        ),
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn huge_column_bp_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "huge.csv", &run_text(400, true));
+    let out = dir.path().join("m.bin");
+    fails_with(
+        &[
+            "fit", "--data", &data, "--target", "dz_um", "--inputs", "T1,T2", "--model", "bp",
+            "--out", p(&out),
+        ],
+        &format!(
+            "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
+        ),
+    );
+}
+
+#[test]
+fn huge_channel_in_diagnose_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = write(dir.path(), "sim.csv", &run_text(400, false));
+    let real = write(dir.path(), "real.csv", &run_text(400, true));
+    fails_with(
+        &["diagnose", "--sim", &sim, "--real", &real, "--json"],
+        &format!(
+            "error: {real}: column T1: values too large to centre and scale (their sum of squares overflows)"
+        ),
+    );
+}
+
+#[test]
+fn huge_column_in_refit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "huge.csv", &run_text(400, true));
+    let b = blob(dir.path());
+    let out = dir.path().join("new.bin");
+    fails_with(
+        &["refit", "--model", &b, "--data", &data, "--out", p(&out)],
+        &format!(
+            "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
+        ),
+    );
+}
+
+#[test]
+fn huge_column_in_select_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = write(dir.path(), "huge.csv", &run_text(400, true));
+    for method in ["grey", "wgrey", "maxtree"] {
+        fails_with(
+            &[
+                "select", "--data", &data, "--target", "dz_um", "--inputs", "T1,T2", "--method",
+                method, "--json",
+            ],
+            &format!(
+                "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
+            ),
+        );
+    }
+}
+
+// ---- 2. stdout write failures: no panic -----------------------------------
+
+/// A pipe whose reader is already closed: every write to it is EPIPE.
+fn closed_pipe() -> Stdio {
+    let (r, w): (OwnedFd, OwnedFd) = nix::unistd::pipe().unwrap();
+    drop(r);
+    Stdio::from(w)
+}
+
+#[test]
+fn closed_stdout_pipe_ends_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = blob(dir.path());
+    for args in [
+        vec!["model", "show", "--model", b.as_str()],
+        vec!["model", "show", "--model", b.as_str(), "--json"],
+        vec!["simulate", "--print-machine"],
+    ] {
+        let out = run_bounded(&args, closed_pipe());
+        let se = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {se}");
+        assert_eq!(se, "", "{args:?}");
+    }
+}
+
+#[test]
+fn full_stdout_is_a_one_line_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = blob(dir.path());
+    let full = || Stdio::from(std::fs::File::create("/dev/full").unwrap());
+    for args in [
+        vec!["model", "show", "--model", b.as_str()],
+        vec!["model", "show", "--model", b.as_str(), "--json"],
+    ] {
+        let out = run_bounded(&args, full());
+        let se = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {se}");
+        assert_eq!(
+            se, "error: cannot write to stdout: No space left on device (os error 28)\n",
+            "{args:?}"
+        );
+    }
+}
+
+// ---- 3. an output that is an input is refused, the input kept --------------
+
+/// Runs `args`, which name `victim` as both an input and an output: refused
+/// with exactly `expected`, `victim` byte-identical afterwards.
+fn refused_and_kept(args: &[&str], victim: &str, expected: &str) {
+    let before = std::fs::read(victim).unwrap();
+    fails_with(args, expected);
+    assert_eq!(std::fs::read(victim).unwrap(), before, "{victim} changed");
+}
+
+fn same(out_flag: &str, out: &str, in_flag: &str, input: &str) -> String {
+    format!("error: {out_flag} {out} is the same file as {in_flag} {input}: refusing to overwrite an input")
+}
+
+#[test]
+fn output_equal_to_input_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = write(d, "run.csv", &run_text(200, false));
+    // The same file by another spelling: refused as well.
+    let data_alias = p(&d.join(".").join("run.csv")).to_string();
+    let spec = write(d, "spec.toml", &std::fs::read_to_string(SP2_AMB).unwrap());
+    let b = blob(d);
+    let machine = write(
+        d,
+        "machine.toml",
+        &common::ok(&["simulate", "--print-machine"]).0,
+    );
+
+    refused_and_kept(
+        &[
+            "predict",
+            "--spec",
+            &spec,
+            "--data",
+            &data,
+            "--out",
+            &data_alias,
+        ],
+        &data,
+        &same("--out", &data_alias, "--data", &data),
+    );
+    refused_and_kept(
+        &["model", "build", "--spec", &spec, "--out", &spec],
+        &spec,
+        &same("--out", &spec, "--spec", &spec),
+    );
+    refused_and_kept(
+        &[
+            "fit", "--data", &data, "--target", "dz_um", "--inputs", "T2", "--model", "mlr",
+            "--out", &data,
+        ],
+        &data,
+        &same("--out", &data, "--data", &data),
+    );
+    refused_and_kept(
+        &["refit", "--model", &b, "--data", &data, "--out", &data],
+        &data,
+        &same("--out", &data, "--data", &data),
+    );
+    refused_and_kept(
+        &["replay", "--model", &b, "--data", &data, "--candump", &data],
+        &data,
+        &same("--candump", &data, "--data", &data),
+    );
+    refused_and_kept(
+        &["replay", "--model", &b, "--data", &data, "--candump", &b],
+        &b,
+        &same("--candump", &b, "--model", &b),
+    );
+    let log = p(&d.join("out.log")).to_string();
+    refused_and_kept(
+        &[
+            "replay",
+            "--model",
+            &b,
+            "--data",
+            &data,
+            "--candump",
+            &log,
+            "--trace",
+            &b,
+        ],
+        &b,
+        &same("--trace", &b, "--model", &b),
+    );
+    refused_and_kept(
+        &[
+            "simulate",
+            "--machine",
+            &machine,
+            "--out",
+            &machine,
+            "--hours",
+            "0.1",
+        ],
+        &machine,
+        &same("--out", &machine, "--machine", &machine),
+    );
+    let profile = format!("file:{data}");
+    refused_and_kept(
+        &["simulate", "--profile", &profile, "--out", &data],
+        &data,
+        &same("--out", &data, "--profile file:", &data),
+    );
+    refused_and_kept(
+        &["simulate", "--calibrate", &data, "--save-machine", &data],
+        &data,
+        &same("--save-machine", &data, "--calibrate", &data),
+    );
+}
+
+#[test]
+fn two_outputs_on_one_file_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = write(d, "run.csv", &run_text(50, false));
+    let b = blob(d);
+    let log = p(&d.join("out.log")).to_string();
+    fails_with(
+        &["replay", "--model", &b, "--data", &data, "--candump", &log, "--trace", &log],
+        &format!(
+            "error: --trace {log} is the same file as --candump {log}: give each output its own file"
+        ),
+    );
+    assert!(!Path::new(&log).exists());
+}
+
+#[test]
+fn failed_run_keeps_the_old_output_whole() {
+    // predict fails on a missing column after the output was opened in the
+    // old code; now the old file stays and no temporary is left behind.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = write(d, "run.csv", "t_s,T1\n0,20\n1,21\n");
+    let out = write(d, "pred.csv", "old predictions\n");
+    let se = fails_one_line(&["predict", "--spec", SP2_AMB, "--data", &data, "--out", &out]);
+    assert!(se.starts_with("error: "), "{se}");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "old predictions\n");
+    assert_eq!(std::fs::read_dir(d).unwrap().count(), 2);
+}
+
+// ---- 4. reads are bounded -------------------------------------------------
+
+#[test]
+fn devices_and_large_files_are_refused_early() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let big = d.join("big.bin");
+    std::fs::write(&big, vec![0u8; 64 << 20]).unwrap();
+    let big = p(&big).to_string();
+    let out = p(&d.join("out.bin")).to_string();
+    let data = write(d, "run.csv", &run_text(20, false));
+    let blob_limit = "larger than 16384 bytes, the most this file kind can be";
+    let text_limit = "larger than 1048576 bytes, the most this file kind can be";
+
+    fails_with(
+        &["model", "show", "--model", "/dev/zero"],
+        &format!("error: /dev/zero: {blob_limit}"),
+    );
+    fails_with(
+        &["model", "show", "--model", &big],
+        &format!("error: {big}: {blob_limit}"),
+    );
+    fails_with(
+        &["eval", "--model", "/dev/urandom", "--data", &data],
+        &format!("error: /dev/urandom: {blob_limit}"),
+    );
+    fails_with(
+        &["model", "build", "--spec", "/dev/zero", "--out", &out],
+        &format!("error: /dev/zero: {text_limit}"),
+    );
+    fails_with(
+        &["simulate", "--machine", "/dev/zero", "--out", &out],
+        &format!("error: /dev/zero: {text_limit}"),
+    );
+    fails_with(
+        &["eval", "--spec", SP2_AMB, "--data", "/dev/zero"],
+        "error: /dev/zero:1: line longer than 1048576 bytes (not a run file?)",
+    );
+    fails_with(
+        &["eval", "--spec", SP2_AMB, "--data", &big],
+        &format!("error: {big}:1: line longer than 1048576 bytes (not a run file?)"),
+    );
+    // Random bytes: whatever the first complaint is, it comes at once.
+    let out = run_bounded(
+        &["eval", "--spec", SP2_AMB, "--data", "/dev/urandom"],
+        Stdio::null(),
+    );
+    let se = String::from_utf8(out.stderr).unwrap();
+    assert!(!out.status.success());
+    assert!(
+        se.starts_with("error: /dev/urandom") && se.lines().count() == 1,
+        "{se}"
+    );
+}
+
+#[test]
+fn too_many_columns_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let names: Vec<String> = (1..=10_001).map(|i| format!("c{i}")).collect();
+    let data = write(
+        dir.path(),
+        "wide.csv",
+        &format!("t_s,{}\n0{}\n", names.join(","), ",1".repeat(10_001)),
+    );
+    fails_with(
+        &["eval", "--spec", SP2_AMB, "--data", &data],
+        &format!("error: {data}:1: more than 10000 columns (not a run file?)"),
+    );
+}
