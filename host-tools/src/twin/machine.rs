@@ -624,6 +624,11 @@ fn unique_names<'a>(names: impl Iterator<Item = &'a String>) -> Result<()> {
     Ok(())
 }
 
+/// Lowest nominal ambient or coolant temperature a machine file may give, C.
+pub const BOUNDARY_MIN_C: f64 = -50.0;
+/// Highest nominal ambient or coolant temperature a machine file may give, C.
+pub const BOUNDARY_MAX_C: f64 = 100.0;
+
 /// Range checks on the numbers, naming the field.
 fn validate(m: &Machine) -> Result<()> {
     let positive = |v: f64, what: &str| -> Result<()> {
@@ -649,8 +654,18 @@ fn validate(m: &Machine) -> Result<()> {
     };
     positive(m.max_rpm, "max_rpm")?;
     non_negative(m.tool_mm, "tool_mm")?;
-    finite(m.boundary.ambient_c, "boundary.ambient_c")?;
-    finite(m.boundary.coolant_c, "boundary.coolant_c")?;
+    // Air and coolant around a machine tool: a shop floor in winter to a
+    // coolant at a boil. Beyond that a value is a typo (-300 C is below
+    // absolute zero), and the twin would model it without a word.
+    let boundary_c = |v: f64, what: &str| -> Result<()> {
+        if v.is_finite() && (BOUNDARY_MIN_C..=BOUNDARY_MAX_C).contains(&v) {
+            Ok(())
+        } else {
+            bail!("{what} must be in {BOUNDARY_MIN_C}..={BOUNDARY_MAX_C} C (got {v})")
+        }
+    };
+    boundary_c(m.boundary.ambient_c, "boundary.ambient_c")?;
+    boundary_c(m.boundary.coolant_c, "boundary.coolant_c")?;
     for n in Node::ALL {
         let p = m.nodes.get(n);
         let name = n.name();
