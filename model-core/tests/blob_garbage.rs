@@ -762,9 +762,22 @@ fn decoder_applies_every_structural_check() {
             ShapeMismatch,
         ),
         (
-            "bp unused output",
+            // Output 1 is also unused, but the repeat is the mistake.
+            "bp output twice",
             with_bp(|n| {
                 n.outputs[1] = 0;
+            }),
+            DuplicateOutput { output: 0 },
+        ),
+        (
+            "bp unused output",
+            // The net computes dx_um only; the model also names dz_um.
+            with_bp(|n| {
+                n.outputs.pop();
+                n.w2.truncate(4);
+                n.b2.truncate(1);
+                n.y_min.truncate(1);
+                n.y_max.truncate(1);
             }),
             OutputUnused { output: 1 },
         ),
