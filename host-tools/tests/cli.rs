@@ -387,8 +387,15 @@ fn issue14_absurd_values_are_refused() {
         "--machine",
         p(&cold),
     ]);
+    let line = machine
+        .lines()
+        .position(|l| l.starts_with("ambient_c = 20.0"))
+        .unwrap()
+        + 1;
     assert!(
-        se.contains("boundary.ambient_c must be in -50..=100 C"),
+        se.contains(&format!(
+            "cold.toml:{line}:1: boundary.ambient_c must be in -50..=100 C"
+        )),
         "{se}"
     );
 

@@ -545,8 +545,42 @@ pub fn parse(file: &str, text: &str) -> Result<Machine> {
         effects: spec.effects,
         outputs,
     };
-    validate(&m).map_err(|e| anyhow!("{file}: {e}"))?;
+    validate(&m).map_err(|e| {
+        // Range errors start with the field's dotted path; point at it.
+        let msg = e.to_string();
+        let path = msg.split_whitespace().next().unwrap_or_default();
+        match key_line_col(text, path) {
+            Some((l, c)) => anyhow!("{file}:{l}:{c}: {msg}"),
+            None => anyhow!("{file}: {msg}"),
+        }
+    })?;
     Ok(m)
+}
+
+/// Line and column (1-based) of the key `a.b.c` written as `c = ...` under
+/// a `[a.b]` header (or `a = ...` at the top): where a range error's value
+/// sits. `None` for any other layout (inline tables, dotted keys).
+fn key_line_col(text: &str, path: &str) -> Option<(usize, usize)> {
+    let (table, key) = path.rsplit_once('.').unwrap_or(("", path));
+    let mut current = String::new();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim_start();
+        if t.starts_with('[') {
+            current = t
+                .trim_end()
+                .trim_matches(|c| c == '[' || c == ']')
+                .trim()
+                .to_string();
+        } else if current == table {
+            if let Some(rest) = t.strip_prefix(key) {
+                if rest.trim_start().starts_with('=') {
+                    let col = line.len() - t.len();
+                    return Some((i + 1, col + 1));
+                }
+            }
+        }
+    }
+    None
 }
 
 /// Columns a run file always has; a sensor or output may not take them.
