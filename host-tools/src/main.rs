@@ -176,13 +176,20 @@ fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
 /// the `--help` to read.
 fn one_line(e: &clap::Error) -> String {
     let text = e.render().to_string();
-    let parts: Vec<&str> = text
+    let mut line = String::new();
+    for part in text
         .lines()
         .map(str::trim)
         .filter(|l| !l.is_empty() && !l.starts_with("Usage:"))
         .map(|l| l.strip_prefix("error: ").unwrap_or(l))
-        .collect();
-    parts.join("; ")
+    {
+        if !line.is_empty() {
+            // "...were not provided:" then the list: a space, not "; ".
+            line.push_str(if line.ends_with(':') { " " } else { "; " });
+        }
+        line.push_str(part);
+    }
+    line
 }
 
 /// The command line, or exit: help and version print as clap prints them;

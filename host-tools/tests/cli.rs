@@ -466,6 +466,7 @@ fn issue14_usage_errors_are_one_line() {
         "{se}"
     );
     let se = fails(&["eval", "--json"]);
+    assert!(!se.contains(":;"), "{se}");
     assert!(se.contains("required"), "{se}");
     let se = fails(&["nonsense"]);
     assert!(se.contains("unrecognized subcommand"), "{se}");
