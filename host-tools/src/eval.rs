@@ -50,6 +50,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
     }
     let map = a.runs.column_map()?;
     let runs = a.runs.read(map.model_columns(&model, true))?;
+    let skipped_rows = crate::source::skipped_rows(&runs);
     let n_out = model.outputs().len();
     let mut all = vec![MetricsAccumulator::new(); n_out];
     let mut per_run: Vec<Vec<Value>> = vec![Vec::new(); n_out];
@@ -108,6 +109,9 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         if let Value::Object(o) = &mut obj {
             o.insert("column".into(), json!(map.column(name)));
             o.insert("rows_not_scored".into(), json!(unscored[k]));
+            // Rows the reader left out (--skip-bad-rows), per target
+            // object: the contract keys eval's object by target only.
+            o.insert("skipped_rows".into(), json!(skipped_rows));
             o.insert(
                 "per_run".into(),
                 Value::Array(std::mem::take(&mut per_run[k])),

@@ -11,7 +11,8 @@ use host_tools::{
     simulate, spec,
 };
 
-use clap::{Args, Parser, Subcommand};
+use clap::error::ErrorKind;
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -158,8 +159,61 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
+/// Every option that takes a value also takes a negative number
+/// (`--holdout-from-s -1`, `--ambient-c -5`), rather than clap reading it as
+/// an unknown option; the subcommand then judges the value.
+fn allow_negative_numbers(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(|a| {
+        if a.get_action().takes_values() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    })
+    .mut_subcommands(allow_negative_numbers)
+}
+
+/// A usage error as one line, as every other error (CONTRACT.md section 1):
+/// clap's message and tip, without the usage block; the last part names
+/// the `--help` to read.
+fn one_line(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let mut line = String::new();
+    for part in text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with("Usage:"))
+        .map(|l| l.strip_prefix("error: ").unwrap_or(l))
+    {
+        if !line.is_empty() {
+            // "...were not provided:" then the list: a space, not "; ".
+            line.push_str(if line.ends_with(':') { " " } else { "; " });
+        }
+        line.push_str(part);
+    }
+    line
+}
+
+/// The command line, or exit: help and version print as clap prints them;
+/// a usage error prints one line on stderr and exits with status 2.
+fn parse_cli() -> Cli {
+    let matches = allow_negative_numbers(Cli::command()).try_get_matches();
+    match matches.and_then(|m| Cli::from_arg_matches(&m)) {
+        Ok(cli) => cli,
+        Err(e) => match e.kind() {
+            ErrorKind::DisplayHelp
+            | ErrorKind::DisplayVersion
+            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
+            _ => {
+                eprintln!("error: {}", one_line(&e));
+                std::process::exit(2)
+            }
+        },
+    }
+}
+
 fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    match run(parse_cli()) {
         Ok(()) => ExitCode::SUCCESS,
         // The reader of stdout has what it wanted: a quiet success (fsio).
         Err(e) if e.downcast_ref::<fsio::StdoutClosed>().is_some() => ExitCode::SUCCESS,

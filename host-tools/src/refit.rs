@@ -785,6 +785,7 @@ pub fn run(a: &RefitArgs) -> Result<()> {
                 "kept": kept,
                 "targets_updated": kept_targets,
                 "notes": notes,
+                "skipped_rows": crate::source::skipped_rows(runs.iter().chain(&baseline)),
                 "out": a.out.display().to_string(),
                 "bytes": out_bytes.len(),
             })

@@ -411,10 +411,13 @@ struct LineStarts<R> {
     inner: R,
     /// Bytes passed on so far.
     offset: u64,
-    /// 1 + the number of `\n` passed on so far.
+    /// 1 + the number of line ends (`\n`, `\r\n` or a lone `\r`) passed
+    /// on so far.
     line: u64,
     /// Whether the next byte starts a line.
     at_line_start: bool,
+    /// Whether the last byte was `\r`, so a `\n` now ends no new line.
+    after_cr: bool,
     /// (byte offset, line) of line starts with content, in input order.
     starts: VecDeque<(u64, u64)>,
     /// Bytes since the last `\n`, checked against [`MAX_LINE_BYTES`].
@@ -428,6 +431,7 @@ impl<R> LineStarts<R> {
             offset: 0,
             line: 1,
             at_line_start: true,
+            after_cr: false,
             starts: VecDeque::new(),
             line_bytes: 0,
         }
@@ -450,13 +454,20 @@ impl<R: io::Read> io::Read for LineStarts<R> {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         let n = self.inner.read(buf)?;
         for &byte in buf.get(..n).unwrap_or_default() {
+            // csv ends a line at `\n`, `\r\n` and a lone `\r` (old Mac
+            // files); each counts once.
             match byte {
                 b'\n' => {
+                    if !self.after_cr {
+                        self.line += 1;
+                    }
+                    self.at_line_start = true;
+                }
+                b'\r' => {
                     self.line += 1;
                     self.at_line_start = true;
                     self.line_bytes = 0;
                 }
-                b'\r' => self.at_line_start = true,
                 _ => {
                     if self.at_line_start {
                         self.starts.push_back((self.offset, self.line));
@@ -464,6 +475,7 @@ impl<R: io::Read> io::Read for LineStarts<R> {
                     self.at_line_start = false;
                 }
             }
+            self.after_cr = byte == b'\r';
             self.offset += 1;
             self.line_bytes += 1;
             if self.line_bytes > MAX_LINE_BYTES {
@@ -595,9 +607,16 @@ impl Header {
     }
 }
 
+/// Largest magnitude a cell may hold. Beyond it a value is a logger's fill
+/// or overflow code, not a measurement, and its square (variances, norms)
+/// would overflow f64: a single -1e308 made the target's variance infinite
+/// and `select` call the target constant. 1e15 still takes epoch times in
+/// microseconds (1.7e15 in 2023 would not: seconds or milliseconds do).
+pub const MAX_CELL_MAGNITUDE: f64 = 1e15;
+
 /// Parse one cell: blank (after trimming) is `None`; otherwise it must be a
 /// finite number in Rust's float syntax (which accepts `1`, `-1.5`, `.5`,
-/// `1e-3`, ...).
+/// `1e-3`, ...) of magnitude at most [`MAX_CELL_MAGNITUDE`].
 fn parse_cell(raw: &[u8], column: usize, name: &str) -> Result<Option<f64>, RowErrorKind> {
     let cell = clean_field(raw);
     let cell = cell.as_ref();
@@ -605,7 +624,12 @@ fn parse_cell(raw: &[u8], column: usize, name: &str) -> Result<Option<f64>, RowE
         return Ok(None);
     }
     match std::str::from_utf8(cell).map(str::parse::<f64>) {
-        Ok(Ok(v)) if v.is_finite() => Ok(Some(v)),
+        Ok(Ok(v)) if v.is_finite() && v.abs() <= MAX_CELL_MAGNITUDE => Ok(Some(v)),
+        Ok(Ok(v)) if v.is_finite() => Err(RowErrorKind::OutOfRange {
+            column,
+            name: name.to_owned(),
+            text: shown_cell(cell),
+        }),
         Ok(Ok(_)) => Err(RowErrorKind::NotFinite {
             column,
             name: name.to_owned(),
@@ -873,6 +897,15 @@ pub enum RowErrorKind {
         /// The cell's text (shortened if long).
         text: String,
     },
+    /// A cell's magnitude exceeds [`MAX_CELL_MAGNITUDE`].
+    OutOfRange {
+        /// 1-based field index.
+        column: usize,
+        /// Header name of the column.
+        name: String,
+        /// The cell's text (shortened if long).
+        text: String,
+    },
     /// The `t_s` cell is empty.
     MissingTime {
         /// 1-based field index of `t_s`.
@@ -906,6 +939,13 @@ impl fmt::Display for RowError {
                 write!(
                     f,
                     "{file}:{line}:{column} ({}): value {text:?} is not finite",
+                    Name(name)
+                )
+            }
+            RowErrorKind::OutOfRange { column, name, text } => {
+                write!(
+                    f,
+                    "{file}:{line}:{column} ({}): value {text:?} is beyond {MAX_CELL_MAGNITUDE:e} in magnitude",
                     Name(name)
                 )
             }
@@ -1224,6 +1264,18 @@ mod tests {
         );
     }
 
+    /// Issue 14: one -1e308 cell overflowed the target's variance and
+    /// `select` said "the target is constant"; it is now refused where it is.
+    #[test]
+    fn absurd_magnitudes_are_refused_where_they_are() {
+        assert_eq!(
+            error("t_s,T1,dz_um\n0,1,2\n1,1,-1e308\n"),
+            r#"run.csv:3:3 (dz_um): value "-1e308" is beyond 1e15 in magnitude"#
+        );
+        // Epoch seconds and large but physical values still read.
+        RunFile::from_reader("run.csv", &b"t_s,T1\n1700000000,-1e9\n"[..], &STRICT).unwrap();
+    }
+
     #[test]
     fn header_errors() {
         assert_eq!(
@@ -1274,8 +1326,8 @@ mod tests {
             "run.csv:3:1 (t_s): time 0.5 is not after the previous row's time 0.5"
         );
         assert_eq!(
-            error("t_s,T1\n1e300,1\n-1e300,2\n"),
-            "run.csv:3:1 (t_s): time -1e300 is not after the previous row's time 1e300"
+            error("t_s,T1\n1e14,1\n-1e14,2\n"),
+            "run.csv:3:1 (t_s): time -100000000000000 is not after the previous row's time 100000000000000"
         );
     }
 
@@ -1397,6 +1449,21 @@ mod tests {
         assert_eq!(
             error("\n\r\nt_s,T1,T1\n0,1,2\n"),
             r#"run.csv:3: duplicate column name "T1" (columns 2 and 3)"#
+        );
+    }
+
+    /// Issue 14: a file with CR-only line ends (old Mac, some loggers) named
+    /// every bad cell as line 1.
+    #[test]
+    fn line_numbers_with_cr_only_line_ends() {
+        assert_eq!(
+            error("t_s,T1\r0,1\r15,1\r30,x\r"),
+            r#"run.csv:4:2 (T1): cannot parse "x" as a number"#
+        );
+        // Mixed: CR, CRLF, LF and a CR-only blank line.
+        assert_eq!(
+            error("t_s,T1\r0,1\r\n15,1\n\r30,x\n"),
+            r#"run.csv:5:2 (T1): cannot parse "x" as a number"#
         );
     }
 

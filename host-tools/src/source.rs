@@ -92,3 +92,28 @@ pub fn read_runs(paths: &[PathBuf], opts: &ReadOptions) -> Result<Vec<RunFile>> 
         })
         .collect()
 }
+
+/// Rows left out of `runs` under `--skip-bad-rows`, for the `skipped_rows`
+/// key of every `--json` object that read run files.
+pub fn skipped_rows<'a>(runs: impl IntoIterator<Item = &'a RunFile>) -> usize {
+    runs.into_iter().map(|r| r.skipped.len()).sum()
+}
+
+/// `replay --interface`: a CAN interface name as Linux allows one (1 to 15
+/// bytes, IFNAMSIZ - 1) with no whitespace or control characters. It is
+/// written into every candump log line, so a newline in it would inject a
+/// line and a space would split a field.
+pub fn interface_name(s: &str) -> std::result::Result<String, String> {
+    if let Some(c) = s.chars().find(|c| c.is_control() || c.is_whitespace()) {
+        return Err(format!(
+            "it holds {c:?}: no whitespace or control characters in an interface name"
+        ));
+    }
+    if s.is_empty() || s.len() > 15 {
+        return Err(format!(
+            "{} bytes; a CAN interface name has 1 to 15",
+            s.len()
+        ));
+    }
+    Ok(s.to_string())
+}

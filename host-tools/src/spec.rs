@@ -182,8 +182,8 @@ struct BoundsSpec {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
 struct SpecFile {
-    kind: String,
-    dt_s: Option<f64>,
+    kind: Spanned<String>,
+    dt_s: Option<Spanned<f64>>,
     #[serde(default)]
     tf: Vec<Spanned<TfSpec>>,
     #[serde(default)]
@@ -197,9 +197,41 @@ struct SpecFile {
 }
 
 fn number(v: &toml::Value, what: &str) -> Result<f64> {
-    v.as_float()
+    let x = v
+        .as_float()
         .or_else(|| v.as_integer().map(|i| i as f64))
-        .ok_or_else(|| anyhow!("{what} is not a number"))
+        .ok_or_else(|| anyhow!("{what} is not a number"))?;
+    finite(&[x], what)?;
+    Ok(x)
+}
+
+/// TOML reads `nan` and `inf` as floats; a coefficient must be finite.
+/// Checked here, per entry, so the error names the entry's line and column
+/// (model validation would only say that some coefficient is not finite).
+fn finite(values: &[f64], what: &str) -> Result<()> {
+    match values.iter().find(|v| !v.is_finite()) {
+        Some(v) => bail!("{what}: {v} is not a finite number"),
+        None => Ok(()),
+    }
+}
+
+/// As [`finite`], for a reference given as a number.
+fn finite_ref(r: Option<RefSpec>) -> Result<()> {
+    match r {
+        Some(RefSpec::Value(v)) => finite(&[v], "reference"),
+        _ => Ok(()),
+    }
+}
+
+/// As [`finite`], for a position term.
+fn finite_position(p: &Option<PositionSpec>) -> Result<()> {
+    match p {
+        Some(p) => {
+            finite(&p.poly, "position.poly")?;
+            finite(&[p.k0], "position.k0")
+        }
+        None => Ok(()),
+    }
 }
 
 /// The `[bounds]` table for a model with these inputs and outputs: every
@@ -258,6 +290,22 @@ fn bounds_of(spec: &BoundsSpec, inputs: &[Channel], outputs: &[Name]) -> Result<
         half_width,
         growth,
     })
+}
+
+/// Shortest sample time a model or a simulation may have, s: a hub samples
+/// its RTDs at most about every 10 ms, and thermal errors move in minutes.
+pub const MIN_DT_S: f64 = 1e-3;
+/// Longest sample time, s: one day. Beyond it no thermal dynamics are left
+/// to model (and `1e300` is a typo).
+pub const MAX_DT_S: f64 = 86_400.0;
+
+/// Whether `dt_s` is a usable sample time ([`MIN_DT_S`]..=[`MAX_DT_S`]).
+pub fn check_dt_s(dt_s: f64) -> Result<()> {
+    if dt_s.is_finite() && (MIN_DT_S..=MAX_DT_S).contains(&dt_s) {
+        Ok(())
+    } else {
+        bail!("{dt_s} s is not a sample time ({MIN_DT_S} s to {MAX_DT_S} s)")
+    }
 }
 
 /// Line and column (1-based) of a byte offset.
@@ -366,6 +414,25 @@ fn activation(s: Option<&str>, default: Activation) -> Result<Activation> {
     })
 }
 
+/// Refuses a second `[[kind]]` entry for an output already computed by an
+/// earlier one (`seen`: output and where its entry starts). A regression
+/// output is one equation; unlike the terms of a transfer-function bank,
+/// two equations for one output do not add up, and only the last would run.
+fn once_per_output<'s>(
+    seen: &mut Vec<(&'s str, String)>,
+    output: &'s str,
+    at: &str,
+    kind: &str,
+) -> Result<()> {
+    if let Some((_, first)) = seen.iter().find(|(o, _)| *o == output) {
+        bail!(
+            "{at}: [[{kind}]] {output}: the output already has an entry (at {first}); one [[{kind}]] per output"
+        );
+    }
+    seen.push((output, at.to_string()));
+    Ok(())
+}
+
 /// Reads and validates a spec file.
 pub fn load(path: &Path) -> Result<ValidModel> {
     let text = crate::fsio::read_text_capped(path)?;
@@ -383,10 +450,13 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
     };
     // Spans of the entries, so a model error can point at its entry.
     let mut spans: Vec<Range<usize>> = Vec::new();
+    // Errors about the kind as a whole point at its `kind = ...` line.
+    let kind_at = b.at(&spec.kind.span());
+    let kind = spec.kind.get_ref().as_str();
     let expect_only = |present: &[(&str, bool)], kind: &str| -> Result<()> {
         for (section, has) in present {
             if *has && *section != kind {
-                bail!("{file}: kind = \"{kind}\" but the spec has [{section}] entries");
+                bail!("{kind_at}: kind = \"{kind}\" but the spec has [{section}] entries");
             }
         }
         Ok(())
@@ -400,12 +470,12 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             ("arma", spec.arma.is_some()),
             ("fbank", spec.fbank.is_some()),
         ],
-        spec.kind.as_str(),
+        kind,
     )?;
-    let params = match spec.kind.as_str() {
+    let params = match kind {
         "tf" => {
             if spec.tf.is_empty() {
-                bail!("{file}: kind = \"tf\" needs at least one [[tf]] entry");
+                bail!("{kind_at}: kind = \"tf\" needs at least one [[tf]] entry");
             }
             let mut entries = heapless::Vec::new();
             for e in &spec.tf {
@@ -413,6 +483,9 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
                 let at = b.at(&span);
                 let t = e.get_ref();
                 let entry = (|| -> Result<TfEntry> {
+                    finite_ref(t.reference)?;
+                    finite(&t.a, "a")?;
+                    finite(&t.b, "b")?;
                     let reference = t.reference.map_or(Reference::First, RefSpec::reference);
                     Ok(TfEntry {
                         output: b.output(&t.output)?,
@@ -431,21 +504,23 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
         }
         "linear" => {
             if spec.linear.is_empty() {
-                bail!("{file}: kind = \"linear\" needs at least one [[linear]] entry");
+                bail!("{kind_at}: kind = \"linear\" needs at least one [[linear]] entry");
             }
             let mut outputs = heapless::Vec::new();
+            let mut seen: Vec<(&str, String)> = Vec::new();
             for e in &spec.linear {
                 let span = e.span();
                 let at = b.at(&span);
                 let l = e.get_ref();
+                once_per_output(&mut seen, &l.output, &at, "linear")?;
                 let eq = (|| -> Result<LinearOutput> {
+                    finite_ref(l.reference)?;
+                    finite(&[l.intercept], "intercept")?;
+                    finite_position(&l.position)?;
                     let reference = l.reference.map_or(Reference::Absolute, RefSpec::reference);
                     let mut coef = heapless::Vec::new();
                     for (col, v) in &l.coef {
-                        let value = v
-                            .as_float()
-                            .or_else(|| v.as_integer().map(|i| i as f64))
-                            .ok_or_else(|| anyhow!("coef.{col} is not a number"))?;
+                        let value = number(v, &format!("coef.{col}"))?;
                         coef.push(Coef {
                             channel: b.input(col, reference)?,
                             value,
@@ -469,7 +544,7 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
         }
         "pcr" => {
             if spec.pcr.is_empty() {
-                bail!("{file}: kind = \"pcr\" needs at least one [[pcr]] entry");
+                bail!("{kind_at}: kind = \"pcr\" needs at least one [[pcr]] entry");
             }
             // Each entry brings its own inputs and components; the model
             // shares one set, so entries are merged exactly: the union of
@@ -483,12 +558,29 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             let mut entries: Vec<Entry> = Vec::new();
             let mut union: Vec<u8> = Vec::new();
             let mut raw_components: Vec<(usize, f64, Vec<f64>)> = Vec::new();
+            let mut seen: Vec<(&str, String)> = Vec::new();
             for e in &spec.pcr {
                 let span = e.span();
                 let at = b.at(&span);
                 let p = e.get_ref();
+                once_per_output(&mut seen, &p.output, &at, "pcr")?;
                 let entry = (|| -> Result<Entry> {
                     let reference = p.reference.map_or(Reference::Absolute, RefSpec::reference);
+                    finite_ref(p.reference)?;
+                    finite(&[p.intercept], "intercept")?;
+                    finite(&p.beta, "beta")?;
+                    finite_position(&p.position)?;
+                    for (j, c) in p.components.iter().enumerate() {
+                        finite(&[c.intercept], &format!("component {} intercept", j + 1))?;
+                        finite(&c.weights, &format!("component {} weights", j + 1))?;
+                    }
+                    // Each input has one weight per component; a repeat
+                    // would silently keep only the last one.
+                    for (i, col) in p.inputs.iter().enumerate() {
+                        if p.inputs[..i].contains(col) {
+                            bail!("input {col} is listed twice");
+                        }
+                    }
                     let inputs = p
                         .inputs
                         .iter()
@@ -577,11 +669,27 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             let e = spec
                 .bp
                 .as_ref()
-                .ok_or_else(|| anyhow!("{file}: kind = \"bp\" needs a [bp] table"))?;
+                .ok_or_else(|| anyhow!("{kind_at}: kind = \"bp\" needs a [bp] table"))?;
             let span = e.span();
             let at = b.at(&span);
             let n = e.get_ref();
             let net = (|| -> Result<BpNet> {
+                finite_ref(n.reference)?;
+                for (what, rows) in [("w1", &n.w1), ("w2", &n.w2)] {
+                    for row in rows.iter() {
+                        finite(row, what)?;
+                    }
+                }
+                for (what, v) in [
+                    ("b1", &n.b1),
+                    ("b2", &n.b2),
+                    ("x_min", &n.x_min),
+                    ("x_max", &n.x_max),
+                    ("y_min", &n.y_min),
+                    ("y_max", &n.y_max),
+                ] {
+                    finite(v, what)?;
+                }
                 let reference = n.reference.map_or(Reference::Absolute, RefSpec::reference);
                 let (m, hidden, q) = (n.inputs.len(), n.b1.len(), n.outputs.len());
                 if n.w1.len() != hidden || n.w1.iter().any(|r| r.len() != m) {
@@ -597,7 +705,10 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
                         .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
                 }
                 let mut outputs = heapless::Vec::new();
-                for col in &n.outputs {
+                for (i, col) in n.outputs.iter().enumerate() {
+                    if n.outputs[..i].contains(col) {
+                        bail!("output {col} is listed twice");
+                    }
                     outputs
                         .push(b.output(col)?)
                         .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
@@ -627,11 +738,18 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             let e = spec
                 .arma
                 .as_ref()
-                .ok_or_else(|| anyhow!("{file}: kind = \"arma\" needs an [arma] table"))?;
+                .ok_or_else(|| anyhow!("{kind_at}: kind = \"arma\" needs an [arma] table"))?;
             let span = e.span();
             let at = b.at(&span);
             let a = e.get_ref();
             let arma = (|| -> Result<model_core::arma::Arma> {
+                let scalars = [a.mean, a.std, a.constant];
+                finite(
+                    &scalars.iter().flatten().copied().collect::<Vec<_>>(),
+                    "mean/std/constant",
+                )?;
+                finite(&a.phi, "phi")?;
+                finite(&a.theta, "theta")?;
                 Ok(model_core::arma::Arma {
                     channel: b.input(&a.series, Reference::Absolute)?,
                     output: b.output(a.output.as_deref().unwrap_or(&a.series))?,
@@ -651,11 +769,21 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             let e = spec
                 .fbank
                 .as_ref()
-                .ok_or_else(|| anyhow!("{file}: kind = \"fbank\" needs an [fbank] table"))?;
+                .ok_or_else(|| anyhow!("{kind_at}: kind = \"fbank\" needs an [fbank] table"))?;
             let span = e.span();
             let at = b.at(&span);
             let f = e.get_ref();
             let bank = (|| -> Result<FilterBank> {
+                for i in &f.inputs {
+                    finite_ref(i.reference)?;
+                }
+                for ft in &f.features {
+                    finite(&ft.tau_s.into_iter().collect::<Vec<_>>(), "tau_s")?;
+                }
+                for o in &f.output {
+                    finite(&[o.intercept], "intercept")?;
+                    finite(&o.coef, "coef")?;
+                }
                 let mut by_name: Vec<(&str, u8)> = Vec::new();
                 for i in &f.inputs {
                     if by_name.iter().any(|(n, _)| *n == i.name) {
@@ -705,13 +833,16 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
             spans.push(span);
             Params::Fbank(bank)
         }
-        other => bail!("{file}: unknown kind \"{other}\" (tf, linear, pcr, bp, arma or fbank)"),
+        other => bail!("{kind_at}: unknown kind \"{other}\" (tf, linear, pcr, bp, arma or fbank)"),
     };
     let dynamic = params.kind().is_dynamic();
-    let dt_s = match (dynamic, spec.dt_s) {
-        (true, Some(dt)) => dt,
-        (true, None) => bail!("{file}: kind = \"{}\" is dynamic and needs dt_s", spec.kind),
-        (false, dt) => dt.unwrap_or(0.0),
+    let dt_s = match (dynamic, &spec.dt_s) {
+        (true, Some(dt)) => {
+            check_dt_s(*dt.get_ref()).map_err(|e| anyhow!("{}: dt_s: {e}", b.at(&dt.span())))?;
+            *dt.get_ref()
+        }
+        (true, None) => bail!("{kind_at}: kind = \"{kind}\" is dynamic and needs dt_s"),
+        (false, dt) => dt.as_ref().map_or(0.0, |d| *d.get_ref()),
     };
     let bounds = match &spec.bounds {
         Some(e) => Some(
@@ -795,6 +926,40 @@ b = [1.0, -1.9985, 0.9985]
         let e = parse("sp2.toml", &bad).unwrap_err().to_string();
         assert!(
             e.starts_with("sp2.toml:5:1: [[tf]] entry 1: unstable"),
+            "{e}"
+        );
+    }
+
+    /// Issue 14: a repeated pcr input kept only its last weight, and a
+    /// second `[[linear]]`/`[[pcr]]` for one output was stored and shown but
+    /// never computed. Both are refused at the entry's line and column.
+    #[test]
+    fn repeated_inputs_and_outputs_are_refused_at_their_entry() {
+        let pcr = "kind = \"pcr\"\n[[pcr]]\noutput = \"k\"\ninputs = [\"T1\", \"T2\", \"T1\"]\n\
+                   components = [{ intercept = 0.0, weights = [1.0, 2.0, 3.0] }]\nintercept = 0.0\nbeta = [1.0]\n";
+        let e = parse("p.toml", pcr).unwrap_err().to_string();
+        assert!(
+            e.starts_with("p.toml:2:1: [[pcr]] k: input T1 is listed twice"),
+            "{e}"
+        );
+
+        let one = "[[linear]]\noutput = \"x_um\"\nintercept = 0.0\ncoef = { T1 = 1.0 }\n";
+        let two = format!("kind = \"linear\"\n{one}{}", one.replace("T1", "T2"));
+        let e = parse("l.toml", &two).unwrap_err().to_string();
+        assert!(
+            e.starts_with(
+                "l.toml:6:1: [[linear]] x_um: the output already has an entry (at l.toml:2:1)"
+            ),
+            "{e}"
+        );
+        // Different outputs are fine.
+        parse("l.toml", &two.replacen("x_um", "y_um", 1)).unwrap();
+
+        let one = "[[pcr]]\noutput = \"k\"\ninputs = [\"T1\"]\ncomponents = [{ intercept = 0.0, weights = [1.0] }]\nintercept = 0.0\nbeta = [1.0]\n";
+        let two = format!("kind = \"pcr\"\n{one}{one}");
+        let e = parse("p.toml", &two).unwrap_err().to_string();
+        assert!(
+            e.starts_with("p.toml:8:1: [[pcr]] k: the output already has an entry"),
             "{e}"
         );
     }

@@ -283,3 +283,268 @@ fn bad_input_gets_one_line_errors() {
     ]);
     assert!(se.contains("cannot read"), "{se}");
 }
+
+/// Issue 14: a spec that says the same thing twice is refused where it says
+/// it, never resolved silently (README, "Model specs").
+#[test]
+fn issue14_repeated_spec_entries_are_refused_at_their_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.bin");
+    let spec = dir.path().join("two.toml");
+    std::fs::write(
+        &spec,
+        "kind = \"linear\"\n\n[[linear]]\noutput = \"x_um\"\nintercept = 0.0\ncoef = { T1 = 1.0 }\n\n\
+         [[linear]]\noutput = \"x_um\"\nintercept = 0.0\ncoef = { T2 = 1.0 }\n",
+    )
+    .unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(
+        se.contains("two.toml:8:1: [[linear]] x_um: the output already has an entry"),
+        "{se}"
+    );
+    std::fs::write(
+        &spec,
+        "kind = \"pcr\"\n[[pcr]]\noutput = \"k\"\ninputs = [\"T1\", \"T1\"]\n\
+         components = [{ intercept = 0.0, weights = [1.0, 2.0] }]\nintercept = 0.0\nbeta = [1.0]\n",
+    )
+    .unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(
+        se.contains("two.toml:2:1: [[pcr]] k: input T1 is listed twice"),
+        "{se}"
+    );
+    assert!(!out.exists());
+}
+
+/// Issue 14: absurd values are refused with one line (and the place).
+#[test]
+fn issue14_absurd_values_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("m.bin");
+    let spec = d.join("dt.toml");
+    let tf = "kind = \"tf\"\ndt_s = 1e-300\n[[tf]]\noutput = \"dz_um\"\ninput = \"T1\"\na = [0.5]\nb = [1.0, -0.5]\n";
+    std::fs::write(&spec, tf).unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(
+        se.contains("dt.toml:2:8: dt_s:") && se.contains("not a sample time"),
+        "{se}"
+    );
+    std::fs::write(&spec, tf.replace("1e-300", "1e300")).unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(se.contains("not a sample time"), "{se}");
+    // TOML reads nan: the entry's line, not just "a coefficient".
+    std::fs::write(
+        &spec,
+        tf.replace("1e-300", "1.0")
+            .replace("a = [0.5]", "a = [nan]"),
+    )
+    .unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(
+        se.contains("dt.toml:3:1: [[tf]] dz_um <- T1: a: NaN is not a finite number"),
+        "{se}"
+    );
+    std::fs::write(
+        &spec,
+        tf.replace("1e-300", "1.0").replace("\"tf\"", "\"tx\""),
+    )
+    .unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(se.contains("dt.toml:1:8: kind = \"tx\""), "{se}");
+
+    let csv = d.join("sim.csv");
+    let se = fails(&[
+        "simulate",
+        "--out",
+        p(&csv),
+        "--hours",
+        "1",
+        "--dt-s",
+        "1e-300",
+    ]);
+    assert!(
+        se.contains("--dt-s") && se.contains("not a sample time"),
+        "{se}"
+    );
+    // A negative number is a value, judged as one (not "unexpected argument").
+    let se = fails(&["simulate", "--out", p(&csv), "--hours", "-1"]);
+    assert!(se.contains("--hours must be finite and > 0"), "{se}");
+
+    let (machine, _) = ok(&["simulate", "--print-machine"]);
+    let cold = d.join("cold.toml");
+    std::fs::write(
+        &cold,
+        machine.replacen("ambient_c = 20.0", "ambient_c = -300.0", 1),
+    )
+    .unwrap();
+    let se = fails(&[
+        "simulate",
+        "--out",
+        p(&csv),
+        "--hours",
+        "1",
+        "--machine",
+        p(&cold),
+    ]);
+    let line = machine
+        .lines()
+        .position(|l| l.starts_with("ambient_c = 20.0"))
+        .unwrap()
+        + 1;
+    assert!(
+        se.contains(&format!(
+            "cold.toml:{line}:1: boundary.ambient_c must be in -50..=100 C"
+        )),
+        "{se}"
+    );
+
+    let run = write_run(d, "run.csv", &(0..600).map(f64::from).collect::<Vec<_>>());
+    let se = fails(&[
+        "fit",
+        "--data",
+        p(&run),
+        "--target",
+        "dz_um",
+        "--inputs",
+        "T1,dz_um",
+        "--model",
+        "mlr",
+        "--out",
+        p(&out),
+    ]);
+    assert!(
+        se.contains("dz_um is both a --target and one of the --inputs"),
+        "{se}"
+    );
+
+    let blob = d.join("sp2.bin");
+    ok(&["model", "build", "--spec", SP2_AMB, "--out", p(&blob)]);
+    let se = fails(&[
+        "replay",
+        "--model",
+        p(&blob),
+        "--data",
+        p(&run),
+        "--candump",
+        p(&d.join("c.log")),
+        "--interface",
+        "can0\n(0.0) can0 123#00",
+    ]);
+    assert!(se.contains("--interface") && se.contains("control"), "{se}");
+    assert!(!d.join("c.log").exists());
+
+    // One -1e308 cell: refused where it is, not "the target is constant".
+    let huge = d.join("huge.csv");
+    std::fs::write(
+        &huge,
+        "t_s,T1,T2,dz_um\n0,20,20,0\n1,21,20,1\n2,22,21,-1e308\n3,23,21,2\n",
+    )
+    .unwrap();
+    let se = fails(&[
+        "select",
+        "--data",
+        p(&huge),
+        "--target",
+        "dz_um",
+        "--method",
+        "grey",
+        "--json",
+    ]);
+    assert!(
+        se.contains("huge.csv:4:4 (dz_um): value \"-1e308\" is beyond 1e15"),
+        "{se}"
+    );
+}
+
+/// Issue 14: clap's usage errors are one line like every other error.
+#[test]
+fn issue14_usage_errors_are_one_line() {
+    let se = fails(&["fit", "--no-such-flag"]);
+    assert!(
+        se.starts_with("error: unexpected argument '--no-such-flag'"),
+        "{se}"
+    );
+    let se = fails(&["eval", "--json"]);
+    assert!(!se.contains(":;"), "{se}");
+    assert!(se.contains("required"), "{se}");
+    let se = fails(&["nonsense"]);
+    assert!(se.contains("unrecognized subcommand"), "{se}");
+    let out = common::run(&["fit", "--help"]);
+    assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("--target"));
+}
+
+/// Issue 14: rows left out by --skip-bad-rows are counted in the JSON, not
+/// only on stderr.
+#[test]
+fn issue14_skipped_rows_are_in_the_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut s = String::from("t_s,T1,T2,ambient_c,dz_um\n");
+    for k in 0..400 {
+        let t = f64::from(k);
+        let cell = if k == 7 || k == 9 {
+            "x".to_string()
+        } else {
+            format!("{}", 20.0 + t / 100.0)
+        };
+        s.push_str(&format!(
+            "{t},{cell},{},{},{}\n",
+            20.0 + (t / 37.0).sin(),
+            20.0 + t / 400.0,
+            0.5 * t / 100.0 + (t / 37.0).sin()
+        ));
+    }
+    let run = d.join("run.csv");
+    std::fs::write(&run, s).unwrap();
+    let skip = "--skip-bad-rows";
+    let v = ok_json(&["eval", "--spec", SP2_AMB, "--data", p(&run), skip, "--json"]);
+    assert_eq!(v["dz_um"]["skipped_rows"], 2, "{v}");
+    let v = ok_json(&[
+        "fit",
+        "--data",
+        p(&run),
+        "--target",
+        "dz_um",
+        "--inputs",
+        "T1,T2",
+        "--model",
+        "mlr",
+        "--out",
+        p(&d.join("m.bin")),
+        skip,
+        "--json",
+    ]);
+    assert_eq!(v["skipped_rows"], 2, "{v}");
+    let v = ok_json(&[
+        "select",
+        "--data",
+        p(&run),
+        "--target",
+        "dz_um",
+        "--inputs",
+        "T1,T2",
+        "--method",
+        "grey",
+        skip,
+        "--json",
+    ]);
+    assert_eq!(v["skipped_rows"], 2, "{v}");
+}
+
+/// Issue 14: a CR-only file (old Mac line ends) named its bad cell as line 1.
+#[test]
+fn issue14_cr_only_files_name_the_right_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("mac.csv");
+    std::fs::write(
+        &bad,
+        "t_s,T1,ambient_c,dz_um\r0,20,20,0\r1,20,20,0\r2,2O.5,20,0\r",
+    )
+    .unwrap();
+    let se = fails(&["eval", "--spec", SP2_AMB, "--data", p(&bad)]);
+    assert!(
+        se.contains("mac.csv:4:2 (T1): cannot parse \"2O.5\""),
+        "{se}"
+    );
+}

@@ -422,7 +422,12 @@ impl Model {
                 derived = Derived::Tf(realised);
             }
             Params::Linear(lin) => {
-                for eq in &lin.outputs {
+                for (k, eq) in lin.outputs.iter().enumerate() {
+                    // One regression per output: a second one would be
+                    // stored and shown but never computed.
+                    if lin.outputs.iter().take(k).any(|o| o.output == eq.output) {
+                        return Err(ModelError::DuplicateOutput { output: eq.output });
+                    }
                     mark(eq.output)?;
                     finite(&[eq.intercept])?;
                     for c in &eq.coef {
@@ -451,7 +456,10 @@ impl Model {
                     finite(&comp.weights)?;
                     finite(&[comp.intercept])?;
                 }
-                for eq in &pcr.outputs {
+                for (k, eq) in pcr.outputs.iter().enumerate() {
+                    if pcr.outputs.iter().take(k).any(|o| o.output == eq.output) {
+                        return Err(ModelError::DuplicateOutput { output: eq.output });
+                    }
                     mark(eq.output)?;
                     finite(&[eq.intercept])?;
                     finite(&eq.beta)?;
@@ -476,7 +484,10 @@ impl Model {
                 for ch in &net.inputs {
                     index(*ch, n_in)?;
                 }
-                for o in &net.outputs {
+                for (k, o) in net.outputs.iter().enumerate() {
+                    if net.outputs.iter().take(k).any(|p| p == o) {
+                        return Err(ModelError::DuplicateOutput { output: *o });
+                    }
                     mark(*o)?;
                 }
             }

@@ -762,9 +762,22 @@ fn decoder_applies_every_structural_check() {
             ShapeMismatch,
         ),
         (
-            "bp unused output",
+            // Output 1 is also unused, but the repeat is the mistake.
+            "bp output twice",
             with_bp(|n| {
                 n.outputs[1] = 0;
+            }),
+            DuplicateOutput { output: 0 },
+        ),
+        (
+            "bp unused output",
+            // The net computes dx_um only; the model also names dz_um.
+            with_bp(|n| {
+                n.outputs.pop();
+                n.w2.truncate(4);
+                n.b2.truncate(1);
+                n.y_min.truncate(1);
+                n.y_max.truncate(1);
             }),
             OutputUnused { output: 1 },
         ),
@@ -1362,4 +1375,29 @@ fn a_list_longer_than_its_capacity_is_refused() {
             Err(_) => assert!(!fits, "{n} elements must decode"),
         }
     }
+}
+
+/// Issue 14: a linear, PCR or BP model that computes one output twice was
+/// accepted, stored and shown, but only the last equation ran. Every kind
+/// now refuses it, the decoder included, as the filter bank always did.
+#[test]
+fn an_output_computed_twice_is_refused() {
+    let mut lin = linear_seed002();
+    if let Params::Linear(l) = &mut lin.params {
+        let mut second = l.outputs[0].clone();
+        second.intercept = 1.0;
+        l.outputs.push(second).expect("room");
+    }
+    refused_both_ways("linear", lin, ModelError::DuplicateOutput { output: 0 });
+    let pcr = with_pcr(|p| {
+        let mut second = p.outputs[0].clone();
+        second.intercept = 1.0;
+        p.outputs.push(second).expect("room");
+    });
+    refused_both_ways("pcr", pcr, ModelError::DuplicateOutput { output: 0 });
+    let bp = with_bp(|n| {
+        let o = n.outputs[0];
+        n.outputs[1] = o;
+    });
+    refused_both_ways("bp", bp, ModelError::DuplicateOutput { output: 0 });
 }

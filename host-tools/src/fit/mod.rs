@@ -241,8 +241,11 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
                 first.display()
             );
         }
-        cols
+        cols.into_iter().filter(|c| !a.target.contains(c)).collect()
     } else {
+        if let Some(t) = a.target.iter().find(|t| a.inputs.contains(t)) {
+            bail!("{t} is both a --target and one of the --inputs: a model cannot read what it predicts");
+        }
         a.inputs.clone()
     };
     let needed: Vec<String> = inputs.iter().chain(&a.target).cloned().collect();
@@ -296,6 +299,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
         "holdout_from_s": a.holdout_from_s,
         "calibration_rows": n_calib,
         "holdout_rows": ds.holdout_len(),
+        "skipped_rows": crate::source::skipped_rows(runs.iter().chain(&validate)),
         "targets": targets,
         "details": fitted.details,
     });

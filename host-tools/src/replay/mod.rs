@@ -71,7 +71,7 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub candump: PathBuf,
     /// CAN interface name written in the log.
-    #[arg(long, default_value = "can0")]
+    #[arg(long, default_value = "can0", value_parser = crate::source::interface_name)]
     pub interface: String,
     /// Also write a CSV of every sample: the inputs as the hub read them and
     /// the offsets decoded from the frames sent (`<output>_sent`), the

@@ -355,11 +355,18 @@ pub fn select_files(a: &SelectArgs) -> Result<Output> {
     a.check()?;
     let (files, inputs) = read(a)?;
     let names: Vec<&str> = inputs.iter().map(String::as_str).collect();
-    match a.method {
+    let mut out = match a.method {
         Method::Grey => run_grey(a, &files, &names),
         Method::Wgrey => run_wgrey(a, &files, &names),
         Method::Maxtree => run_maxtree(a, &files, &names),
+    }?;
+    if let Value::Object(o) = &mut out.json {
+        o.insert(
+            "skipped_rows".into(),
+            json!(crate::source::skipped_rows(&files)),
+        );
     }
+    Ok(out)
 }
 
 /// A method's result in both forms.

@@ -544,8 +544,42 @@ pub fn parse(file: &str, text: &str) -> Result<Machine> {
         effects: spec.effects,
         outputs,
     };
-    validate(&m).map_err(|e| anyhow!("{file}: {e}"))?;
+    validate(&m).map_err(|e| {
+        // Range errors start with the field's dotted path; point at it.
+        let msg = e.to_string();
+        let path = msg.split_whitespace().next().unwrap_or_default();
+        match key_line_col(text, path) {
+            Some((l, c)) => anyhow!("{file}:{l}:{c}: {msg}"),
+            None => anyhow!("{file}: {msg}"),
+        }
+    })?;
     Ok(m)
+}
+
+/// Line and column (1-based) of the key `a.b.c` written as `c = ...` under
+/// a `[a.b]` header (or `a = ...` at the top): where a range error's value
+/// sits. `None` for any other layout (inline tables, dotted keys).
+fn key_line_col(text: &str, path: &str) -> Option<(usize, usize)> {
+    let (table, key) = path.rsplit_once('.').unwrap_or(("", path));
+    let mut current = String::new();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim_start();
+        if t.starts_with('[') {
+            current = t
+                .trim_end()
+                .trim_matches(|c| c == '[' || c == ']')
+                .trim()
+                .to_string();
+        } else if current == table {
+            if let Some(rest) = t.strip_prefix(key) {
+                if rest.trim_start().starts_with('=') {
+                    let col = line.len() - t.len();
+                    return Some((i + 1, col + 1));
+                }
+            }
+        }
+    }
+    None
 }
 
 /// Columns a run file always has; a sensor or output may not take them.
@@ -623,6 +657,11 @@ fn unique_names<'a>(names: impl Iterator<Item = &'a String>) -> Result<()> {
     Ok(())
 }
 
+/// Lowest nominal ambient or coolant temperature a machine file may give, C.
+pub const BOUNDARY_MIN_C: f64 = -50.0;
+/// Highest nominal ambient or coolant temperature a machine file may give, C.
+pub const BOUNDARY_MAX_C: f64 = 100.0;
+
 /// Range checks on the numbers, naming the field.
 fn validate(m: &Machine) -> Result<()> {
     let positive = |v: f64, what: &str| -> Result<()> {
@@ -648,8 +687,18 @@ fn validate(m: &Machine) -> Result<()> {
     };
     positive(m.max_rpm, "max_rpm")?;
     non_negative(m.tool_mm, "tool_mm")?;
-    finite(m.boundary.ambient_c, "boundary.ambient_c")?;
-    finite(m.boundary.coolant_c, "boundary.coolant_c")?;
+    // Air and coolant around a machine tool: a shop floor in winter to a
+    // coolant at a boil. Beyond that a value is a typo (-300 C is below
+    // absolute zero), and the twin would model it without a word.
+    let boundary_c = |v: f64, what: &str| -> Result<()> {
+        if v.is_finite() && (BOUNDARY_MIN_C..=BOUNDARY_MAX_C).contains(&v) {
+            Ok(())
+        } else {
+            bail!("{what} must be in {BOUNDARY_MIN_C}..={BOUNDARY_MAX_C} C (got {v})")
+        }
+    };
+    boundary_c(m.boundary.ambient_c, "boundary.ambient_c")?;
+    boundary_c(m.boundary.coolant_c, "boundary.coolant_c")?;
     for n in Node::ALL {
         let p = m.nodes.get(n);
         let name = n.name();

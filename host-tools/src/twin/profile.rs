@@ -103,9 +103,7 @@ pub fn schedule(
     if !(hours.is_finite() && hours > 0.0) {
         bail!("--hours must be finite and > 0 (got {hours})");
     }
-    if !(dt_s.is_finite() && dt_s > 0.0) {
-        bail!("--dt-s must be finite and > 0 (got {dt_s})");
-    }
+    crate::spec::check_dt_s(dt_s).map_err(|e| anyhow!("--dt-s: {e}"))?;
     let total_s = hours * 3600.0;
     let steps = (total_s / dt_s + 1e-9).floor();
     if steps > 50e6 {
