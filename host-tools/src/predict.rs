@@ -101,7 +101,24 @@ fn write_predictions(
             eprintln!("note: {}: {note}", run.path.display());
         }
         let name = run.path.display().to_string().replace(',', "_");
+        // A row skipped as bad (--skip-bad-rows) keeps its place: an empty
+        // time and empty predictions, so the output stays row for row.
+        let blank_row = |w: &mut dyn Write| -> Result<()> {
+            let lead = if several {
+                format!("{name},")
+            } else {
+                String::new()
+            };
+            let cols = model.outputs().len() * if a.interval { 3 } else { 1 };
+            writeln!(w, "{lead}{}", ",".repeat(cols)).with_context(write_err)
+        };
+        let mut skipped = run.skipped.iter().peekable();
         for (i, t) in run.t_s.iter().enumerate() {
+            while skipped.next_if(|s| s.before <= i).is_some() {
+                blank_row(w)?;
+                rows += 1;
+                missing += model.outputs().len();
+            }
             let mut line = String::new();
             if several {
                 line.push_str(&name);
@@ -126,6 +143,11 @@ fn write_predictions(
             }
             writeln!(w, "{line}").with_context(write_err)?;
             rows += 1;
+        }
+        for _ in skipped {
+            blank_row(w)?;
+            rows += 1;
+            missing += model.outputs().len();
         }
     }
     Ok((rows, missing))

@@ -86,6 +86,9 @@ pub struct ReadOptions {
 pub struct SkippedRow {
     /// 1-based line in the file where the row starts (the header is line 1).
     pub line: u64,
+    /// Good rows read before it: it stood between rows `before - 1` and
+    /// `before` of [`RunFile::t_s`] (so row-for-row outputs can keep its place).
+    pub before: usize,
     /// What was wrong with it; displays as the same message the strict reader
     /// would have failed with.
     pub reason: RowError,
@@ -318,6 +321,7 @@ impl RunFile {
                     }
                     skipped.push(SkippedRow {
                         line,
+                        before: t_s.len(),
                         reason: error,
                     });
                 }
@@ -420,7 +424,7 @@ struct LineStarts<R> {
     after_cr: bool,
     /// (byte offset, line) of line starts with content, in input order.
     starts: VecDeque<(u64, u64)>,
-    /// Bytes since the last `\n`, checked against [`MAX_LINE_BYTES`].
+    /// Bytes since the last line end, checked against [`MAX_LINE_BYTES`].
     line_bytes: u64,
 }
 
@@ -462,6 +466,7 @@ impl<R: io::Read> io::Read for LineStarts<R> {
                         self.line += 1;
                     }
                     self.at_line_start = true;
+                    self.line_bytes = 0;
                 }
                 b'\r' => {
                     self.line += 1;

@@ -548,3 +548,51 @@ fn issue14_cr_only_files_name_the_right_line() {
         "{se}"
     );
 }
+
+#[test]
+fn predict_keeps_a_skipped_row_as_an_empty_row() {
+    // Rows 3 and 5 (0-based) have a bad T1 cell; with --skip-bad-rows the
+    // prediction file still has one row per data row, those two empty.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut s = String::from("t_s,T1,dz_um\n");
+    for k in 0..8 {
+        let cell = if k == 3 || k == 5 {
+            "bad".to_string()
+        } else {
+            format!("{}", 20 + k)
+        };
+        s.push_str(&format!("{k},{cell},0\n"));
+    }
+    let run = d.join("run.csv");
+    std::fs::write(&run, s).unwrap();
+    let spec = d.join("m.toml");
+    std::fs::write(
+        &spec,
+        "kind = \"linear\"\n[[linear]]\noutput = \"dz_um\"\nintercept = 0.0\ncoef = { T1 = 2.0 }\n",
+    )
+    .unwrap();
+    let m = d.join("m.bin");
+    ok(&["model", "build", "--spec", p(&spec), "--out", p(&m)]);
+    let out = d.join("pred.csv");
+    let v = ok_json(&[
+        "predict",
+        "--model",
+        p(&m),
+        "--data",
+        p(&run),
+        "--out",
+        p(&out),
+        "--skip-bad-rows",
+        "--json",
+    ]);
+    assert_eq!(v["rows"], 8, "{v}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 1 + 8);
+    assert_eq!(lines[1 + 3], ",");
+    assert_eq!(lines[1 + 5], ",");
+    // The others: dz = 2 T1 exactly.
+    assert_eq!(lines[1 + 4], "4,48");
+    assert_eq!(lines[1 + 7], "7,54");
+}
