@@ -57,7 +57,7 @@ pub fn run(a: &PredictArgs) -> Result<()> {
         crate::fsio::print_line(
             &serde_json::json!({"out": a.out.display().to_string(), "runs": runs.len(), "rows": rows,
                 "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
-                "missing_cells": missing})
+                "missing_cells": missing, "skipped_rows": crate::source::skipped_rows(&runs)})
             .to_string(),
         )?;
     } else {

@@ -587,6 +587,7 @@ fn predict_keeps_a_skipped_row_as_an_empty_row() {
         "--json",
     ]);
     assert_eq!(v["rows"], 8, "{v}");
+    assert_eq!(v["skipped_rows"], 2, "{v}");
     let text = std::fs::read_to_string(&out).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), 1 + 8);

@@ -90,7 +90,10 @@ fn blob(dir: &Path) -> String {
     p(&out).to_string()
 }
 
-// ---- 1. huge values: no hang, one line naming the column -----------------
+// ---- 1. huge values: no hang, one line naming the cell ---------------------
+// The run-file reader refuses a cell beyond 1e15 in magnitude where it stands
+// (file:line:column); behind it, every fit checks that its columns can be
+// centred and scaled, and every SVD is capped in iterations.
 
 #[test]
 fn huge_column_mlr_six_rows_is_refused() {
@@ -99,12 +102,19 @@ fn huge_column_mlr_six_rows_is_refused() {
     let out = dir.path().join("m.bin");
     fails_with(
         &[
-            "fit", "--data", &data, "--target", "dz_um", "--inputs", "T1,T2", "--model", "mlr",
-            "--out", p(&out),
+            "fit",
+            "--data",
+            &data,
+            "--target",
+            "dz_um",
+            "--inputs",
+            "T1,T2",
+            "--model",
+            "mlr",
+            "--out",
+            p(&out),
         ],
-        &format!(
-            "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
-        ),
+        &format!("error: {data}:2:3 (T1): value \"1e308\" is beyond 1e15 in magnitude"),
     );
     assert!(!out.exists());
 }
@@ -116,12 +126,19 @@ fn huge_column_bp_is_refused() {
     let out = dir.path().join("m.bin");
     fails_with(
         &[
-            "fit", "--data", &data, "--target", "dz_um", "--inputs", "T1,T2", "--model", "bp",
-            "--out", p(&out),
+            "fit",
+            "--data",
+            &data,
+            "--target",
+            "dz_um",
+            "--inputs",
+            "T1,T2",
+            "--model",
+            "bp",
+            "--out",
+            p(&out),
         ],
-        &format!(
-            "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
-        ),
+        &format!("error: {data}:2:3 (T1): value \"1e308\" is beyond 1e15 in magnitude"),
     );
 }
 
@@ -132,9 +149,7 @@ fn huge_channel_in_diagnose_is_refused() {
     let real = write(dir.path(), "real.csv", &run_text(400, true));
     fails_with(
         &["diagnose", "--sim", &sim, "--real", &real, "--json"],
-        &format!(
-            "error: {real}: column T1: values too large to centre and scale (their sum of squares overflows)"
-        ),
+        &format!("error: {real}:2:3 (T1): value \"1e308\" is beyond 1e15 in magnitude"),
     );
 }
 
@@ -146,9 +161,7 @@ fn huge_column_in_refit_is_refused() {
     let out = dir.path().join("new.bin");
     fails_with(
         &["refit", "--model", &b, "--data", &data, "--out", p(&out)],
-        &format!(
-            "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
-        ),
+        &format!("error: {data}:2:3 (T1): value \"1e308\" is beyond 1e15 in magnitude"),
     );
 }
 
@@ -162,9 +175,7 @@ fn huge_column_in_select_is_refused() {
                 "select", "--data", &data, "--target", "dz_um", "--inputs", "T1,T2", "--method",
                 method, "--json",
             ],
-            &format!(
-                "error: {data}: column T1: values too large to centre and scale (their sum of squares overflows)"
-            ),
+            &format!("error: {data}:2:3 (T1): value \"1e308\" is beyond 1e15 in magnitude"),
         );
     }
 }

@@ -314,6 +314,7 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
         "sample_period_s": PipelineConfig::DEFAULT.sample_period_s(&probe),
         "outputs": outputs,
         "runs": summary,
+        "skipped_rows": crate::source::skipped_rows(&runs),
     }))
 }
 
