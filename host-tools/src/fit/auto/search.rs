@@ -199,32 +199,35 @@ fn eliminate(
     Some((cols(&kept), dropped, lambda, cv))
 }
 
-/// The best penalty for one (form, filters) candidate.
-fn best_lambda(
-    design: &Design,
-    n: usize,
-    lambdas: &[f64],
-    intercept: bool,
-) -> Option<(f64, CvScore)> {
-    let idx: Vec<usize> = (0..n).collect();
-    lambdas
-        .iter()
-        .filter_map(|&l| design.cv(&idx, l, intercept).map(|s| (l, s)))
-        .min_by(|a, b| a.1.mse.total_cmp(&b.1.mse))
+/// The designs (a form's feature bank and its fold sums) and the
+/// candidates scored on them.
+struct Scoring {
+    designs: Vec<(Form, Vec<FeatureDef>, Design)>,
+    scored: Vec<Scored>,
 }
 
-/// Scores every candidate of `forms` for target `y` (concatenated runs),
-/// calibration sample `k` in fold `fold[k]`.
-pub fn search(
+/// One table row's CV columns from a score.
+fn cv_columns(row: &mut CvRow, lambda: f64, features: usize, cv: &CvScore) {
+    row.lambda = lambda;
+    row.features = features;
+    row.cv_rmse = cv.mse.sqrt();
+    row.cv_se = cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE));
+}
+
+/// Step 1: every (form, temperature filters, heat filters) candidate of the
+/// grid, each at its best penalty.
+fn score_grid(
     forms: &[FormData],
     y: &[f64],
     fold: &[Option<usize>],
     n_folds: usize,
     s: &SearchSettings,
     progress: &dyn Fn(),
-) -> Option<TargetSearch> {
-    let mut scored: Vec<Scored> = Vec::new();
-    let mut designs: Vec<(Form, Vec<FeatureDef>, Design)> = Vec::new();
+) -> Scoring {
+    let mut out = Scoring {
+        designs: Vec::new(),
+        scored: Vec::new(),
+    };
     for data in forms {
         let heat_sets: &[Vec<f64>] = if data.roles.contains(&Role::HeatSource) {
             &s.heat_sets
@@ -235,81 +238,100 @@ pub fn search(
             for heat in heat_sets {
                 progress();
                 let defs = features::bank(data.roles, temp, heat);
-                let cols = columns(data, &defs, s.dt_s);
-                let design = Design::new(&cols, y, fold, n_folds);
-                let intercept = data.form.intercept();
-                let Some((lambda, cv)) = best_lambda(&design, defs.len(), &s.lambdas, intercept)
-                else {
+                let design = Design::new(&columns(data, &defs, s.dt_s), y, fold, n_folds);
+                let Some((lambda, cv)) = best_lambda_of(
+                    &design,
+                    &(0..defs.len()).collect::<Vec<_>>(),
+                    &s.lambdas,
+                    data.form.intercept(),
+                ) else {
                     continue;
                 };
-                let idx: Vec<usize> = (0..defs.len()).collect();
-                scored.push(Scored {
-                    design: designs.len(),
-                    idx,
-                    row: CvRow {
-                        form: data.form,
-                        temp_taus_s: temp.clone(),
-                        heat_taus_s: heat.clone(),
-                        lambda,
-                        features: defs.len(),
-                        cv_rmse: cv.mse.sqrt(),
-                        cv_se: cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE)),
-                        dropped_inputs: Vec::new(),
-                        chosen: false,
-                    },
-                    mse: cv.mse,
-                });
-                designs.push((data.form, defs, design));
-            }
-        }
-    }
-    // Sensor elimination from the best few candidates of each form.
-    if s.eliminate > 0 {
-        let mut order: Vec<usize> = (0..scored.len()).collect();
-        order.sort_by(|&a, &b| scored[a].mse.total_cmp(&scored[b].mse));
-        for &i in order.iter().take(s.eliminate) {
-            progress();
-            let (form, defs, design) = &designs[scored[i].design];
-            let roles = forms.iter().find(|d| d.form == *form)?.roles;
-            if let Some((idx, dropped, lambda, cv)) =
-                eliminate(design, defs, roles, &s.lambdas, form.intercept())
-            {
-                if dropped.is_empty() {
-                    continue;
-                }
-                let mut row = scored[i].row.clone();
-                row.lambda = lambda;
-                row.features = idx.len();
-                row.cv_rmse = cv.mse.sqrt();
-                row.cv_se = cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE));
-                row.dropped_inputs = dropped;
-                let design = scored[i].design;
-                scored.push(Scored {
+                let mut row = CvRow {
+                    form: data.form,
+                    temp_taus_s: temp.clone(),
+                    heat_taus_s: heat.clone(),
+                    lambda,
+                    features: 0,
+                    cv_rmse: 0.0,
+                    cv_se: 0.0,
+                    dropped_inputs: Vec::new(),
+                    chosen: false,
+                };
+                cv_columns(&mut row, lambda, defs.len(), &cv);
+                out.scored.push(Scored {
+                    design: out.designs.len(),
+                    idx: (0..defs.len()).collect(),
                     row,
                     mse: cv.mse,
-                    design,
-                    idx,
                 });
+                out.designs.push((data.form, defs, design));
             }
         }
     }
-    // Best first; keep the design of each row alongside.
+    out
+}
+
+/// Candidate indices, best CV error first.
+fn ranked(scored: &[Scored]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..scored.len()).collect();
     order.sort_by(|&a, &b| scored[a].mse.total_cmp(&scored[b].mse));
-    // The members share the best candidate's form (one set of model input
-    // channels) and, together, fit the hub's feature capacity.
-    let best_form = order.first().map(|&i| scored[i].row.form)?;
+    order
+}
+
+/// Step 2 (optional): sensor elimination from the best `s.eliminate`
+/// candidates, each result a candidate of its own.
+fn add_eliminations(forms: &[FormData], sc: &mut Scoring, s: &SearchSettings, progress: &dyn Fn()) {
+    for i in ranked(&sc.scored).into_iter().take(s.eliminate) {
+        progress();
+        let (form, defs, design) = &sc.designs[sc.scored[i].design];
+        let Some(roles) = forms.iter().find(|d| d.form == *form).map(|d| d.roles) else {
+            continue;
+        };
+        let Some((idx, dropped, lambda, cv)) =
+            eliminate(design, defs, roles, &s.lambdas, form.intercept())
+        else {
+            continue;
+        };
+        if dropped.is_empty() {
+            continue;
+        }
+        let mut row = sc.scored[i].row.clone();
+        cv_columns(&mut row, lambda, idx.len(), &cv);
+        row.dropped_inputs = dropped;
+        let design = sc.scored[i].design;
+        sc.scored.push(Scored {
+            row,
+            mse: cv.mse,
+            design,
+            idx,
+        });
+    }
+}
+
+/// Step 3: the members of the winner, in `order`: candidates of the best
+/// one's form (one set of model input channels) that together fit the
+/// hub's feature capacity, up to `s.ensemble`; marks them chosen.
+fn pick_members(
+    sc: &mut Scoring,
+    order: &[usize],
+    n_folds: usize,
+    s: &SearchSettings,
+) -> Vec<Member> {
+    let Some(best_form) = order.first().map(|&i| sc.scored[i].row.form) else {
+        return Vec::new();
+    };
     let mut members: Vec<Member> = Vec::new();
     let mut union: Vec<FeatureDef> = Vec::new();
-    for &i in &order {
+    for &i in order {
         if members.len() >= s.ensemble.max(1) {
             break;
         }
-        let (form, all_defs, design) = &designs[scored[i].design];
+        let (form, all_defs, design) = &sc.designs[sc.scored[i].design];
         if *form != best_form {
             continue;
         }
-        let idx = &scored[i].idx;
+        let idx = &sc.scored[i].idx;
         let defs: Vec<FeatureDef> = idx.iter().map(|&j| all_defs[j]).collect();
         let mut grown = union.clone();
         for d in &defs {
@@ -320,7 +342,7 @@ pub fn search(
         if grown.len() > s.max_features {
             continue;
         }
-        let lambda = scored[i].row.lambda;
+        let lambda = sc.scored[i].row.lambda;
         let Some(coefs) = design.fit(idx, lambda, form.intercept(), None) else {
             continue;
         };
@@ -328,7 +350,7 @@ pub fn search(
             .map(|f| design.fit(idx, lambda, form.intercept(), Some(f)))
             .collect();
         union = grown;
-        scored[i].row.chosen = true;
+        sc.scored[i].row.chosen = true;
         members.push(Member {
             form: *form,
             features: defs,
@@ -337,11 +359,31 @@ pub fn search(
             fold_coefs,
         });
     }
+    members
+}
+
+/// Scores every candidate of `forms` for target `y` (concatenated runs),
+/// calibration sample `k` in fold `fold[k]`, and averages the best.
+pub fn search(
+    forms: &[FormData],
+    y: &[f64],
+    fold: &[Option<usize>],
+    n_folds: usize,
+    s: &SearchSettings,
+    progress: &dyn Fn(),
+) -> Option<TargetSearch> {
+    let mut sc = score_grid(forms, y, fold, n_folds, s, progress);
+    add_eliminations(forms, &mut sc, s, progress);
+    let order = ranked(&sc.scored);
+    let members = pick_members(&mut sc, &order, n_folds, s);
     if members.is_empty() {
         return None;
     }
     let cv_residuals = cv_residuals(forms, &members, y, fold, s.dt_s);
-    let table = order.into_iter().map(|i| scored[i].row.clone()).collect();
+    let table = order
+        .into_iter()
+        .map(|i| sc.scored[i].row.clone())
+        .collect();
     Some(TargetSearch {
         table,
         members,
