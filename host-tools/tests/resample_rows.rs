@@ -131,18 +131,12 @@ fn irregular_run_predicts_and_scores_every_row() {
     check(&ts);
 }
 
-#[test]
-fn fit_on_a_resampled_run_scores_every_row() {
-    // An ARX fit at dt 15 s on rows every 10 s: calibration and held-out
-    // n add up to every row of the run.
-    let dir = tempfile::tempdir().unwrap();
-    let ts: Vec<f64> = (0..600).map(|i| 10.0 * i as f64 + 5.0).collect();
-    let (run, _) = write_run(dir.path(), "run.csv", &ts);
-    let out = dir.path().join("arx.bin");
-    let j = ok_json(&[
+/// `fit` of an ARX at dt 15 s on T1, held out from 3000 s, with `--json`.
+fn arx_fit_args<'a>(run: &'a str, out: &'a std::path::Path) -> Vec<&'a str> {
+    vec![
         "fit",
         "--data",
-        &run,
+        run,
         "--target",
         "dz_um",
         "--inputs",
@@ -156,7 +150,18 @@ fn fit_on_a_resampled_run_scores_every_row() {
         "--out",
         out.to_str().unwrap(),
         "--json",
-    ]);
+    ]
+}
+
+#[test]
+fn fit_on_a_resampled_run_scores_every_row() {
+    // An ARX fit at dt 15 s on rows every 10 s: calibration and held-out
+    // n add up to every row of the run.
+    let dir = tempfile::tempdir().unwrap();
+    let ts: Vec<f64> = (0..600).map(|i| 10.0 * i as f64 + 5.0).collect();
+    let (run, _) = write_run(dir.path(), "run.csv", &ts);
+    let out = dir.path().join("arx.bin");
+    let j = ok_json(&arx_fit_args(&run, &out));
     let t = &j["targets"]["dz_um"];
     let n = |part: &str| t[part]["n"].as_u64().unwrap_or_else(|| panic!("{t}"));
     assert_eq!(n("calibration") + n("holdout"), ts.len() as u64, "{t}");
@@ -199,24 +204,7 @@ fn rows_that_cannot_be_scored_are_counted_on_stderr() {
     assert!(se.contains("2 of 600 rows not scored"), "{se}");
 
     let out = dir.path().join("arx.bin");
-    let (so, se) = ok(&[
-        "fit",
-        "--data",
-        &run,
-        "--target",
-        "dz_um",
-        "--inputs",
-        "T1",
-        "--model",
-        "arx",
-        "--dt-s",
-        "15",
-        "--holdout-from-s",
-        "3000",
-        "--out",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
+    let (so, se) = ok(&arx_fit_args(&run, &out));
     let j: serde_json::Value = serde_json::from_str(&so).unwrap();
     let t = &j["targets"]["dz_um"];
     let n = |part: &str| t[part]["n"].as_u64().unwrap_or_else(|| panic!("{t}"));
