@@ -20,6 +20,7 @@
 //! band and input envelope in the blob.
 
 pub mod features;
+pub mod folds;
 pub mod ridge;
 pub mod search;
 
@@ -27,6 +28,7 @@ use super::{outputs, Fitted};
 use crate::dataset::{Dataset, GridRun};
 use anyhow::{anyhow, bail, Result};
 use features::Role;
+use folds::Folds;
 use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
 use model_core::model::{Bounds, Name, Span, MAX_CHANNELS};
 use model_core::{Channel, Model, Params, Reference};
@@ -210,34 +212,25 @@ fn used_inputs(members: &[Member]) -> Vec<usize> {
     used
 }
 
-/// For each calibration sample (in `fold` order), how far its inputs `used`
-/// lie outside the envelope of the other folds' calibration samples, in
-/// envelope widths (model-core `Span::outside`, the hub's measure).
-fn cv_extrapolation(
-    x: &[Vec<Vec<f64>>],
-    fold: &[Option<usize>],
-    n_folds: usize,
-    used: &[usize],
-) -> Vec<f64> {
+/// For each scored calibration sample (`Folds::scored`, grid order), how
+/// far its inputs `used` lie outside the envelope of the calibration
+/// samples its fold's model was fitted on, in envelope widths (model-core
+/// `Span::outside`, the hub's measure).
+fn cv_extrapolation(x: &[Vec<Vec<f64>>], folds: &Folds, used: &[usize]) -> Vec<f64> {
     let rows = || {
         x.iter()
             .flat_map(|run| (0..run[0].len()).map(move |k| (run, k)))
     };
-    // env[f][j]: span of input used[j] over samples not in fold f.
-    let mut env = vec![
-        vec![
-            Span {
-                min: f64::INFINITY,
-                max: f64::NEG_INFINITY
-            };
-            used.len()
-        ];
-        n_folds
-    ];
-    for ((run, k), f) in rows().zip(fold) {
-        let Some(f) = *f else { continue };
-        for (g, e) in env.iter_mut().enumerate() {
-            if g == f {
+    let empty = Span {
+        min: f64::INFINITY,
+        max: f64::NEG_INFINITY,
+    };
+    // env[f][j]: span of input used[j] over the samples fold f trains on.
+    let mut env = vec![vec![empty; used.len()]; folds.n];
+    for ((run, k), g) in rows().zip(&folds.of) {
+        let Some(g) = *g else { continue };
+        for (f, e) in env.iter_mut().enumerate() {
+            if !folds.scheme.trains_on(f, g) {
                 continue;
             }
             for (j, &i) in used.iter().enumerate() {
@@ -247,16 +240,18 @@ fn cv_extrapolation(
         }
     }
     rows()
-        .zip(fold)
-        .filter_map(|((run, k), f)| {
-            let e = env.get((*f)?)?;
-            Some(
+        .zip(&folds.of)
+        .enumerate()
+        .filter(|(k, _)| folds.scored(*k))
+        .map(|(_, ((run, k), f))| {
+            let e = f.and_then(|f| env.get(f));
+            e.map_or(0.0, |e| {
                 used.iter()
                     .zip(e)
                     .filter(|(_, s)| s.min <= s.max)
                     .map(|(&i, s)| s.outside(run[i][k]))
-                    .fold(0.0, f64::max),
-            )
+                    .fold(0.0, f64::max)
+            })
         })
         .collect()
 }
@@ -266,6 +261,8 @@ fn cv_extrapolation(
 pub struct AutoReport {
     /// How the folds were made.
     pub scheme: String,
+    /// Which folds train the model that scores a fold.
+    pub training: folds::Scheme,
     /// Folds.
     pub folds: usize,
     /// Sample time, s.
@@ -274,37 +271,6 @@ pub struct AutoReport {
     pub settings: SearchSettings,
     /// Per target.
     pub targets: Vec<TargetChoice>,
-}
-
-/// Folds of the calibration samples: leave-one-run-out over the runs with
-/// calibration samples when there are at least two, else `k` contiguous
-/// blocks of the one run. `None` marks a held-out sample.
-fn folds(grid: &[GridRun], k: usize) -> (Vec<Option<usize>>, usize, String) {
-    let calib_runs: Vec<usize> = (0..grid.len()).filter(|&r| grid[r].calib_end > 0).collect();
-    let loro = calib_runs.len() >= 2;
-    let mut out = Vec::new();
-    for (r, g) in grid.iter().enumerate() {
-        let run_fold = calib_runs.iter().position(|&c| c == r);
-        for i in 0..g.t_s.len() {
-            out.push(if i >= g.calib_end {
-                None
-            } else if loro {
-                run_fold
-            } else {
-                Some(i * k / g.calib_end)
-            });
-        }
-    }
-    if loro {
-        let n = calib_runs.len();
-        (out, n, format!("leave one run out ({n} calibration runs)"))
-    } else {
-        (
-            out,
-            k,
-            format!("{k} contiguous blocks of the calibration run"),
-        )
-    }
 }
 
 /// Reference-adjusted inputs of every grid run in `form`.
@@ -338,7 +304,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
     let s = &params.settings;
     let grid = super::arx::grid_runs(ds, s.dt_s, "auto")?;
     let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
-    let (fold, n_folds, scheme) = folds(&grid, params.folds);
+    let folds = Folds::of_grid(&grid, params.folds);
     let xs: Vec<(Form, Vec<Vec<Vec<f64>>>)> = Form::ALL
         .iter()
         .map(|&f| (f, adjusted(&grid, &roles, f)))
@@ -357,15 +323,21 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
     let mut winners = Vec::new();
     for (j, target) in ds.targets.iter().enumerate() {
         let y: Vec<f64> = grid.iter().flat_map(|g| g.y[j].iter().copied()).collect();
-        let found = search::search(&forms, &y, &fold, n_folds, s, &|| pb.inc(1))
+        let found = search::search(&forms, &y, &folds, s, &|| pb.inc(1))
             .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?;
         let form = found.members[0].form;
         let used = used_inputs(&found.members);
         let x = &xs.iter().find(|(f, _)| *f == form).expect("both forms").1;
-        let d = cv_extrapolation(x, &fold, n_folds, &used);
-        let band = Band::calibrate(&found.cv_residuals, &d);
+        let d = cv_extrapolation(x, &folds, &used);
+        let (r, d): (Vec<f64>, Vec<f64>) = found
+            .cv_residuals
+            .iter()
+            .zip(d)
+            .filter_map(|(r, d)| Some(((*r)?, d)))
+            .unzip();
+        let band = Band::calibrate(&r, &d);
         let hw = band.half_width;
-        let cv_rmse = rms(&found.cv_residuals);
+        let cv_rmse = rms(&r);
         choices.push(TargetChoice {
             target: target.clone(),
             forms: found.members.iter().map(|m| m.form).collect(),
@@ -379,8 +351,9 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
     pb.finish_and_clear();
     let model = assemble(ds, &roles, &grid, &xs, &winners, s.dt_s)?;
     let report = AutoReport {
-        scheme,
-        folds: n_folds,
+        scheme: folds.description.clone(),
+        training: folds.scheme,
+        folds: folds.n,
         dt_s: s.dt_s,
         settings: s.clone(),
         targets: choices,

@@ -15,6 +15,7 @@
 //! scikit-learn's `RidgeCV` on `StandardScaler` output does, with `alpha =
 //! lambda * n`.
 
+use super::folds::{Folds, Scheme};
 use nalgebra::{DMatrix, DVector};
 
 /// Sums over a set of rows (one fold, or all of them).
@@ -49,6 +50,17 @@ impl Sums {
         self.syy += y * y;
     }
 
+    fn plus(&self, o: &Self) -> Self {
+        Self {
+            n: self.n + o.n,
+            sx: &self.sx + &o.sx,
+            sxx: &self.sxx + &o.sxx,
+            sxy: &self.sxy + &o.sxy,
+            sy: self.sy + o.sy,
+            syy: self.syy + o.syy,
+        }
+    }
+
     fn minus(&self, o: &Self) -> Self {
         Self {
             n: self.n - o.n,
@@ -73,6 +85,7 @@ pub struct Design {
     pub scale: Vec<f64>,
     folds: Vec<Sums>,
     total: Sums,
+    scheme: Scheme,
 }
 
 /// A fitted candidate, in raw feature units.
@@ -95,8 +108,10 @@ pub struct CvScore {
 
 impl Design {
     /// Accumulates `cols[j][row]` (raw feature columns) and `y[row]`, row
-    /// `row` belonging to fold `fold[row]` (`None`: not a calibration row).
-    pub fn new(cols: &[Vec<f64>], y: &[f64], fold: &[Option<usize>], n_folds: usize) -> Self {
+    /// `row` belonging to fold `folds.of[row]` (`None`: not a calibration
+    /// row).
+    pub fn new(cols: &[Vec<f64>], y: &[f64], folds: &Folds) -> Self {
+        let (fold, n_folds, folds_scheme) = (&folds.of, folds.n, folds.scheme);
         let m = cols.len();
         let used = fold.iter().filter(|f| f.is_some()).count().max(1) as f64;
         let scale: Vec<f64> = cols
@@ -125,20 +140,28 @@ impl Design {
             }
             folds[f].add(&x, y[row]);
         }
-        let mut total = Sums::zeros(m);
-        for f in &folds {
-            total.n += f.n;
-            total.sx += &f.sx;
-            total.sxx += &f.sxx;
-            total.sxy += &f.sxy;
-            total.sy += f.sy;
-            total.syy += f.syy;
-        }
+        let total = folds.iter().fold(Sums::zeros(m), |t, f| t.plus(f));
         Self {
             scale,
             folds,
             total,
+            scheme: folds_scheme,
         }
+    }
+
+    /// The sums the model scoring fold `f` is fitted on (`None`: the fold
+    /// is not scored, or it has no training rows).
+    fn train(&self, f: usize) -> Option<Sums> {
+        if !self.scheme.scores(f) {
+            return None;
+        }
+        let sums = match self.scheme {
+            Scheme::LeaveOut => self.total.minus(self.folds.get(f)?),
+            Scheme::Forward { .. } => self.folds[..f]
+                .iter()
+                .fold(Sums::zeros(self.total.sx.len()), |t, g| t.plus(g)),
+        };
+        (sums.n > 0.0).then_some(sums)
     }
 
     /// Number of folds.
@@ -152,11 +175,13 @@ impl Design {
     pub fn cv(&self, idx: &[usize], lambda: f64, intercept: bool) -> Option<CvScore> {
         let mut per_fold = Vec::new();
         let (mut sse, mut n) = (0.0, 0.0);
-        for f in &self.folds {
+        for (i, f) in self.folds.iter().enumerate() {
             if f.n == 0.0 {
                 continue;
             }
-            let train = self.total.minus(f);
+            let Some(train) = self.train(i) else {
+                continue;
+            };
             let (b0, beta) = solve(&train, idx, lambda, intercept)?;
             let e = sse_on(f, idx, b0, &beta);
             per_fold.push(e / f.n);
@@ -175,8 +200,8 @@ impl Design {
         })
     }
 
-    /// The candidate fitted on every row but fold `fold` (`None`: on every
-    /// row), in raw feature units.
+    /// The candidate that scores fold `fold` (`None`: fitted on every
+    /// row), in raw feature units; `None` when that fold is not scored.
     pub fn fit(
         &self,
         idx: &[usize],
@@ -185,7 +210,7 @@ impl Design {
         fold: Option<usize>,
     ) -> Option<Coefs> {
         let train = match fold {
-            Some(f) => self.total.minus(self.folds.get(f)?),
+            Some(f) => self.train(f)?,
             None => self.total.clone(),
         };
         let (b0, beta) = solve(&train, idx, lambda, intercept)?;
@@ -257,6 +282,15 @@ mod tests {
     use super::*;
     use crate::rng::SplitMix64;
 
+    fn leave_out(of: Vec<Option<usize>>, n: usize) -> Folds {
+        Folds {
+            of,
+            n,
+            scheme: Scheme::LeaveOut,
+            description: String::new(),
+        }
+    }
+
     /// Direct ridge on the rows (standardised columns, centred target),
     /// the reference the sums must reproduce.
     fn direct(cols: &[Vec<f64>], y: &[f64], rows: &[usize], lambda: f64) -> (f64, Vec<f64>) {
@@ -295,7 +329,7 @@ mod tests {
             .map(|r| 2.0 * cols[0][r] - cols[2][r] + 0.1 * rng.symmetric())
             .collect();
         let fold: Vec<Option<usize>> = (0..n).map(|r| Some(r * 3 / n)).collect();
-        let d = Design::new(&cols, &y, &fold, 3);
+        let d = Design::new(&cols, &y, &leave_out(fold, 3));
         let train: Vec<usize> = (0..n).filter(|r| r * 3 / n != 1).collect();
         let (b0, beta) = direct(&cols, &y, &train, 1e-3);
         let c = d.fit(&[0, 1, 2], 1e-3, true, Some(1)).unwrap();
@@ -335,10 +369,44 @@ mod tests {
         let x: Vec<f64> = (0..n).map(|r| r as f64).collect();
         let y: Vec<f64> = x.iter().map(|v| 3.0 * v).collect();
         let fold: Vec<Option<usize>> = (0..n).map(|r| Some(r % 2)).collect();
-        let d = Design::new(&[x], &y, &fold, 2);
+        let d = Design::new(&[x], &y, &leave_out(fold, 2));
         let c = d.fit(&[0], 0.0, false, None).unwrap();
         assert_eq!(c.intercept, 0.0);
         assert!((c.beta[0] - 3.0).abs() < 1e-9);
         assert!(d.cv(&[0], 0.0, false).unwrap().mse < 1e-12);
+    }
+
+    #[test]
+    fn forward_folds_fit_on_the_blocks_before_and_skip_the_first() {
+        let mut rng = SplitMix64::new(11);
+        let n = 240;
+        let cols: Vec<Vec<f64>> = (0..2)
+            .map(|_| (0..n).map(|_| rng.symmetric()).collect())
+            .collect();
+        let y: Vec<f64> = (0..n)
+            .map(|r| 1.5 * cols[0][r] + 0.5 * cols[1][r] + 0.05 * rng.symmetric())
+            .collect();
+        let of: Vec<Option<usize>> = (0..n).map(|r| Some(r * 4 / n)).collect();
+        let folds = Folds {
+            of,
+            n: 4,
+            scheme: Scheme::Forward { first: 1 },
+            description: String::new(),
+        };
+        let d = Design::new(&cols, &y, &folds);
+        assert!(d.fit(&[0, 1], 1e-3, true, Some(0)).is_none());
+        // The model scoring block 2 is the direct ridge on blocks 0 and 1.
+        let past: Vec<usize> = (0..n / 2).collect();
+        let (b0, beta) = direct(&cols, &y, &past, 1e-3);
+        let c = d.fit(&[0, 1], 1e-3, true, Some(2)).unwrap();
+        // Same normal equations two ways (columns near 0: ~1e-12 apart).
+        assert!((c.intercept - b0).abs() < 1e-9, "{} vs {b0}", c.intercept);
+        for (a, b) in c.beta.iter().zip(&beta) {
+            assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+        }
+        // CV pools blocks 1..3 only: its mse is the noise variance
+        // (0.05^2/3 ~ 8e-4) plus a little estimation error, well below 0.01.
+        let cv = d.cv(&[0, 1], 1e-3, true).unwrap();
+        assert!(cv.mse > 1e-4 && cv.mse < 1e-2, "{}", cv.mse);
     }
 }

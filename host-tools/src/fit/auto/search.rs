@@ -13,6 +13,7 @@
 //! one of them by a noisy CV minimum leaves.
 
 use super::features::{self, FeatureDef, Role};
+use super::folds::Folds;
 use super::ridge::{Coefs, CvScore, Design};
 use serde::Serialize;
 
@@ -111,9 +112,10 @@ pub struct TargetSearch {
     pub table: Vec<CvRow>,
     /// The averaged members.
     pub members: Vec<Member>,
-    /// Cross-validated residuals of the averaged winner (every
-    /// calibration grid sample once).
-    pub cv_residuals: Vec<f64>,
+    /// Cross-validated residuals of the averaged winner, one per scored
+    /// calibration sample (`Folds::scored`), in grid order; `None` where
+    /// no member could be fitted for the sample's fold.
+    pub cv_residuals: Vec<Option<f64>>,
 }
 
 /// Feature columns of `defs` over every run, concatenated.
@@ -219,8 +221,7 @@ fn cv_columns(row: &mut CvRow, lambda: f64, features: usize, cv: &CvScore) {
 fn score_grid(
     forms: &[FormData],
     y: &[f64],
-    fold: &[Option<usize>],
-    n_folds: usize,
+    folds: &Folds,
     s: &SearchSettings,
     progress: &dyn Fn(),
 ) -> Scoring {
@@ -238,7 +239,7 @@ fn score_grid(
             for heat in heat_sets {
                 progress();
                 let defs = features::bank(data.roles, temp, heat);
-                let design = Design::new(&columns(data, &defs, s.dt_s), y, fold, n_folds);
+                let design = Design::new(&columns(data, &defs, s.dt_s), y, folds);
                 let Some((lambda, cv)) = best_lambda_of(
                     &design,
                     &(0..defs.len()).collect::<Vec<_>>(),
@@ -363,23 +364,22 @@ fn pick_members(
 }
 
 /// Scores every candidate of `forms` for target `y` (concatenated runs),
-/// calibration sample `k` in fold `fold[k]`, and averages the best.
+/// calibration sample `k` in fold `folds.of[k]`, and averages the best.
 pub fn search(
     forms: &[FormData],
     y: &[f64],
-    fold: &[Option<usize>],
-    n_folds: usize,
+    folds: &Folds,
     s: &SearchSettings,
     progress: &dyn Fn(),
 ) -> Option<TargetSearch> {
-    let mut sc = score_grid(forms, y, fold, n_folds, s, progress);
+    let mut sc = score_grid(forms, y, folds, s, progress);
     add_eliminations(forms, &mut sc, s, progress);
     let order = ranked(&sc.scored);
-    let members = pick_members(&mut sc, &order, n_folds, s);
+    let members = pick_members(&mut sc, &order, folds.n, s);
     if members.is_empty() {
         return None;
     }
-    let cv_residuals = cv_residuals(forms, &members, y, fold, s.dt_s);
+    let cv_residuals = cv_residuals(forms, &members, y, folds, s.dt_s);
     let table = order
         .into_iter()
         .map(|i| sc.scored[i].row.clone())
@@ -391,37 +391,39 @@ pub fn search(
     })
 }
 
-/// `y - ŷ` of the averaged winner on each calibration sample, `ŷ` from the
-/// members fitted without that sample's fold.
+/// `y - ŷ` of the averaged winner on each scored calibration sample, `ŷ`
+/// from the members fitted for that sample's fold (never on it).
 fn cv_residuals(
     forms: &[FormData],
     members: &[Member],
     y: &[f64],
-    fold: &[Option<usize>],
+    folds: &Folds,
     dt_s: f64,
-) -> Vec<f64> {
-    let mut sum = vec![0.0; y.len()];
+) -> Vec<Option<f64>> {
+    let mut sum = vec![(0.0, 0usize); y.len()];
     for m in members {
         let Some(data) = forms.iter().find(|d| d.form == m.form) else {
             continue;
         };
         let cols = columns(data, &m.features, dt_s);
-        for (k, f) in fold.iter().enumerate() {
+        for (k, f) in folds.of.iter().enumerate() {
             let Some(Some(c)) = f.and_then(|f| m.fold_coefs.get(f)) else {
                 continue;
             };
-            sum[k] += c.intercept
+            sum[k].0 += c.intercept
                 + c.beta
                     .iter()
                     .zip(&cols)
                     .map(|(b, col)| b * col[k])
                     .sum::<f64>();
+            sum[k].1 += 1;
         }
     }
-    let n = members.len() as f64;
-    fold.iter()
-        .enumerate()
-        .filter(|(_, f)| f.is_some())
-        .map(|(k, _)| y[k] - sum[k] / n)
+    (0..y.len())
+        .filter(|&k| folds.scored(k))
+        .map(|k| {
+            let (s, n) = sum[k];
+            (n > 0).then(|| y[k] - s / n as f64)
+        })
         .collect()
 }
