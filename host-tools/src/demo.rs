@@ -12,7 +12,8 @@
 //!    interval`, since dz starts at zero) on the calibration run for
 //!    `dz_um`; the model inputs are the union of both picks.
 //! 3. **fit**: auto (every temperature and the spindle speed; form,
-//!    filters and penalty chosen by cross-validation on the calibration run),
+//!    filters and penalty, and the model family, chosen by cross-validation
+//!    on the calibration run),
 //!    then mlr, pcr, arx, tf, bp, gabp (a small GA) and arma on the selected
 //!    sensors for comparison, each scored on the validation run held out
 //!    whole (`fit --validate`). `arma` forecasts dz from its own measured past: it

@@ -99,11 +99,12 @@ fn input_columns<'r>(
 }
 
 /// Outputs and band half-widths, `[output][sample]`.
-type Stepped = (Vec<Vec<Option<f64>>>, Vec<Vec<Option<f64>>>);
+pub type Stepped = (Vec<Vec<Option<f64>>>, Vec<Vec<Option<f64>>>);
 
-/// Steps the model over aligned input samples; `None` where an input is
-/// missing or the step was refused. With bounds, also each output's band.
-fn step_all(
+/// Steps the model over aligned input samples (`inputs[channel][sample]`,
+/// raw values in channel order) from a fresh state; `None` where an input
+/// is missing or the step was refused. With bounds, also each output's band.
+pub fn step_all(
     model: &ValidModel,
     inputs: &[Vec<Option<f64>>],
     len: usize,

@@ -31,7 +31,9 @@ use std::path::PathBuf;
 pub enum FitKind {
     /// Input form, filter-bank features, penalty and filter time constants
     /// chosen per target by time-respecting cross-validation on the
-    /// calibration data (a ridge over low-pass filters: a TF bank the hub runs).
+    /// calibration data (a ridge over low-pass filters: a TF bank the hub
+    /// runs); PCR, ARX, TF and BP weighed on the same folds, one taking its
+    /// place only when its CV error is lower beyond noise (--auto-families).
     Auto,
     /// Multiple linear regression (least squares by SVD).
     Mlr,
@@ -121,6 +123,12 @@ pub struct AutoArgs {
     /// docs/validation-auto.md).
     #[arg(long, default_value_t = 0)]
     pub auto_eliminate: usize,
+    /// auto: model families weighed by the same cross-validation: ridge
+    /// (the filter bank, always), pcr, arx, tf, bp, gabp. Another family
+    /// replaces the ridge only when its CV error is lower beyond noise;
+    /// "ridge" alone: the filter bank only.
+    #[arg(long, value_delimiter = ',', default_value = auto::family::DEFAULT_FAMILIES, value_name = "LIST")]
+    pub auto_families: Vec<String>,
 }
 
 /// Columns `auto` reads besides the temperatures when the runs have them.
@@ -263,6 +271,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
                 ensemble: a.auto.auto_ensemble,
                 dt_s: a.arx.dt_s,
                 eliminate: a.auto.auto_eliminate,
+                families: a.auto.auto_families.clone(),
             };
             auto::fit(&ds, &params.check(&ds)?)?.0
         }

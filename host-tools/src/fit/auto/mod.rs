@@ -18,7 +18,12 @@
 //! the winner go to `--json`; the winner (the average of the best few) is
 //! refitted on every calibration sample and carries its calibration-CV error
 //! band and input envelope in the blob.
+//!
+//! The other model families (PCR, ARX, TF, BP, GA-BP: family.rs) are then
+//! scored on the same folds and samples, and one of them replaces the ridge
+//! only when its CV error is lower beyond noise (`--auto-families`).
 
+pub mod family;
 pub mod features;
 pub mod folds;
 pub mod ridge;
@@ -27,6 +32,7 @@ pub mod search;
 use super::{outputs, Fitted};
 use crate::dataset::{Dataset, GridRun};
 use anyhow::{anyhow, bail, Result};
+use family::{Bench, Comparison, Family, FamilyChoice, Residuals, Trainers};
 use features::Role;
 use folds::Folds;
 use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
@@ -71,6 +77,9 @@ pub struct AutoParams {
     /// How many of the best candidates also try dropping temperature
     /// sensors by backward elimination (0: every sensor stays).
     pub eliminate: usize,
+    /// Model families weighed by the CV (names of [`Family`]; must
+    /// include `ridge`).
+    pub families: Vec<String>,
 }
 
 impl Default for AutoParams {
@@ -80,6 +89,10 @@ impl Default for AutoParams {
             ensemble: 20,
             dt_s: None,
             eliminate: 0,
+            families: family::DEFAULT_FAMILIES
+                .split(',')
+                .map(String::from)
+                .collect(),
         }
     }
 }
@@ -89,6 +102,8 @@ impl Default for AutoParams {
 pub struct ValidAutoParams {
     folds: usize,
     settings: SearchSettings,
+    families: Vec<Family>,
+    trainers: Trainers,
 }
 
 impl AutoParams {
@@ -100,9 +115,12 @@ impl AutoParams {
         if !(1..=100).contains(&self.ensemble) {
             bail!("auto: --auto-ensemble {} must be 1..100", self.ensemble);
         }
+        let families = Family::parse_list(&self.families)?;
         let dt_s = super::arx::sample_time(ds, self.dt_s)?;
         Ok(ValidAutoParams {
             folds: self.folds,
+            families,
+            trainers: Trainers::defaults(dt_s)?,
             settings: SearchSettings {
                 temp_sets: TEMP_SETS.iter().map(|s| s.to_vec()).collect(),
                 heat_sets: HEAT_SETS.iter().map(|s| s.to_vec()).collect(),
@@ -121,12 +139,18 @@ impl AutoParams {
 pub struct TargetChoice {
     /// Target column.
     pub target: String,
-    /// Every candidate, best CV error first.
+    /// Every candidate, best CV error first (families that could not be
+    /// scored last).
     pub cv_table: Vec<CvRow>,
-    /// Forms of the averaged candidates.
+    /// Forms of the averaged candidates (of the other family's model when
+    /// one won).
     pub forms: Vec<Form>,
-    /// CV rmse of the averaged winner (pooled over the folds).
+    /// The family of the blob.
+    pub family: Family,
+    /// CV rmse of the winner (pooled over the folds).
     pub cv_rmse: f64,
+    /// CV rmse of the ridge's averaged winner (= `cv_rmse` when it won).
+    pub ridge_cv_rmse: f64,
     /// 95 % half-width of the CV error: the band the blob carries.
     pub half_width_95: f64,
     /// How the band was calibrated on the CV residuals.
@@ -271,6 +295,8 @@ pub struct AutoReport {
     pub settings: SearchSettings,
     /// Per target.
     pub targets: Vec<TargetChoice>,
+    /// The model family chosen for every target together.
+    pub families: FamilyChoice,
 }
 
 /// Reference-adjusted inputs of every grid run in `form`.
@@ -299,6 +325,80 @@ fn reference(role: Role, form: Form) -> Reference {
     }
 }
 
+/// The ridge search's outcome for every target.
+struct RidgeFit {
+    /// Per target, for the JSON.
+    choices: Vec<TargetChoice>,
+    /// Per target, the averaged members and their band.
+    winners: Vec<(Vec<Member>, Band)>,
+    /// The averaged winners' CV residuals on the scored samples.
+    residuals: Residuals,
+}
+
+/// Step 1: the ridge search of every target, each winner with its band.
+fn ridge_targets(
+    ds: &Dataset,
+    grid: &[GridRun],
+    folds: &Folds,
+    forms: &[FormData],
+    s: &SearchSettings,
+    progress: &dyn Fn(),
+) -> Result<RidgeFit> {
+    let mut out = RidgeFit {
+        choices: Vec::new(),
+        winners: Vec::new(),
+        residuals: Vec::new(),
+    };
+    for (j, target) in ds.targets.iter().enumerate() {
+        let y: Vec<f64> = grid.iter().flat_map(|g| g.y[j].iter().copied()).collect();
+        let found = search::search(forms, &y, folds, s, progress)
+            .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?;
+        let form = found.members[0].form;
+        let x = forms.iter().find(|f| f.form == form).expect("both forms").x;
+        let d = cv_extrapolation(x, folds, &used_inputs(&found.members));
+        let (r, d): (Vec<f64>, Vec<f64>) = found
+            .cv_residuals
+            .iter()
+            .zip(d)
+            .filter_map(|(r, d)| Some(((*r)?, d)))
+            .unzip();
+        let band = Band::calibrate(&r, &d);
+        let cv_rmse = rms(&r);
+        out.choices.push(TargetChoice {
+            target: target.clone(),
+            forms: found.members.iter().map(|m| m.form).collect(),
+            family: Family::Ridge,
+            cv_table: found.table,
+            cv_rmse,
+            ridge_cv_rmse: cv_rmse,
+            half_width_95: band.half_width,
+            band: band.clone(),
+        });
+        out.winners.push((found.members, band));
+        out.residuals.push(found.cv_residuals);
+    }
+    Ok(out)
+}
+
+/// Step 3: the family rows go into each target's table (best first, the
+/// unscored last); when another family won, the targets report it.
+fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&family::Refit>) {
+    for (t, c) in choices.iter_mut().enumerate() {
+        if let (Some(w), Some(r)) = (&cmp.winner, won) {
+            for row in &mut c.cv_table {
+                row.chosen = false;
+            }
+            c.family = w.family;
+            c.forms = vec![w.form];
+            c.cv_rmse = r.cv_rmse[t];
+            c.half_width_95 = r.bands[t].half_width;
+            c.band = r.bands[t].clone();
+        }
+        c.cv_table.extend(cmp.rows[t].iter().cloned());
+        c.cv_table.sort_by(|a, b| a.cv_rmse.total_cmp(&b.cv_rmse));
+    }
+}
+
 /// Trains an auto model on `ds` (inputs in absolute form).
 pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport)> {
     let s = &params.settings;
@@ -317,46 +417,38 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
             roles: &roles,
         })
         .collect();
+    let bench = Bench::new(&grid, &folds, ds, &params.trainers);
     let per_target = s.temp_sets.len() * s.heat_sets.len() * forms.len() + s.eliminate;
-    let pb = super::arx::progress(per_target * ds.targets.len(), "auto: candidates");
-    let mut choices = Vec::new();
-    let mut winners = Vec::new();
-    for (j, target) in ds.targets.iter().enumerate() {
-        let y: Vec<f64> = grid.iter().flat_map(|g| g.y[j].iter().copied()).collect();
-        let found = search::search(&forms, &y, &folds, s, &|| pb.inc(1))
-            .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?;
-        let form = found.members[0].form;
-        let used = used_inputs(&found.members);
-        let x = &xs.iter().find(|(f, _)| *f == form).expect("both forms").1;
-        let d = cv_extrapolation(x, &folds, &used);
-        let (r, d): (Vec<f64>, Vec<f64>) = found
-            .cv_residuals
-            .iter()
-            .zip(d)
-            .filter_map(|(r, d)| Some(((*r)?, d)))
-            .unzip();
-        let band = Band::calibrate(&r, &d);
-        let hw = band.half_width;
-        let cv_rmse = rms(&r);
-        choices.push(TargetChoice {
-            target: target.clone(),
-            forms: found.members.iter().map(|m| m.form).collect(),
-            cv_table: found.table,
-            cv_rmse,
-            half_width_95: hw,
-            band: band.clone(),
-        });
-        winners.push((found.members, band.clone()));
-    }
+    let family_jobs = (params.families.len() - 1) * Form::ALL.len() * bench.scored_folds();
+    let pb = super::arx::progress(
+        per_target * ds.targets.len() + family_jobs,
+        "auto: candidates",
+    );
+    let mut ridge = ridge_targets(ds, &grid, &folds, &forms, s, &|| pb.inc(1))?;
+    pb.set_message("auto: families");
+    let mut cmp = family::compare(&bench, &params.families, &ridge.residuals, &|| pb.inc(1));
     pb.finish_and_clear();
-    let model = assemble(ds, &roles, &grid, &xs, &winners, s.dt_s)?;
+    let won = cmp
+        .winner
+        .as_ref()
+        .map(|w| family::refit(&bench, w))
+        .transpose()?;
+    merge_families(&mut ridge.choices, &cmp, won.as_ref());
+    let model = match won {
+        Some(r) => {
+            cmp.choice.winner_details = r.details;
+            r.model
+        }
+        None => assemble(ds, &roles, &grid, &xs, &ridge.winners, s.dt_s)?,
+    };
     let report = AutoReport {
         scheme: folds.description.clone(),
         training: folds.scheme,
         folds: folds.n,
         dt_s: s.dt_s,
         settings: s.clone(),
-        targets: choices,
+        targets: ridge.choices,
+        families: cmp.choice,
     };
     let details = serde_json::to_value(&report)?;
     Ok((Fitted { model, details }, report))
@@ -403,26 +495,17 @@ fn model_inputs(
     out
 }
 
-/// One fbank model of every target's averaged winner, with bounds.
-fn assemble(
-    ds: &Dataset,
-    roles: &[Role],
-    grid: &[GridRun],
-    xs: &[(Form, Vec<Vec<Vec<f64>>>)],
+/// Features (model channels) and each target's averaged row `(intercept,
+/// coefficients)` of the winners; a row is as long as the features seen up
+/// to its target (shorter rows end in zeros).
+type AveragedRows = (Vec<Feature>, Vec<(f64, Vec<f64>)>);
+
+/// The winners' members averaged per target into rows over one shared
+/// feature list; `channel_of(input, form)` is the model channel.
+fn averaged_rows(
     winners: &[(Vec<Member>, Band)],
-    dt_s: f64,
-) -> Result<model_core::ValidModel> {
-    let inputs = model_inputs(ds, roles, winners);
-    if inputs.len() > MAX_CHANNELS {
-        bail!(
-            "auto: the model would read {} inputs; the hub takes at most {MAX_CHANNELS}",
-            inputs.len()
-        );
-    }
-    let channel_of = |i: usize, form: Form| {
-        let r = reference(roles[i], form);
-        inputs.iter().position(|&(j, _, rr)| j == i && rr == r)
-    };
+    channel_of: &dyn Fn(usize, Form) -> Option<usize>,
+) -> Result<AveragedRows> {
     let mut feats: Vec<Feature> = Vec::new();
     let mut rows: Vec<(f64, Vec<f64>)> = Vec::new();
     for (members, _) in winners {
@@ -453,6 +536,30 @@ fn assemble(
         }
         rows.push((intercept, dense));
     }
+    Ok((feats, rows))
+}
+
+/// One fbank model of every target's averaged winner, with bounds.
+fn assemble(
+    ds: &Dataset,
+    roles: &[Role],
+    grid: &[GridRun],
+    xs: &[(Form, Vec<Vec<Vec<f64>>>)],
+    winners: &[(Vec<Member>, Band)],
+    dt_s: f64,
+) -> Result<model_core::ValidModel> {
+    let inputs = model_inputs(ds, roles, winners);
+    if inputs.len() > MAX_CHANNELS {
+        bail!(
+            "auto: the model would read {} inputs; the hub takes at most {MAX_CHANNELS}",
+            inputs.len()
+        );
+    }
+    let channel_of = |i: usize, form: Form| {
+        let r = reference(roles[i], form);
+        inputs.iter().position(|&(j, _, rr)| j == i && rr == r)
+    };
+    let (feats, rows) = averaged_rows(winners, &channel_of)?;
     if feats.len() > MAX_FB_FEATURES {
         bail!(
             "auto: {} filter features; the hub takes at most {MAX_FB_FEATURES} (give fewer --inputs)",
@@ -472,7 +579,7 @@ fn assemble(
             .map_err(|_| anyhow!("auto: too many outputs"))?;
     }
     let mut channels = heapless::Vec::new();
-    let mut envelope = heapless::Vec::new();
+    let mut envelope = Vec::new();
     for &(i, form, r) in &inputs {
         let name = &ds.inputs[i];
         channels
@@ -482,20 +589,9 @@ fn assemble(
                 reference: r,
             })
             .map_err(|_| anyhow!("auto: too many inputs"))?;
-        envelope
-            .push(span(grid, xs, i, form))
-            .map_err(|_| anyhow!("auto: too many inputs"))?;
+        envelope.push(span(grid, form_x(xs, form), i));
     }
-    let half_width = heapless::Vec::from_slice(
-        &winners
-            .iter()
-            .map(|(_, b)| b.half_width)
-            .collect::<Vec<_>>(),
-    )
-    .map_err(|_| anyhow!("auto: too many outputs"))?;
-    let growth =
-        heapless::Vec::from_slice(&winners.iter().map(|(_, b)| b.growth).collect::<Vec<_>>())
-            .map_err(|_| anyhow!("auto: too many outputs"))?;
+    let bands: Vec<Band> = winners.iter().map(|(_, b)| b.clone()).collect();
     let model = Model {
         inputs: channels,
         outputs: outs,
@@ -504,20 +600,21 @@ fn assemble(
             features: heapless::Vec::from_slice(&feats).map_err(|_| anyhow!("auto: capacity"))?,
             outputs: fb_outputs,
         }),
-        bounds: Some(Bounds {
-            envelope,
-            half_width,
-            growth,
-        }),
+        bounds: Some(bounds(&envelope, &bands)?),
     };
     model
         .validate()
         .map_err(|e| anyhow!("auto: the fitted model is invalid: {e}"))
 }
 
-/// Calibration range of input `i` in `form` over every grid run.
-fn span(grid: &[GridRun], xs: &[(Form, Vec<Vec<Vec<f64>>>)], i: usize, form: Form) -> Span {
-    let x = &xs.iter().find(|(f, _)| *f == form).expect("both forms").1;
+/// The grid inputs of `form` among `xs`.
+fn form_x(xs: &[(Form, Vec<Vec<Vec<f64>>>)], form: Form) -> &[Vec<Vec<f64>>] {
+    &xs.iter().find(|(f, _)| *f == form).expect("both forms").1
+}
+
+/// Calibration range of input `i` of `x` (`[run][input][k]`) over every
+/// grid run.
+fn span(grid: &[GridRun], x: &[Vec<Vec<f64>>], i: usize) -> Span {
     let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
     for (g, run) in grid.iter().zip(x) {
         for v in &run[i][..g.calib_end] {
@@ -529,4 +626,16 @@ fn span(grid: &[GridRun], xs: &[(Form, Vec<Vec<Vec<f64>>>)], i: usize, form: For
         (min, max) = (0.0, 0.0);
     }
     Span { min, max }
+}
+
+/// A blob's bounds: the envelope per model input and each target's band.
+fn bounds(envelope: &[Span], bands: &[Band]) -> Result<Bounds> {
+    let cap = || anyhow!("auto: too many inputs or outputs for the bounds");
+    let per =
+        |f: fn(&Band) -> f64| heapless::Vec::from_slice(&bands.iter().map(f).collect::<Vec<_>>());
+    Ok(Bounds {
+        envelope: heapless::Vec::from_slice(envelope).map_err(|_| cap())?,
+        half_width: per(|b| b.half_width).map_err(|_| cap())?,
+        growth: per(|b| b.growth).map_err(|_| cap())?,
+    })
 }

@@ -106,6 +106,37 @@ pub struct CvScore {
     pub se: f64,
 }
 
+impl CvScore {
+    /// From each scored fold's `(sum of squared errors, samples)`: the
+    /// pooled mse and the standard error of the per-fold mses (`None`
+    /// without a scored sample).
+    pub fn pooled(per_fold: &[(f64, f64)]) -> Option<Self> {
+        let (sse, n) = per_fold
+            .iter()
+            .fold((0.0, 0.0), |(s, m), (e, k)| (s + e, m + k));
+        if per_fold.is_empty() || n == 0.0 {
+            return None;
+        }
+        let mses: Vec<f64> = per_fold.iter().map(|(e, k)| e / k).collect();
+        Some(Self {
+            mse: sse / n,
+            se: standard_error(&mses),
+        })
+    }
+}
+
+/// Standard error of the mean of `v` (sample standard deviation over
+/// `sqrt(len)`; 0 for fewer than two values).
+pub fn standard_error(v: &[f64]) -> f64 {
+    let k = v.len() as f64;
+    if v.len() < 2 {
+        return 0.0;
+    }
+    let mean = v.iter().sum::<f64>() / k;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1.0);
+    (var / k).sqrt()
+}
+
 impl Design {
     /// Accumulates `cols[j][row]` (raw feature columns) and `y[row]`, row
     /// `row` belonging to fold `folds.of[row]` (`None`: not a calibration
@@ -174,7 +205,6 @@ impl Design {
     /// training system is singular.
     pub fn cv(&self, idx: &[usize], lambda: f64, intercept: bool) -> Option<CvScore> {
         let mut per_fold = Vec::new();
-        let (mut sse, mut n) = (0.0, 0.0);
         for (i, f) in self.folds.iter().enumerate() {
             if f.n == 0.0 {
                 continue;
@@ -183,21 +213,9 @@ impl Design {
                 continue;
             };
             let (b0, beta) = solve(&train, idx, lambda, intercept)?;
-            let e = sse_on(f, idx, b0, &beta);
-            per_fold.push(e / f.n);
-            sse += e;
-            n += f.n;
+            per_fold.push((sse_on(f, idx, b0, &beta), f.n));
         }
-        if per_fold.is_empty() || n == 0.0 {
-            return None;
-        }
-        let k = per_fold.len() as f64;
-        let mean = per_fold.iter().sum::<f64>() / k;
-        let var = per_fold.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (k - 1.0).max(1.0);
-        Some(CvScore {
-            mse: sse / n,
-            se: (var / k).sqrt(),
-        })
+        CvScore::pooled(&per_fold)
     }
 
     /// The candidate that scores fold `fold` (`None`: fitted on every

@@ -12,6 +12,7 @@
 //! other's noise, and averaging them halves the held-out spread that picking
 //! one of them by a noisy CV minimum leaves.
 
+use super::family::Family;
 use super::features::{self, FeatureDef, Role};
 use super::folds::Folds;
 use super::ridge::{Coefs, CvScore, Design};
@@ -41,25 +42,55 @@ impl Form {
 /// One row of the CV table.
 #[derive(Clone, Debug, Serialize)]
 pub struct CvRow {
+    /// Model family: `ridge` (this search's filter-bank candidates) or
+    /// another family scored on the same folds (family.rs).
+    pub family: Family,
     /// Input form.
     pub form: Form,
-    /// Temperature filter time constants, s (besides the raw temperature).
+    /// Temperature filter time constants, s (besides the raw temperature;
+    /// empty for other families).
     pub temp_taus_s: Vec<f64>,
-    /// Heat-source filter time constants, s.
+    /// Heat-source filter time constants, s (empty for other families).
     pub heat_taus_s: Vec<f64>,
-    /// Penalty (on standardised features, alpha / n).
+    /// Penalty (on standardised features, alpha / n; 0 for other
+    /// families, which choose their own settings).
     pub lambda: f64,
-    /// Feature columns.
+    /// Feature columns (other families: the inputs the model reads).
     pub features: usize,
-    /// Cross-validated root mean square error, in the target's unit.
+    /// Cross-validated root mean square error, in the target's unit (null
+    /// when the family could not be scored on every fold: see `note`).
     pub cv_rmse: f64,
     /// Standard error of the fold-mean squared error, as an rmse spread.
     pub cv_se: f64,
-    /// Temperature inputs left out (indices into the fit's `inputs`), when
-    /// the candidate comes from the sensor elimination.
+    /// Inputs left out (indices into the fit's `inputs`): temperatures
+    /// dropped by the sensor elimination; for other families the inputs
+    /// that never move in calibration and (arx, tf) the heat sources when
+    /// every input would overflow the 16-entry TF bank.
     pub dropped_inputs: Vec<usize>,
-    /// Whether the winner averages this candidate.
+    /// Whether the blob holds this candidate (ridge: one of the averaged).
     pub chosen: bool,
+    /// Why a family has no CV error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+impl CvRow {
+    /// A row of `family` in `form` with no settings and no score yet.
+    pub fn new(family: Family, form: Form) -> Self {
+        Self {
+            family,
+            form,
+            temp_taus_s: Vec::new(),
+            heat_taus_s: Vec::new(),
+            lambda: 0.0,
+            features: 0,
+            cv_rmse: f64::NAN,
+            cv_se: f64::NAN,
+            dropped_inputs: Vec::new(),
+            chosen: false,
+            note: None,
+        }
+    }
 }
 
 /// The feature columns of one input form over the calibration grid.
@@ -209,7 +240,7 @@ struct Scoring {
 }
 
 /// One table row's CV columns from a score.
-fn cv_columns(row: &mut CvRow, lambda: f64, features: usize, cv: &CvScore) {
+pub fn cv_columns(row: &mut CvRow, lambda: f64, features: usize, cv: &CvScore) {
     row.lambda = lambda;
     row.features = features;
     row.cv_rmse = cv.mse.sqrt();
@@ -249,15 +280,9 @@ fn score_grid(
                     continue;
                 };
                 let mut row = CvRow {
-                    form: data.form,
                     temp_taus_s: temp.clone(),
                     heat_taus_s: heat.clone(),
-                    lambda,
-                    features: 0,
-                    cv_rmse: 0.0,
-                    cv_se: 0.0,
-                    dropped_inputs: Vec::new(),
-                    chosen: false,
+                    ..CvRow::new(Family::Ridge, data.form)
                 };
                 cv_columns(&mut row, lambda, defs.len(), &cv);
                 out.scored.push(Scored {
