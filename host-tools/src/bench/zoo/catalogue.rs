@@ -449,7 +449,7 @@ fn grinder() -> Plant {
         axes: vec![
             Axis {
                 name: "dx_um",
-                um_per_k: vec![0.0, 0.0, -5.5, -6.0],
+                um_per_k: vec![0.0, 0.0, -3.5, -3.0],
             },
             Axis {
                 name: "dz_um",
