@@ -31,8 +31,8 @@ enum Command {
     /// every model kind, export the best, replay it through the firmware,
     /// diagnose a sim-to-real gap (README, "Two commands").
     Demo(demo::DemoArgs),
-    /// Benchmarks of the tool's methods on twin runs with known answers
-    /// (`bench gap`: the blind benchmark of `diagnose`).
+    /// Benchmarks of the tool's methods on runs with known answers
+    /// (`bench gap`: the blind benchmark of `diagnose` on the plant zoo).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
     /// Build or inspect model blobs.
