@@ -41,6 +41,12 @@
 //! default); the boundary temperature `T0` (ambient = coolant at rest) is the
 //! median of the sensors' fitted levels at rest, and each sensor keeps its
 //! difference from it as `offset_c`. Method and numbers: docs/twin.md.
+//!
+//! [`calibrate_with`] takes a [`Setup`]: a start for the factors, sensor
+//! places pinned per channel, and an effect driving the simulation
+//! ([`super::drive`]) whose parameters are appended to `theta` and fitted
+//! with the factors (`diagnose --machine`). [`calibrate`] is the nominal
+//! setup.
 
 use super::drive::{self, Drive, FittedEffect, Rises, N_PLACES};
 use super::lm::{self, LmOptions};

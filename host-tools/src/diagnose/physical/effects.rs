@@ -236,7 +236,8 @@ impl Candidate for Chiller {
         named(&[
             ("amplitude_c", p[0]),
             ("period_s", p[1]),
-            ("phase_s", p[2].rem_euclid(p[1])),
+            // In -period/2 .. period/2: a phase of 0 reads as 0.
+            ("phase_s", (p[2] + 0.5 * p[1]).rem_euclid(p[1]) - 0.5 * p[1]),
             ("warm_c_per_min", c.warm_c_per_min),
             ("cool_c_per_min", c.cool_c_per_min),
         ])

@@ -32,9 +32,6 @@ use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 use std::path::Path;
 
-/// A logged boundary counts only if it swings this much on the fit part, K
-/// (as for the statistical candidates).
-const MIN_SWING_K: f64 = 0.1;
 /// Power beyond air cutting below this everywhere in the fit part is no
 /// cutting to fit, kW.
 const MIN_CUT_KW: f64 = 0.1;
@@ -75,6 +72,18 @@ struct Outcome {
     cal: Option<Calibration>,
 }
 
+impl Outcome {
+    /// A candidate not fitted, and why.
+    fn without(name: &'static str, why: String) -> Outcome {
+        Outcome {
+            name,
+            model: why,
+            params: Map::new(),
+            cal: None,
+        }
+    }
+}
+
 /// The twin's machine file, read and checked.
 #[derive(Debug, Clone)]
 pub struct Twin {
@@ -107,14 +116,17 @@ pub fn diagnose(
 ) -> Result<Physical> {
     let started = std::time::Instant::now();
     let m = &twin.machine;
-    let run = read_run(real, holdout_s, &m)?;
+    let run = read_run(real, holdout_s, m)?;
     let recal = recalibrate(m, &run)?;
     let outcomes = plan(m, &run, &recal)
         .into_par_iter()
         .map(|p| fit_effect(m, &run, &recal, p))
-        .collect::<Result<Vec<_>>>()?;
+        .collect::<Vec<_>>();
     let channel = scored_channel(&recal, main);
     let mut json = to_json(&recal, &outcomes, channel, al, n_fit);
+    let noise = noise_sigma(&run, &recal, &outcomes, channel);
+    json["noise_sigma"] = json!(round(noise));
+    json["gap_snr"] = json!(round(rest_rms(&recal, channel) / noise.max(1e-12)));
     json["machine"] = json!(twin.path);
     json["seconds"] = json!(round(started.elapsed().as_secs_f64()));
     let html = report_html(&run, &recal, &outcomes, channel, main);
@@ -130,10 +142,11 @@ pub fn read_run(real: &Path, holdout_s: f64, m: &Machine) -> Result<Run> {
         only: Some(vec!["ambient_c".into(), "coolant_c".into()]),
     };
     let file = RunFile::read(real, &opts)?;
+    // A log is the boundary, even a flat one: the air or coolant did not
+    // move (the statistical candidates infer a cycle below a 0.1 K swing).
     let logged = |name: &str| -> Option<Vec<f64>> {
         let col = file.column(name)?;
-        let v = dense(&resample_linear(&file.t_s, col, &data.schedule.t_s))?;
-        (swing(&v[..data.n_fit]) >= MIN_SWING_K).then_some(v)
+        dense(&resample_linear(&file.t_s, col, &data.schedule.t_s))
     };
     let pinned = data
         .temps
@@ -160,12 +173,6 @@ fn dense(v: &[Option<f64>]) -> Option<Vec<f64>> {
             })
             .collect(),
     )
-}
-
-fn swing(x: &[f64]) -> f64 {
-    let lo = x.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    hi - lo
 }
 
 /// The place pair of the machine's sensor called `name` (its node and the
@@ -215,20 +222,12 @@ fn plan(m: &Machine, run: &Run, recal: &Calibration) -> Vec<Plan> {
             t_rel_s: t_rel_s.clone(),
         }),
     };
-    let coolant = match (&run.coolant_c, chiller_period_s(run, recal)) {
-        (Some(v), _) => Plan::Fit(Box::new(effects::Logged {
+    let coolant = match &run.coolant_c {
+        Some(v) => Plan::Fit(Box::new(effects::Logged {
             boundary: effects::Boundary::Coolant,
             rise_k: rise(v),
         })),
-        (None, Some(p)) => Plan::Fit(Box::new(effects::Chiller {
-            t_rel_s,
-            period0_s: p,
-            warm_over_cool: m.effects.coolant.warm_c_per_min / m.effects.coolant.cool_c_per_min,
-        })),
-        (None, None) => Plan::Skip(
-            "coolant",
-            "coolant_c not logged and no 10 min - 2 h peak in the recalibrated residual".into(),
-        ),
+        None => chiller(m, run, recal, t_rel_s),
     };
     let cutting = match cut_kw(run) {
         Some(cut_kw) => Plan::Fit(Box::new(effects::Cutting {
@@ -278,6 +277,22 @@ fn sensor_lag(run: &Run) -> Plan {
     }
 }
 
+/// The coolant candidate when `coolant_c` is not logged: the machine's
+/// chiller, if the residual shows a period to start from.
+fn chiller(m: &Machine, run: &Run, recal: &Calibration, t_rel_s: Vec<f64>) -> Plan {
+    match chiller_period_s(run, recal) {
+        Some(p) => Plan::Fit(Box::new(effects::Chiller {
+            t_rel_s,
+            period0_s: p,
+            warm_over_cool: m.effects.coolant.warm_c_per_min / m.effects.coolant.cool_c_per_min,
+        })),
+        None => Plan::Skip(
+            "coolant",
+            "coolant_c not logged and no 10 min - 2 h peak in the recalibrated residual".into(),
+        ),
+    }
+}
+
 /// The chiller's period to start from: the 10 min - 2 h peak of the
 /// recalibrated twin's fit-part residual on the channel with the most
 /// energy in that band.
@@ -304,32 +319,27 @@ fn chiller_period_s(run: &Run, recal: &Calibration) -> Option<f64> {
 }
 
 /// Step 2 for one candidate: the effect's parameters and the machine's
-/// factors fitted together from the recalibrated twin.
-fn fit_effect(m: &Machine, run: &Run, recal: &Calibration, plan: Plan) -> Result<Outcome> {
+/// factors fitted together from the recalibrated twin. A fit that fails
+/// is listed with its error (`model`), as a candidate that does not apply.
+fn fit_effect(m: &Machine, run: &Run, recal: &Calibration, plan: Plan) -> Outcome {
     let c = match plan {
         Plan::Fit(c) => c,
-        Plan::Skip(name, why) => {
-            return Ok(Outcome {
-                name,
-                model: format!("not applicable: {why}"),
-                params: Map::new(),
-                cal: None,
-            })
-        }
+        Plan::Skip(name, why) => return Outcome::without(name, format!("not applicable: {why}")),
     };
     let setup = Setup {
         start: Some(recal.theta),
         pinned: &run.pinned,
         effect: Some(c.as_ref()),
     };
-    let cal = calibrate::calibrate_with(m, &run.data, &setup, &CalibrateOptions::default())
-        .with_context(|| format!("fitting {} in the twin", c.name()))?;
-    Ok(Outcome {
-        name: c.name(),
-        model: c.model(),
-        params: c.describe(&cal.effect),
-        cal: Some(cal),
-    })
+    match calibrate::calibrate_with(m, &run.data, &setup, &CalibrateOptions::default()) {
+        Ok(cal) => Outcome {
+            name: c.name(),
+            model: c.model(),
+            params: c.describe(&cal.effect),
+            cal: Some(cal),
+        },
+        Err(e) => Outcome::without(c.name(), format!("fit failed: {e:#}")),
+    }
 }
 
 /// The channel the shrink is reported on: the statistical main channel if
@@ -412,11 +422,9 @@ fn to_json(
         "gap_of_sim": sim_gap,
         "gap_after_recalibration": held_out(recal),
         "effects": effects.into_iter().map(|e| e.1).collect::<Vec<_>>(),
-        "best": outcomes
-            .iter()
-            .filter(|o| o.cal.is_some())
-            .min_by(|a, b| effect_after(a, channel).total_cmp(&effect_after(b, channel)))
-            .map(|o| o.name),
+        "best": best(outcomes, channel).map(|o| o.name),
+        "simulations": recal.evaluations
+            + outcomes.iter().filter_map(|o| o.cal.as_ref()).map(|c| c.evaluations).sum::<usize>(),
         "method": "the machine's factors refitted on the fit part (recalibrated twin); then each effect switched on in the twin, its parameters refitted with the factors on the fit part; held-out rms of the recalibrated twin (rms_before) and of the twin with the effect (rms_after) on `channel`",
     })
 }
@@ -425,6 +433,43 @@ fn effect_after(o: &Outcome, channel: usize) -> f64 {
     o.cal
         .as_ref()
         .map_or(f64::INFINITY, |c| rest_rms(c, channel))
+}
+
+/// The fitted effect with the smallest held-out rms on `channel` (a
+/// description, not a verdict: with nothing left to explain it is the one
+/// that happened to fit the noise best).
+fn best(outcomes: &[Outcome], channel: usize) -> Option<&Outcome> {
+    outcomes
+        .iter()
+        .filter(|o| o.cal.is_some())
+        .min_by(|a, b| effect_after(a, channel).total_cmp(&effect_after(b, channel)))
+}
+
+/// The noise on channel `c`: of the whitest held-out residual (the twin
+/// that explains most); the recalibrated twin's alone would count fast
+/// unexplained swings (cutting cycles) as noise.
+fn noise_sigma(run: &Run, recal: &Calibration, outcomes: &[Outcome], c: usize) -> f64 {
+    outcomes
+        .iter()
+        .filter_map(|o| o.cal.as_ref())
+        .chain([recal])
+        .map(|cal| held_out_noise(run, cal, c))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Noise of a twin's held-out residual on channel `c` (first-difference
+/// MAD, [`lsq::noise_sigma`]).
+fn held_out_noise(run: &Run, recal: &Calibration, c: usize) -> f64 {
+    let d = &run.data;
+    let Some(s) = d.disp.iter().chain(&d.temps).nth(c) else {
+        return f64::NAN;
+    };
+    let r: Vec<f64> = s
+        .rest_rows
+        .iter()
+        .filter_map(|&k| s.values[k].map(|y| y - recal.channels[c].pred[k]))
+        .collect();
+    lsq::noise_sigma(&r)
 }
 
 /// Step 3: the report's section: for the scored channel (and `dz_um`),
@@ -437,10 +482,7 @@ fn report_html(
     channel: usize,
     main: &str,
 ) -> String {
-    let best = outcomes
-        .iter()
-        .filter(|o| o.cal.is_some())
-        .min_by(|a, b| effect_after(a, channel).total_cmp(&effect_after(b, channel)));
+    let best = best(outcomes, channel);
     let mut html = format!(
         "<h2>With the machine file: the twin recalibrated, then each effect added to it</h2><p>The machine's factors are refitted on the rows before the hold-out (main channel {}); each effect is then switched on in the twin with its parameters fitted on the same rows. Held-out part only.</p>",
         report::esc(main)
