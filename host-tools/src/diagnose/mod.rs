@@ -16,6 +16,7 @@ pub mod align;
 pub mod candidates;
 pub mod deploy;
 pub mod lsq;
+pub mod physical;
 pub mod regime;
 pub mod report;
 pub mod spectrum;
@@ -63,6 +64,11 @@ pub struct DiagnoseArgs {
     /// Print one JSON object (CONTRACT.md section 1) instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// The twin's machine file (the one that made --sim): recalibrate it on
+    /// the fit part, add each effect to it and re-simulate (JSON `physical`;
+    /// docs/diagnose.md, "With the machine file").
+    #[arg(long)]
+    pub machine: Option<PathBuf>,
 }
 
 /// Runs `thermcomp diagnose`.
@@ -73,16 +79,27 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         .iter()
         .map(|p| crate::fsio::named("--report", p))
         .collect();
-    let reads = [
+    let mut reads = vec![
         crate::fsio::named("--sim", &a.sim),
         crate::fsio::named("--real", &a.real),
     ];
+    reads.extend(
+        a.machine
+            .as_deref()
+            .map(|m| crate::fsio::named("--machine", m)),
+    );
     crate::fsio::check_distinct(&reads, &writes)?;
-    let v = diagnose_files(&a.sim, &a.real, a.holdout_from_s, a.report.as_deref())?;
+    let v = diagnose_with_machine(
+        &a.sim,
+        &a.real,
+        a.holdout_from_s,
+        a.report.as_deref(),
+        a.machine.as_deref(),
+    )?;
     if a.json {
         crate::fsio::print_line(&v.to_string())?;
     } else {
-        crate::fsio::print(&text_table(&v))?;
+        crate::fsio::print(&(text_table(&v) + &physical::text(&v["physical"])))?;
     }
     eprintln!("diagnose: {:.2} s", started.elapsed().as_secs_f64());
     Ok(())
@@ -97,6 +114,19 @@ pub fn diagnose_files(
     holdout_from_s: Option<f64>,
     report: Option<&Path>,
 ) -> Result<Value> {
+    diagnose_with_machine(sim, real, holdout_from_s, report, None)
+}
+
+/// [`diagnose_files`], and with the twin's `machine` file also the physical
+/// diagnosis ([`physical`], JSON key `physical`, a section of the report).
+pub fn diagnose_with_machine(
+    sim: &Path,
+    real: &Path,
+    holdout_from_s: Option<f64>,
+    report: Option<&Path>,
+    machine: Option<&Path>,
+) -> Result<Value> {
+    let twin = machine.map(physical::Twin::load).transpose()?;
     let al = align::read(sim, real)?;
     let t = &al.t_s;
     let n = t.len();
@@ -217,7 +247,7 @@ pub fn diagnose_files(
     };
 
     let deployment = deploy::deployment(&al, main, n_fit, &verdict);
-    let v = json!({
+    let mut v = json!({
         "holdout_from_t_s": round(holdout),
         "gap": gap,
         "where": where_,
@@ -235,8 +265,15 @@ pub fn diagnose_files(
              the pair's more important member is the verdict and the other is `second`"
         ),
     });
+    let physical = twin
+        .map(|m| physical::diagnose(&m, real, &al, (n_fit, holdout), &ch.name))
+        .transpose()?;
+    if let Some(p) = &physical {
+        v["physical"] = p.json.clone();
+    }
     if let Some(dir) = report {
-        report::write(dir, &al, main, n_fit, &scored, &v)?;
+        let extra = physical.as_ref().map_or("", |p| p.html.as_str());
+        report::write(dir, &al, main, n_fit, &scored, &v, extra)?;
     }
     Ok(v)
 }

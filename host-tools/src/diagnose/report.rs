@@ -12,7 +12,7 @@ use std::path::Path;
 const W: f64 = 1100.0;
 const COLORS: [&str; 4] = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd"];
 
-fn esc(s: &str) -> String {
+pub(super) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -20,7 +20,7 @@ fn esc(s: &str) -> String {
 
 /// A time-series chart: x in hours, several series, optional vertical
 /// line (the hold-out start).
-fn line_chart(
+pub(super) fn line_chart(
     title: &str,
     t_h: &[f64],
     series: &[(&str, &[f64])],
@@ -185,7 +185,7 @@ fn deployment_html(d: &Value) -> String {
     h
 }
 
-/// Writes `dir/index.html`.
+/// Writes `dir/index.html`; `extra` (HTML) goes before the JSON.
 pub fn write(
     dir: &Path,
     al: &Aligned,
@@ -193,6 +193,7 @@ pub fn write(
     n_fit: usize,
     scored: &[Scored],
     v: &Value,
+    extra: &str,
 ) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let t0 = al.t_s[0];
@@ -289,6 +290,7 @@ pub fn write(
             160.0,
         ));
     }
+    html.push_str(extra);
     let pretty = serde_json::to_string_pretty(v).unwrap_or_default();
     let _ = write!(
         html,

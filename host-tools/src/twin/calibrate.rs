@@ -41,11 +41,17 @@
 //! default); the boundary temperature `T0` (ambient = coolant at rest) is the
 //! median of the sensors' fitted levels at rest, and each sensor keeps its
 //! difference from it as `offset_c`. Method and numbers: docs/twin.md.
+//!
+//! [`calibrate_with`] takes a [`Setup`]: a start for the factors, sensor
+//! places pinned per channel, and an effect driving the simulation
+//! ([`super::drive`]) whose parameters are appended to `theta` and fitted
+//! with the factors (`diagnose --machine`). [`calibrate`] is the nominal
+//! setup.
 
-use super::integrate::Stepper;
+use super::drive::{self, Drive, FittedEffect, Rises, N_PLACES};
 use super::lm::{self, LmOptions};
 use super::machine::{DisplacementOutput, Machine, Node, SensorSite, Site, N_NODES};
-use super::network::{self, Input, Network};
+use super::network::Network;
 use super::profile::{self, Profile, Schedule};
 use crate::diagnose::lsq;
 use crate::runfile::{is_temperature_column, ReadOptions, RunFile};
@@ -56,8 +62,6 @@ use std::path::Path;
 /// Re-choices of the sensor places at most (a change after three rounds
 /// would mean a sensor sits between two equally good places).
 pub const MAX_ROUNDS: usize = 3;
-/// Places a sensor can be at: the nodes, then ambient and coolant.
-const N_PLACES: usize = N_NODES + 2;
 /// Below this spread a channel's scale is floored: weighting a sensor that
 /// barely moved by its own spread would let its noise steer the fit
 /// (0.1 K is five times the PT100 noise; 1 um ten times the probe noise).
@@ -272,31 +276,13 @@ pub fn scaled(base: &Machine, theta: &[f64]) -> Machine {
 /// rows of `s`, with constant boundaries and the air-cutting speed losses
 /// (the nominal twin: the network is linear, so the rises do not depend on
 /// the boundary temperature).
-pub fn node_rises(m: &Machine, s: &Schedule, rows: usize) -> Vec<[f64; N_NODES]> {
-    let mut stepper = Stepper::new(Network::new(m));
-    let mut x = network::State::zeros();
-    let mut out = Vec::with_capacity(rows);
-    for k in 0..rows.min(s.t_s.len()) {
-        out.push(std::array::from_fn(|i| x[i]));
-        if k + 1 < rows {
-            let q = network::speed_heat_w(&m.heat, s.speed_rpm[k]);
-            let mut u = Input::zeros();
-            for (i, qi) in q.iter().enumerate() {
-                u[i] = *qi;
-            }
-            x = stepper.step(&x, &u, s.t_s[k + 1] - s.t_s[k]);
-        }
-    }
-    out
+pub fn node_rises(m: &Machine, s: &Schedule, rows: usize) -> Vec<Rises> {
+    drive::rises(m, s, rows, &Drive::default())
 }
 
-/// Rise of place `p` (a node index, or a boundary: 0).
-fn place_rise(r: &[f64; N_NODES], p: usize) -> f64 {
-    if p < N_NODES {
-        r[p]
-    } else {
-        0.0
-    }
+/// Rise of place `p` (a node index, or a boundary: 0 unless a drive moves it).
+fn place_rise(r: &Rises, p: usize) -> f64 {
+    r[p]
 }
 
 /// A temperature channel's fitted place: `o + (1 - s) dT_a + s dT_b`.
@@ -314,7 +300,7 @@ pub struct TempFit {
 
 impl TempFit {
     /// The prediction for rises `r`.
-    pub fn predict(&self, r: &[f64; N_NODES]) -> f64 {
+    pub fn predict(&self, r: &Rises) -> f64 {
         self.offset_c
             + (1.0 - self.share) * place_rise(r, self.a)
             + self.share * place_rise(r, self.b)
@@ -323,7 +309,7 @@ impl TempFit {
 
 /// Best `(share, offset)` for a fixed place pair on the fit rows, and the
 /// error sum of squares.
-fn fit_pair(rises: &[[f64; N_NODES]], s: &Series, a: usize, b: usize) -> (TempFit, f64) {
+fn fit_pair(rises: &[Rises], s: &Series, a: usize, b: usize) -> (TempFit, f64) {
     let rows = &s.fit_rows;
     let ys: Vec<(f64, f64)> = rows
         .iter()
@@ -366,11 +352,17 @@ fn fit_pair(rises: &[[f64; N_NODES]], s: &Series, a: usize, b: usize) -> (TempFi
     )
 }
 
-/// The best place pair of every temperature channel.
-fn choose_places(rises: &[[f64; N_NODES]], temps: &[Series]) -> Vec<TempFit> {
+/// The best place pair of every temperature channel (a pinned channel
+/// keeps its pair and only gets its share and offset).
+fn choose_places(sim: &Sim, temps: &[Series], pinned: &[Option<(usize, usize)>]) -> Vec<TempFit> {
     temps
         .iter()
-        .map(|s| {
+        .enumerate()
+        .map(|(j, s)| {
+            let rises = sim.temp(j);
+            if let Some(&Some((a, b))) = pinned.get(j) {
+                return fit_pair(rises, s, a, b).0;
+            }
             let mut best: Option<(TempFit, f64)> = None;
             for a in 0..N_PLACES {
                 // Between two nodes, or on one place alone: a share toward
@@ -402,7 +394,7 @@ fn choose_places(rises: &[[f64; N_NODES]], temps: &[Series]) -> Vec<TempFit> {
 /// Least-squares um/K per node rise for a displacement channel (SVD with a
 /// rank tolerance, [`lsq::fit`]: node rises are strongly correlated, and
 /// the tolerance keeps the solution bounded where they are collinear).
-fn fit_displacement(rises: &[[f64; N_NODES]], s: &Series) -> [f64; N_NODES] {
+fn fit_displacement(rises: &[Rises], s: &Series) -> [f64; N_NODES] {
     let cols: Vec<Vec<f64>> = (0..N_NODES)
         .map(|i| s.fit_rows.iter().map(|&k| rises[k][i]).collect())
         .collect();
@@ -411,7 +403,7 @@ fn fit_displacement(rises: &[[f64; N_NODES]], s: &Series) -> [f64; N_NODES] {
     std::array::from_fn(|i| coef.get(i).copied().unwrap_or(0.0))
 }
 
-fn disp_predict(c: &[f64; N_NODES], r: &[f64; N_NODES]) -> f64 {
+fn disp_predict(c: &[f64; N_NODES], r: &Rises) -> f64 {
     c.iter().zip(r).map(|(a, b)| a * b).sum()
 }
 
@@ -423,53 +415,142 @@ struct Linear {
     temps: Vec<TempFit>,
 }
 
-fn solve_linear(rises: &[[f64; N_NODES]], data: &Measured, places: Option<&[TempFit]>) -> Linear {
+/// One simulation's rises: as the displacements see them, and as each
+/// temperature channel reads them (lagged if a drive lags its sensor).
+struct Sim {
+    rises: Vec<Rises>,
+    lagged: Vec<Option<Vec<Rises>>>,
+}
+
+impl Sim {
+    /// The first `rows` rows of `data`'s run on machine `m` with `d`.
+    fn run(m: &Machine, data: &Measured, rows: usize, d: &Drive) -> Sim {
+        let rises = drive::rises(m, &data.schedule, rows, d);
+        let lagged = (0..data.temps.len())
+            .map(|j| {
+                d.lag_s(j)
+                    .map(|tau| drive::lagged(&rises, &data.schedule.t_s, tau))
+            })
+            .collect();
+        Sim { rises, lagged }
+    }
+
+    /// What temperature channel `j` reads.
+    fn temp(&self, j: usize) -> &[Rises] {
+        self.lagged
+            .get(j)
+            .and_then(Option::as_deref)
+            .unwrap_or(&self.rises)
+    }
+}
+
+fn solve_linear(
+    sim: &Sim,
+    data: &Measured,
+    places: Option<&[TempFit]>,
+    pinned: &[Option<(usize, usize)>],
+) -> Linear {
     let disp = data
         .disp
         .iter()
-        .map(|s| fit_displacement(rises, s))
+        .map(|s| fit_displacement(&sim.rises, s))
         .collect();
     let temps = match places {
-        None => choose_places(rises, &data.temps),
+        None => choose_places(sim, &data.temps, pinned),
         Some(p) => data
             .temps
             .iter()
             .zip(p)
-            .map(|(s, f)| fit_pair(rises, s, f.a, f.b).0)
+            .enumerate()
+            .map(|(j, (s, f))| fit_pair(sim.temp(j), s, f.a, f.b).0)
             .collect(),
     };
     Linear { disp, temps }
 }
 
 /// The weighted residual vector on the fit rows (module docs: the cost).
-fn weighted_residual(rises: &[[f64; N_NODES]], data: &Measured, lin: &Linear) -> Vec<f64> {
+fn weighted_residual(sim: &Sim, data: &Measured, lin: &Linear) -> Vec<f64> {
     let groups = usize::from(!data.disp.is_empty()) + usize::from(!data.temps.is_empty());
     let mut r = Vec::new();
-    let mut push = |s: &Series, group: usize, pred: &dyn Fn(&[f64; N_NODES]) -> f64| {
+    let mut push = |s: &Series, group: usize, rises: &[Rises], pred: &dyn Fn(&Rises) -> f64| {
         let w = 1.0 / (s.scale * ((s.fit_rows.len() * group * groups) as f64).sqrt());
         for &k in &s.fit_rows {
             r.push(w * (s.values[k].unwrap_or(0.0) - pred(&rises[k])));
         }
     };
     for (s, c) in data.disp.iter().zip(&lin.disp) {
-        push(s, data.disp.len(), &|x| disp_predict(c, x));
+        push(s, data.disp.len(), &sim.rises, &|x| disp_predict(c, x));
     }
-    for (s, f) in data.temps.iter().zip(&lin.temps) {
-        push(s, data.temps.len(), &|x| f.predict(x));
+    for (j, (s, f)) in data.temps.iter().zip(&lin.temps).enumerate() {
+        push(s, data.temps.len(), sim.temp(j), &|x| f.predict(x));
     }
     r
 }
 
-/// One evaluation: simulate the fit part, project, weigh.
-fn evaluate(
-    base: &Machine,
-    data: &Measured,
-    theta: &[f64],
-    places: Option<&[TempFit]>,
-) -> (Vec<f64>, Linear) {
-    let rises = node_rises(&scaled(base, theta), &data.schedule, data.n_fit);
-    let lin = solve_linear(&rises, data, places);
-    (weighted_residual(&rises, data, &lin), lin)
+/// The problem a calibration solves: a base machine, a measured run and
+/// the setup; `theta` is the machine's factors, then the effect's
+/// parameters (logs where [`ParamDef::log`]).
+struct Ctx<'a> {
+    base: &'a Machine,
+    data: &'a Measured,
+    setup: &'a Setup<'a>,
+    defs: Vec<ParamDef>,
+}
+
+impl<'a> Ctx<'a> {
+    fn new(base: &'a Machine, data: &'a Measured, setup: &'a Setup<'a>) -> Self {
+        let mut defs = PARAMS.to_vec();
+        defs.extend(setup.effect.map(|e| e.params()).unwrap_or_default());
+        Ctx {
+            base,
+            data,
+            setup,
+            defs,
+        }
+    }
+
+    /// The drive for `theta` (nominal without an effect).
+    fn drive(&self, theta: &[f64]) -> Drive {
+        match self.setup.effect {
+            Some(e) => e.drive(&to_values(&self.defs[N_PARAMS..], &theta[N_PARAMS..])),
+            None => Drive::default(),
+        }
+    }
+
+    /// One evaluation: simulate the fit part, project, weigh.
+    fn evaluate(&self, theta: &[f64], places: Option<&[TempFit]>) -> (Vec<f64>, Linear) {
+        let m = scaled(self.base, theta);
+        let sim = Sim::run(&m, self.data, self.data.n_fit, &self.drive(theta));
+        let lin = solve_linear(&sim, self.data, places, self.setup.pinned);
+        (weighted_residual(&sim, self.data, &lin), lin)
+    }
+
+    fn cost(&self, theta: &[f64]) -> f64 {
+        half_sq(&self.evaluate(theta, None).0)
+    }
+}
+
+/// Values from optimiser coordinates (`exp` of the logs).
+fn to_values(defs: &[ParamDef], theta: &[f64]) -> Vec<f64> {
+    defs.iter()
+        .zip(theta)
+        .map(|(d, x)| if d.log { x.exp() } else { *x })
+        .collect()
+}
+
+/// Optimiser coordinates from values, clamped into the bounds.
+fn to_theta(defs: &[ParamDef], values: &[f64]) -> Vec<f64> {
+    defs.iter()
+        .zip(values)
+        .map(|(d, v)| {
+            let v = v.clamp(d.lo, d.hi);
+            if d.log {
+                v.ln()
+            } else {
+                v
+            }
+        })
+        .collect()
 }
 
 fn half_sq(r: &[f64]) -> f64 {
@@ -498,6 +579,8 @@ pub struct ChannelFit {
     pub calibration: PartFit,
     /// The rest of the run (`None` if it has no rows).
     pub rest: Option<PartFit>,
+    /// The calibrated twin's value on every row of the run.
+    pub pred: Vec<f64>,
 }
 
 fn part_fit(s: &Series, rows: &[usize], pred: &[f64]) -> Option<PartFit> {
@@ -532,6 +615,23 @@ pub struct CalibrateOptions {
     pub progress: bool,
 }
 
+/// What a calibration solves besides the nominal problem (`diagnose
+/// --machine`): where to start, sensor places known from the machine, and
+/// an effect switched on whose parameters are fitted with the factors.
+/// `Setup::default()` is the nominal calibration.
+#[derive(Clone, Copy, Default)]
+pub struct Setup<'a> {
+    /// Start of the machine's factors (`theta`, [`theta_of`] for the base
+    /// as it is); `None`: the best of the 3 x 3 grid.
+    pub start: Option<[f64; N_PARAMS]>,
+    /// Per temperature channel (the measured run's order) a place pair
+    /// (indices into nodes, then ambient, coolant) kept throughout, only
+    /// its share and offset fitted; `None` or past the end: chosen.
+    pub pinned: &'a [Option<(usize, usize)>],
+    /// An effect switched on.
+    pub effect: Option<&'a dyn FittedEffect>,
+}
+
 /// A calibrated machine and how it was reached.
 #[derive(Debug, Clone)]
 pub struct Calibration {
@@ -541,6 +641,8 @@ pub struct Calibration {
     pub theta: [f64; N_PARAMS],
     /// Start chosen from the grid.
     pub start: [f64; N_PARAMS],
+    /// The effect's fitted parameter values (empty without an effect).
+    pub effect: Vec<f64>,
     /// Final cost (half the weighted sum of squares; each channel weighs
     /// its unexplained variance fraction).
     pub cost: f64,
@@ -562,21 +664,51 @@ pub struct Calibration {
     pub elapsed_s: f64,
 }
 
-/// The start: best of heat x capacity factors {1/3, 1, 3}^2 around `base`.
-fn start_grid(base: &Machine, data: &Measured) -> ([f64; N_PARAMS], usize) {
-    let t0 = theta_of(base);
-    let mut best = (t0, f64::INFINITY);
+/// The machine's start: best of heat x capacity factors {1/3, 1, 3}^2
+/// around `base` (the effect at its first start), or the setup's.
+fn start_machine(ctx: &Ctx) -> (Vec<f64>, usize) {
+    let effect0 = ctx
+        .setup
+        .effect
+        .and_then(|e| e.starts().into_iter().next())
+        .map(|v| to_theta(&ctx.defs[N_PARAMS..], &v))
+        .unwrap_or_default();
+    let with = |m: [f64; N_PARAMS]| -> Vec<f64> { m.iter().chain(&effect0).copied().collect() };
+    if let Some(s) = ctx.setup.start {
+        return (with(s), 0);
+    }
+    let t0 = theta_of(ctx.base);
+    let mut best = (with(t0), f64::INFINITY);
     let mut evals = 0;
     for h in [1.0f64 / 3.0, 1.0, 3.0] {
         for c in [1.0f64 / 3.0, 1.0, 3.0] {
             let mut th = t0;
             th[0] = h.ln();
             th[2] = c.ln();
-            let cost = half_sq(&evaluate(base, data, &th, None).0);
+            let cost = ctx.cost(&with(th));
             evals += 1;
             if cost < best.1 {
-                best = (th, cost);
+                best = (with(th), cost);
             }
+        }
+    }
+    (best.0, evals)
+}
+
+/// The start: the machine's, then the effect's best start with it.
+fn start_point(ctx: &Ctx) -> (Vec<f64>, usize) {
+    let (machine, mut evals) = start_machine(ctx);
+    let Some(e) = ctx.setup.effect else {
+        return (machine, evals);
+    };
+    let mut best = (machine.clone(), f64::INFINITY);
+    for v in e.starts() {
+        let mut th = machine[..N_PARAMS].to_vec();
+        th.extend(to_theta(&ctx.defs[N_PARAMS..], &v));
+        let cost = ctx.cost(&th);
+        evals += 1;
+        if cost < best.1 {
+            best = (th, cost);
         }
     }
     (best.0, evals)
@@ -584,64 +716,97 @@ fn start_grid(base: &Machine, data: &Measured) -> ([f64; N_PARAMS], usize) {
 
 /// Calibrates `base` to `data` (module docs: the method).
 pub fn calibrate(base: &Machine, data: &Measured, opts: &CalibrateOptions) -> Result<Calibration> {
-    let started = std::time::Instant::now();
-    let lo: Vec<f64> = PARAMS
-        .iter()
-        .map(|p| if p.log { p.lo.ln() } else { p.lo })
-        .collect();
-    let hi: Vec<f64> = PARAMS
-        .iter()
-        .map(|p| if p.log { p.hi.ln() } else { p.hi })
-        .collect();
-    let (start, mut evaluations) = start_grid(base, data);
-    let mut theta = start;
-    let mut places = evaluate(base, data, &theta, None).1.temps;
+    calibrate_with(base, data, &Setup::default(), opts)
+}
+
+/// Figures of the optimiser over the rounds of place choice.
+struct Rounds {
+    theta: Vec<f64>,
+    places: Vec<TempFit>,
+    iterations: usize,
+    evaluations: usize,
+    rounds: usize,
+    converged: bool,
+    reason: &'static str,
+}
+
+/// Levenberg-Marquardt with the places fixed, then the places re-chosen,
+/// until they settle (at most [`MAX_ROUNDS`]; pinned places never move).
+fn optimise(ctx: &Ctx, theta: Vec<f64>, opts: &CalibrateOptions) -> Result<Rounds> {
+    let bound = |b: fn(&ParamDef) -> f64| -> Vec<f64> {
+        ctx.defs
+            .iter()
+            .map(|p| if p.log { b(p).ln() } else { b(p) })
+            .collect()
+    };
+    let (lo, hi) = (bound(|p| p.lo), bound(|p| p.hi));
+    let mut out = Rounds {
+        places: ctx.evaluate(&theta, None).1.temps,
+        theta,
+        iterations: 0,
+        evaluations: 0,
+        rounds: 0,
+        converged: false,
+        reason: "",
+    };
     let pb = opts
         .progress
         .then(|| crate::fit::arx::progress(MAX_ROUNDS * opts.lm.max_iter, "calibrate"));
-    let (mut iterations, mut rounds, mut settled) = (0, 0, false);
-    let mut last = None;
-    while rounds < MAX_ROUNDS && !settled {
-        rounds += 1;
-        let fixed = places.clone();
+    let mut settled = false;
+    while out.rounds < MAX_ROUNDS && !settled {
+        out.rounds += 1;
+        let fixed = out.places.clone();
         let mut f = |th: &[f64]| -> Result<Vec<f64>> {
-            let r = evaluate(base, data, th, Some(&fixed)).0;
+            let r = ctx.evaluate(th, Some(&fixed)).0;
             if r.iter().all(|v| v.is_finite()) {
                 Ok(r)
             } else {
                 bail!("the twin diverged at theta = {th:?}")
             }
         };
-        let done = iterations;
-        let res = lm::minimize(&mut f, &theta, &lo, &hi, &opts.lm, &mut |it, cost| {
+        let (done, round) = (out.iterations, out.rounds);
+        let res = lm::minimize(&mut f, &out.theta, &lo, &hi, &opts.lm, &mut |it, cost| {
             if let Some(pb) = &pb {
                 pb.set_position((done + it) as u64);
-                pb.set_message(format!("calibrate (round {rounds}, cost {cost:.5})"));
+                pb.set_message(format!("calibrate (round {round}, cost {cost:.5})"));
             }
         })?;
-        iterations += res.iterations;
-        evaluations += res.evaluations;
-        theta.copy_from_slice(&res.x);
-        let again = evaluate(base, data, &theta, None).1.temps;
-        evaluations += 1;
+        out.iterations += res.iterations;
+        out.evaluations += res.evaluations + 1;
+        out.theta = res.x;
+        let again = ctx.evaluate(&out.theta, None).1.temps;
         settled = again
             .iter()
-            .zip(&places)
+            .zip(&out.places)
             .all(|(a, b)| (a.a, a.b) == (b.a, b.b));
-        places = again;
-        last = Some(res);
+        out.places = again;
+        (out.converged, out.reason) = (res.converged && settled, res.reason);
     }
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    let last = last.ok_or_else(|| anyhow!("calibration made no round"))?;
-    finish(base, data, theta, start, &places, started)
+    Ok(out)
+}
+
+/// Calibrates `base` to `data` with `setup` (an effect's parameters are
+/// fitted alongside the factors: [`Calibration::effect`]).
+pub fn calibrate_with(
+    base: &Machine,
+    data: &Measured,
+    setup: &Setup,
+    opts: &CalibrateOptions,
+) -> Result<Calibration> {
+    let started = std::time::Instant::now();
+    let ctx = Ctx::new(base, data, setup);
+    let (start, start_evals) = start_point(&ctx);
+    let r = optimise(&ctx, start.clone(), opts)?;
+    finish(&ctx, &r.theta, &start, &r.places, started)
         .map(|c| Calibration {
-            iterations,
-            evaluations,
-            rounds,
-            converged: last.converged && settled,
-            reason: last.reason,
+            iterations: r.iterations,
+            evaluations: start_evals + r.evaluations,
+            rounds: r.rounds,
+            converged: r.converged,
+            reason: r.reason,
             ..c
         })
         .context("building the calibrated machine")
@@ -649,33 +814,35 @@ pub fn calibrate(base: &Machine, data: &Measured, opts: &CalibrateOptions) -> Re
 
 /// The calibrated machine and the per-channel fit over the whole run.
 fn finish(
-    base: &Machine,
-    data: &Measured,
-    theta: [f64; N_PARAMS],
-    start: [f64; N_PARAMS],
+    ctx: &Ctx,
+    theta: &[f64],
+    start: &[f64],
     places: &[TempFit],
     started: std::time::Instant,
 ) -> Result<Calibration> {
-    let mut machine = scaled(base, &theta);
-    let n = data.schedule.t_s.len();
-    let fit_rises = node_rises(&machine, &data.schedule, data.n_fit);
-    let lin = solve_linear(&fit_rises, data, Some(places));
-    let cost = half_sq(&weighted_residual(&fit_rises, data, &lin));
-    let rises = node_rises(&machine, &data.schedule, n);
+    let data = ctx.data;
+    let mut machine = scaled(ctx.base, theta);
+    let drive = ctx.drive(theta);
+    let fit_sim = Sim::run(&machine, data, data.n_fit, &drive);
+    let lin = solve_linear(&fit_sim, data, Some(places), ctx.setup.pinned);
+    let cost = half_sq(&weighted_residual(&fit_sim, data, &lin));
+    let sim = Sim::run(&machine, data, data.schedule.t_s.len(), &drive);
     let mut channels = Vec::new();
     for (s, c) in data.disp.iter().zip(&lin.disp) {
-        let pred: Vec<f64> = rises.iter().map(|r| disp_predict(c, r)).collect();
-        channels.push(channel_fit(s, "um", &pred));
+        let pred: Vec<f64> = sim.rises.iter().map(|r| disp_predict(c, r)).collect();
+        channels.push(channel_fit(s, "um", pred));
     }
-    for (s, f) in data.temps.iter().zip(&lin.temps) {
-        let pred: Vec<f64> = rises.iter().map(|r| f.predict(r)).collect();
-        channels.push(channel_fit(s, "c", &pred));
+    for (j, (s, f)) in data.temps.iter().zip(&lin.temps).enumerate() {
+        let pred: Vec<f64> = sim.temp(j).iter().map(|r| f.predict(r)).collect();
+        channels.push(channel_fit(s, "c", pred));
     }
     apply_outputs(&mut machine, data, &lin);
+    let machine_theta = |v: &[f64]| std::array::from_fn(|i| v[i]);
     Ok(Calibration {
         machine,
-        theta,
-        start,
+        theta: machine_theta(theta),
+        start: machine_theta(start),
+        effect: to_values(&ctx.defs[N_PARAMS..], &theta[N_PARAMS..]),
         cost,
         iterations: 0,
         evaluations: 0,
@@ -688,7 +855,7 @@ fn finish(
     })
 }
 
-fn channel_fit(s: &Series, unit: &'static str, pred: &[f64]) -> ChannelFit {
+fn channel_fit(s: &Series, unit: &'static str, pred: Vec<f64>) -> ChannelFit {
     let empty = PartFit {
         n: 0,
         rmse: f64::NAN,
@@ -697,8 +864,9 @@ fn channel_fit(s: &Series, unit: &'static str, pred: &[f64]) -> ChannelFit {
     ChannelFit {
         name: s.name.clone(),
         unit,
-        calibration: part_fit(s, &s.fit_rows, pred).unwrap_or(empty),
-        rest: part_fit(s, &s.rest_rows, pred),
+        calibration: part_fit(s, &s.fit_rows, &pred).unwrap_or(empty),
+        rest: part_fit(s, &s.rest_rows, &pred),
+        pred,
     }
 }
 

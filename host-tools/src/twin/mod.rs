@@ -8,9 +8,11 @@
 //! [`expansion`] (temperatures to displacement), [`sensors`], [`profile`]
 //! (speed over time), [`effects`], [`rng`] (seeded noise) and [`sim`] (one
 //! run), [`calibrate`] (grey-box fit of a machine to a measured run) with
-//! its optimiser [`lm`]. Method and numbers: docs/twin.md.
+//! its optimiser [`lm`] and its simulation [`drive`] (which an effect can
+//! drive). Method and numbers: docs/twin.md.
 
 pub mod calibrate;
+pub mod drive;
 pub mod effects;
 pub mod expansion;
 pub mod integrate;

@@ -93,10 +93,7 @@ impl SensorBank {
                         site
                     } else {
                         let (s, prev) = self.lagged[i];
-                        let a = (-dt_s / tau).exp();
-                        // 1 - tau (1 - a) / dt, written to stay accurate for dt << tau.
-                        let ramp = 1.0 + tau / dt_s * (-dt_s / tau).exp_m1();
-                        let s = a * s + (1.0 - a) * prev + (site - prev) * ramp;
+                        let s = lag_step(s, prev, site, dt_s, tau);
                         self.lagged[i] = (s, site);
                         s
                     }
@@ -111,6 +108,16 @@ impl SensorBank {
             out.push(value + self.noise_c * self.rng.normal());
         }
     }
+}
+
+/// One step of the first-order lag `tau ds/dt = T - s` (module docs): the
+/// lagged value `s` and the site temperature `prev` at the step's start, the
+/// site temperature `now` at its end, which is `dt_s` later.
+pub fn lag_step(s: f64, prev: f64, now: f64, dt_s: f64, tau_s: f64) -> f64 {
+    let a = (-dt_s / tau_s).exp();
+    // 1 - tau (1 - a) / dt, written to stay accurate for dt << tau.
+    let ramp = 1.0 + tau_s / dt_s * (-dt_s / tau_s).exp_m1();
+    a * s + (1.0 - a) * prev + (now - prev) * ramp
 }
 
 /// The node a site mostly reflects, for labels.
