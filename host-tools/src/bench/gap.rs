@@ -95,6 +95,10 @@ pub struct Outcome {
     pub deploy_sim_um: Option<f64>,
     /// See `deploy_sim_um`.
     pub deploy_sim_effect_um: Option<f64>,
+    /// Confidence of the true cause's candidate (`None` for `none`).
+    pub true_confidence: Option<f64>,
+    /// The diagnosis's looks (channel, candidates' figures; JSON `looks`).
+    pub looks: Value,
     /// Wall time of the case (both runs and the diagnosis), s.
     pub elapsed_s: f64,
 }
@@ -117,27 +121,29 @@ impl Outcome {
             "best": self.best, "best_ratio_to_none": round(self.best_ratio_to_none),
             "deployment_rmse_um": {"trained_on_sim": self.deploy_sim_um.map(round),
                                     "trained_on_sim_plus_effect": self.deploy_sim_effect_um.map(round)},
+            "true_confidence": self.true_confidence.map(round), "looks": self.looks,
             "correct": self.correct(), "elapsed_s": round(self.elapsed_s),
         })
     }
 }
 
-/// Held-out shrink of the candidate `name` in a diagnosis, %.
-fn shrink_of(v: &Value, name: &str) -> Option<f64> {
+/// Figure `key` of the candidate `name` in a diagnosis.
+fn figure_of(v: &Value, name: &str, key: &str) -> Option<f64> {
     v["effects"]
         .as_array()?
         .iter()
-        .find(|e| e["name"] == name)?["shrink_pct"]
+        .find(|e| e["name"] == name)?[key]
         .as_f64()
+}
+
+/// Held-out shrink of the candidate `name` in a diagnosis, %.
+fn shrink_of(v: &Value, name: &str) -> Option<f64> {
+    figure_of(v, name, "shrink_pct")
 }
 
 /// Held-out rms left by the candidate `name`.
 fn after_of(v: &Value, name: &str) -> Option<f64> {
-    v["effects"]
-        .as_array()?
-        .iter()
-        .find(|e| e["name"] == name)?["rms_after"]
-        .as_f64()
+    figure_of(v, name, "rms_after")
 }
 
 /// Reads the figures the benchmark keeps out of a diagnosis JSON.
@@ -157,6 +163,10 @@ fn outcome_of(case: Case, v: &Value, elapsed_s: f64) -> Outcome {
         true_shrink_pct: (case.effect != "none")
             .then(|| shrink_of(v, &case.effect))
             .flatten(),
+        true_confidence: (case.effect != "none")
+            .then(|| figure_of(v, &case.effect, "confidence"))
+            .flatten(),
+        looks: v["looks"].clone(),
         best_ratio_to_none: best_after / none_after,
         best,
         second: v["second"]["name"].as_str().map(str::to_string),
