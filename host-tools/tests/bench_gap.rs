@@ -7,7 +7,7 @@
 //! this is a held-out check of the rule, not a replay.
 //!
 //! The full benchmark (324 cases, 3 profiles) runs in release:
-//! `thermcomp bench gap --seed 3 --out DIR` (23-31 s). This file takes
+//! `thermcomp bench gap --twin --seed 3 --out DIR` (23-31 s). This file takes
 //! 50-75 s in debug on a shared 2-core box.
 
 mod common;
@@ -38,7 +38,7 @@ fn blind_benchmark_identifies_most_effects_with_few_false_alarms() {
     let wrong: Vec<String> = outs
         .iter()
         .filter(|o| !o.correct())
-        .map(|o| format!("{} -> {}", o.case.effect, o.verdict))
+        .map(|o| format!("{} -> {}", o.case.effect, o.diag.verdict))
         .collect();
     eprintln!(
         "bench_gap: {} cases in {:.1} s, accuracy {:.1} %, false alarms {}/{}, median shrink {:.1} %, wrong: {wrong:?}",
@@ -87,6 +87,7 @@ fn bench_gap_cli_writes_its_files_and_one_json_object() {
     let v = ok_json(&[
         "bench",
         "gap",
+        "--twin",
         "--quick",
         "--profiles",
         "spectrum:12",
@@ -136,10 +137,10 @@ fn bench_gap_cli_writes_its_files_and_one_json_object() {
 
 #[test]
 fn bench_gap_bad_flags_fail_with_one_line() {
-    let e = fails_one_line(&["bench", "gap", "--profiles", "spectrum"]);
+    let e = fails_one_line(&["bench", "gap", "--twin", "--profiles", "spectrum"]);
     assert!(e.contains("NAME:HOURS"), "{e}");
-    let e = fails_one_line(&["bench", "gap", "--effects", "rain"]);
+    let e = fails_one_line(&["bench", "gap", "--twin", "--effects", "rain"]);
     assert!(e.contains("rain"), "{e}");
-    let e = fails_one_line(&["bench", "gap", "--magnitudes", "x"]);
+    let e = fails_one_line(&["bench", "gap", "--twin", "--magnitudes", "x"]);
     assert!(e.contains("--magnitudes"), "{e}");
 }

@@ -3,15 +3,16 @@
 //! `summary.json` and `confusion.svg` (the matrix as a heat map, drawn
 //! by hand like the diagnose report: no font or system library needed).
 
-use super::cases::LABELS;
-use super::gap::{Outcome, Summary};
+use super::cases::{Case, LABELS};
+use super::outcome::Outcome;
+use super::summary::Summary;
 use anyhow::{Context, Result};
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::Path;
 
 /// Writes every file into `dir` (created if missing).
-pub fn write(dir: &Path, outs: &[Outcome], s: &Summary, summary: &Value) -> Result<()> {
+pub fn write(dir: &Path, outs: &[Outcome<Case>], s: &Summary, summary: &Value) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let put = |name: &str, text: String| -> Result<()> {
         let p = dir.join(name);
@@ -25,7 +26,7 @@ pub fn write(dir: &Path, outs: &[Outcome], s: &Summary, summary: &Value) -> Resu
 }
 
 /// A number with one decimal, or empty.
-fn f1(v: Option<f64>) -> String {
+pub fn f1(v: Option<f64>) -> String {
     v.filter(|x| x.is_finite())
         .map_or_else(String::new, |x| format!("{x:.1}"))
 }
@@ -37,12 +38,12 @@ fn f3(v: Option<f64>) -> String {
 }
 
 /// One row per case.
-pub fn cases_csv(outs: &[Outcome]) -> String {
+pub fn cases_csv(outs: &[Outcome<Case>]) -> String {
     let mut s = String::from(
         "id,effect,profile,seed,magnitude,logged,verdict,second,main_channel,shrink_pct,true_shrink_pct,best,best_ratio_to_none,deploy_sim_rmse_um,deploy_sim_effect_rmse_um,correct,elapsed_s\n",
     );
     for o in outs {
-        let c = &o.case;
+        let (c, d) = (&o.case, &o.diag);
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{},{},{},{:.3}",
@@ -52,24 +53,24 @@ pub fn cases_csv(outs: &[Outcome]) -> String {
             c.seed,
             c.magnitude,
             c.logged,
-            o.verdict,
-            o.second.as_deref().unwrap_or(""),
-            o.main_channel,
-            f1(Some(o.verdict_shrink_pct)),
-            f1(o.true_shrink_pct),
-            o.best,
-            o.best_ratio_to_none,
-            f3(o.deploy_sim_um),
-            f3(o.deploy_sim_effect_um),
-            o.correct(),
-            o.elapsed_s
+            d.verdict,
+            d.second.as_deref().unwrap_or(""),
+            d.main_channel,
+            f1(Some(d.verdict_shrink_pct)),
+            f1(d.true_shrink_pct),
+            d.best,
+            d.best_ratio_to_none,
+            f3(d.deploy_sim_um),
+            f3(d.deploy_sim_effect_um),
+            d.correct(),
+            d.elapsed_s
         );
     }
     s
 }
 
 /// The confusion matrix as Markdown rows (true cause x verdict).
-fn matrix_md(s: &Summary) -> String {
+pub fn matrix_md(s: &Summary) -> String {
     let mut m = String::from("| true \\ verdict |");
     for l in LABELS {
         let _ = write!(m, " {l} |");
@@ -95,20 +96,21 @@ fn matrix_md(s: &Summary) -> String {
     m
 }
 
-/// The matrix, the rates, the shrinks per cause and every wrong case.
-pub fn markdown(outs: &[Outcome], s: &Summary) -> String {
-    let mut m = matrix_md(s);
+/// The rates line and the shrinks per cause, as Markdown.
+pub fn rates_md(s: &Summary) -> String {
+    let mut m = String::new();
     let _ = writeln!(
         m,
-        "\nAccuracy {:.1} % of {} cases; effect cases identified {:.1} %; false alarms {} of {} `none` cases ({:.1} %); misses (effect -> none) {}; wrong effect {}; second effect claimed {} times; median held-out shrink of the correctly identified effect cases {:.1} %.\n",
+        "\nAccuracy {:.1} % of {} cases; effect cases identified {:.1} %; false alarms {} of {} `none` cases ({:.1} %); misses (effect -> none) {}; wrong effect {} ({:.1} % of effect cases); second effect claimed {} times; median held-out shrink of the correctly identified effect cases {:.1} %.\n",
         s.accuracy_pct,
-        outs.len(),
+        s.cases,
         s.effect_accuracy_pct,
         s.false_alarms.0,
         s.false_alarms.1,
         s.false_alarm_rate_pct(),
         s.misses,
         s.wrong_effect,
+        s.wrong_effect_rate_pct(),
         s.spurious_seconds,
         s.median_shrink_correct_pct
     );
@@ -122,9 +124,16 @@ pub fn markdown(outs: &[Outcome], s: &Summary) -> String {
             f1(Some(*hi))
         );
     }
+    m
+}
+
+/// The matrix, the rates, the shrinks per cause and every wrong case.
+pub fn markdown(outs: &[Outcome<Case>], s: &Summary) -> String {
+    let mut m = matrix_md(s);
+    m.push_str(&rates_md(s));
     m.push_str("\nWrong cases:\n\n| id | true | profile | magnitude | logged | verdict | second | main channel | best (ratio to none) | shrink of true candidate % |\n|---|---|---|---|---|---|---|---|---|---|\n");
     for o in outs.iter().filter(|o| !o.correct()) {
-        let c = &o.case;
+        let (c, d) = (&o.case, &o.diag);
         let _ = writeln!(
             m,
             "| {} | {} | {} | {} | {} | {} | {} | {} | {} ({:.2}) | {} |",
@@ -133,19 +142,19 @@ pub fn markdown(outs: &[Outcome], s: &Summary) -> String {
             c.profile.label(),
             c.magnitude,
             if c.logged { "yes" } else { "no" },
-            o.verdict,
-            o.second.as_deref().unwrap_or("—"),
-            o.main_channel,
-            o.best,
-            o.best_ratio_to_none,
-            f1(o.true_shrink_pct)
+            d.verdict,
+            d.second.as_deref().unwrap_or("—"),
+            d.main_channel,
+            d.best,
+            d.best_ratio_to_none,
+            f1(d.true_shrink_pct)
         );
     }
     m
 }
 
-/// The short summary printed without `--json`.
-pub fn text(outs: &[Outcome], s: &Summary, wall_s: f64) -> String {
+/// The confusion matrix as a plain-text table.
+pub fn matrix_text(s: &Summary) -> String {
     let mut t = String::new();
     let _ = write!(t, "{:>12}", "true\\verdict");
     for l in LABELS {
@@ -159,6 +168,12 @@ pub fn text(outs: &[Outcome], s: &Summary, wall_s: f64) -> String {
         }
         t.push('\n');
     }
+    t
+}
+
+/// The short summary printed without `--json`.
+pub fn text(outs: &[Outcome<Case>], s: &Summary, wall_s: f64) -> String {
+    let mut t = matrix_text(s);
     let _ = writeln!(
         t,
         "\n{} cases in {:.1} s: accuracy {:.1} %, false alarms {}/{}, misses {}, wrong effect {}, median shrink (correct effect cases) {:.1} %",
@@ -176,6 +191,11 @@ pub fn text(outs: &[Outcome], s: &Summary, wall_s: f64) -> String {
 
 /// The confusion matrix as an SVG heat map: cell shade = share of the row.
 pub fn svg(s: &Summary) -> String {
+    svg_titled(s, "verdict (columns) for each true cause (rows)")
+}
+
+/// [`svg`] with its own title.
+pub fn svg_titled(s: &Summary, title: &str) -> String {
     let n = LABELS.len() as f64;
     let (cell, left, top) = (80.0, 110.0, 90.0);
     let (w, h) = (left + n * cell + 20.0, top + n * cell + 40.0);
@@ -184,7 +204,7 @@ pub fn svg(s: &Summary) -> String {
     );
     let _ = write!(
         g,
-        r##"<text x="{}" y="18" text-anchor="middle" font-size="14">verdict (columns) for each true cause (rows)</text>"##,
+        r##"<text x="{}" y="18" text-anchor="middle" font-size="14">{title}</text>"##,
         left + n * cell / 2.0
     );
     for (j, l) in LABELS.iter().enumerate() {

@@ -1,0 +1,201 @@
+//! What the diagnosis said about one benchmark case, whatever made the
+//! case (the twin-derived cases of [`super::cases`] or the plant zoo of
+//! [`super::zoo`]), and running many cases in parallel.
+
+use super::cases::Case;
+use crate::diagnose::candidates::round;
+use anyhow::{Context, Result};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The figures the benchmark keeps of one diagnosis.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    /// The true cause (a name of [`super::cases::LABELS`]).
+    pub truth: String,
+    /// The verdict.
+    pub verdict: String,
+    /// The second effect, if one was claimed.
+    pub second: Option<String>,
+    /// The channel the candidates were scored on.
+    pub main_channel: String,
+    /// Held-out shrink of the verdict's candidate (of the `none` baseline
+    /// when the verdict is `none`), %.
+    pub verdict_shrink_pct: f64,
+    /// Held-out shrink of the true cause's candidate, % (`None` for `none`).
+    pub true_shrink_pct: Option<f64>,
+    /// Best candidate's held-out rms over the baseline's (rule 3 wants <= 0.8).
+    pub best_ratio_to_none: f64,
+    /// Name of the best candidate on the held-out rms.
+    pub best: String,
+    /// Deployment view: real held-out rmse of a model trained on the sim
+    /// and on the sim plus the verdict's effect, um (if computed).
+    pub deploy_sim_um: Option<f64>,
+    /// See `deploy_sim_um`.
+    pub deploy_sim_effect_um: Option<f64>,
+    /// Confidence of the true cause's candidate (`None` for `none`).
+    pub true_confidence: Option<f64>,
+    /// The diagnosis's looks (channel, candidates' figures; JSON `looks`).
+    pub looks: Value,
+    /// Wall time of the case (both runs and the diagnosis), s.
+    pub elapsed_s: f64,
+}
+
+/// A case and what the diagnosis said about it.
+#[derive(Debug, Clone)]
+pub struct Outcome<C> {
+    /// The case.
+    pub case: C,
+    /// The diagnosis.
+    pub diag: Diagnosis,
+}
+
+/// A field of the candidate `name` in a diagnosis.
+fn effect_field(v: &Value, name: &str, field: &str) -> Option<f64> {
+    v["effects"]
+        .as_array()?
+        .iter()
+        .find(|e| e["name"] == name)?[field]
+        .as_f64()
+}
+
+impl Diagnosis {
+    /// Reads the figures out of a diagnosis JSON for a case of cause `truth`.
+    pub fn of_json(truth: &str, v: &Value, elapsed_s: f64) -> Diagnosis {
+        let verdict = v["verdict"].as_str().unwrap_or("none").to_string();
+        let best = v["effects"]
+            .as_array()
+            .and_then(|a| a.iter().find(|e| e["name"] != "none"))
+            .and_then(|e| e["name"].as_str())
+            .unwrap_or("none")
+            .to_string();
+        let none_after = effect_field(v, "none", "rms_after").unwrap_or(f64::NAN);
+        let best_after = effect_field(v, &best, "rms_after").unwrap_or(f64::NAN);
+        let dep = &v["deployment"];
+        Diagnosis {
+            truth: truth.to_string(),
+            verdict_shrink_pct: effect_field(v, &verdict, "shrink_pct").unwrap_or(f64::NAN),
+            true_shrink_pct: (truth != "none")
+                .then(|| effect_field(v, truth, "shrink_pct"))
+                .flatten(),
+            true_confidence: (truth != "none")
+                .then(|| effect_field(v, truth, "confidence"))
+                .flatten(),
+            looks: v["looks"].clone(),
+            best_ratio_to_none: best_after / none_after,
+            best,
+            second: v["second"]["name"].as_str().map(str::to_string),
+            main_channel: v["main_channel"].as_str().unwrap_or("?").to_string(),
+            deploy_sim_um: dep["trained_on_sim"]["rmse_um"].as_f64(),
+            deploy_sim_effect_um: dep["trained_on_sim_plus_effect"]["rmse_um"].as_f64(),
+            verdict,
+            elapsed_s,
+        }
+    }
+
+    /// Whether the verdict names the true cause.
+    pub fn correct(&self) -> bool {
+        self.verdict == self.truth
+    }
+
+    /// The diagnosis' figures as JSON fields.
+    pub fn to_json(&self) -> Value {
+        json!({
+            "verdict": self.verdict, "second": self.second, "main_channel": self.main_channel,
+            "shrink_pct": round(self.verdict_shrink_pct),
+            "true_shrink_pct": self.true_shrink_pct.map(round),
+            "best": self.best, "best_ratio_to_none": round(self.best_ratio_to_none),
+            "deployment_rmse_um": {"trained_on_sim": self.deploy_sim_um.map(round),
+                                    "trained_on_sim_plus_effect": self.deploy_sim_effect_um.map(round)},
+            "true_confidence": self.true_confidence.map(round), "looks": self.looks,
+            "correct": self.correct(), "elapsed_s": round(self.elapsed_s),
+        })
+    }
+}
+
+impl<C> Outcome<C> {
+    /// Whether the verdict names the true cause.
+    pub fn correct(&self) -> bool {
+        self.diag.correct()
+    }
+}
+
+impl Outcome<Case> {
+    /// The case and its outcome as one JSON object.
+    pub fn to_json(&self) -> Value {
+        let c = &self.case;
+        let mut v = json!({
+            "id": c.id, "effect": c.effect, "profile": c.profile.label(), "seed": c.seed,
+            "magnitude": c.magnitude, "logged": c.logged,
+        });
+        merge(&mut v, self.diag.to_json());
+        v
+    }
+}
+
+/// Adds the fields of object `b` to object `a`.
+pub fn merge(a: &mut Value, b: Value) {
+    if let (Some(a), Value::Object(b)) = (a.as_object_mut(), b) {
+        a.extend(b);
+    }
+}
+
+/// Writes a case's runs into `dir` with `write`, diagnoses them blind for
+/// a case of cause `truth`, and removes `dir` afterwards unless `keep`.
+pub fn diagnose_case<C>(
+    case: C,
+    truth: &str,
+    dir: &Path,
+    keep: bool,
+    write: impl FnOnce(&C, &Path) -> Result<(PathBuf, PathBuf)>,
+) -> Result<Outcome<C>> {
+    let started = Instant::now();
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let (sim, real) = write(&case, dir)?;
+    let v = crate::diagnose::diagnose_files(&sim, &real, None, None)
+        .with_context(|| format!("{}: diagnose", dir.display()))?;
+    if !keep {
+        // Best effort: a leftover temporary file is not worth failing for.
+        let _ = std::fs::remove_dir_all(dir);
+    }
+    let diag = Diagnosis::of_json(truth, &v, started.elapsed().as_secs_f64());
+    Ok(Outcome { case, diag })
+}
+
+/// Runs `f` on every case in parallel (rayon) with a progress bar on
+/// stderr; results in case order.
+pub fn run_parallel<C: Send, R: Send>(
+    cases: Vec<C>,
+    what: &str,
+    f: impl Fn(C) -> Result<R> + Sync + Send,
+) -> Result<Vec<R>> {
+    let pb = crate::fit::arx::progress(cases.len(), what);
+    let out: Result<Vec<R>> = cases
+        .into_par_iter()
+        .map(|c| {
+            let r = f(c);
+            pb.inc(1);
+            r
+        })
+        .collect();
+    pb.finish_and_clear();
+    out
+}
+
+/// A fresh scratch folder for the run files: OUT/runs, or one under the
+/// system's temporary directory named by the process id and time.
+pub fn scratch_dir(out: Option<&Path>) -> Result<PathBuf> {
+    let dir = match out {
+        Some(out) => out.join("runs"),
+        None => {
+            let nanos = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.subsec_nanos());
+            std::env::temp_dir().join(format!("thermcomp-bench-{}-{nanos}", std::process::id()))
+        }
+    };
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    Ok(dir)
+}

@@ -1,0 +1,490 @@
+//! The plants of the zoo. Each is a different machine: node count and
+//! topology, heat laws (speed exponents 1 to 2, a preloaded bearing, gear
+//! churning, belts, one or two motors, a motor outside the network), where
+//! the sensors sit and how fast they follow, which displacements it has,
+//! its coolant circuit and its noise.
+//!
+//! | id | machine | nodes |
+//! |---|---|---|
+//! | a | vertical-spindle column with built-in motor | 5 |
+//! | b | horizontal machining centre, separate motor, front/rear bearings, jacket | 8 |
+//! | c | compact lathe headstock, gearbox, motor outside | 3 |
+//! | d | gantry with a spindle motor and a feed motor | 6 |
+//! | e | grinding wheelhead, hydrodynamic bearings, belt drive | 4 |
+//!
+//! Plant `d` is the default held-out plant ([`DEFAULT_HELDOUT`]).
+
+use super::boundary::{AmbientSwing, ChillerSpec};
+use super::laws::{Friction, HeatLaws, Motor};
+use super::network::{Link, Network, Node, Site};
+use super::plant::{Axis, EffectSizes, Plant, PlantNoise};
+use super::sensors::{ChannelNoise, Sensor};
+use anyhow::{bail, Result};
+
+/// Ids of every plant.
+pub const IDS: [&str; 5] = ["a", "b", "c", "d", "e"];
+/// The plant kept out of development and tuning.
+pub const DEFAULT_HELDOUT: &str = "d";
+
+/// The plant `id`.
+pub fn plant(id: &str) -> Result<Plant> {
+    let p = match id {
+        "a" => vertical_column(),
+        "b" => horizontal_centre(),
+        "c" => lathe_headstock(),
+        "d" => gantry(),
+        "e" => grinder(),
+        other => bail!("unknown plant \"{other}\" (one of {})", IDS.join(", ")),
+    };
+    p.check()?;
+    Ok(p)
+}
+
+fn node(
+    name: &'static str,
+    c_j_per_k: f64,
+    g_ambient_w_per_k: f64,
+    g_coolant_w_per_k: f64,
+) -> Node {
+    Node {
+        name,
+        c_j_per_k,
+        g_ambient_w_per_k,
+        g_coolant_w_per_k,
+    }
+}
+
+fn links(l: &[(usize, usize, f64)]) -> Vec<Link> {
+    l.iter()
+        .map(|&(a, b, g_w_per_k)| Link { a, b, g_w_per_k })
+        .collect()
+}
+
+fn friction(node: usize, w_at_ref: f64, exponent: f64) -> Friction {
+    Friction {
+        node,
+        w_at_ref,
+        exponent,
+        preload_per_k: 0.0,
+        outer: None,
+    }
+}
+
+/// A motor: node, share, idle, iron at ref, iron exponent, low-speed loss, knee, load loss.
+#[allow(clippy::too_many_arguments)]
+fn motor(
+    node: usize,
+    share: f64,
+    idle_w: f64,
+    iron_w_at_ref: f64,
+    iron_exponent: f64,
+    low_speed_w: f64,
+    knee_rpm: f64,
+    load_w_per_kw: f64,
+) -> Motor {
+    Motor {
+        node,
+        share,
+        idle_w,
+        iron_w_at_ref,
+        iron_exponent,
+        low_speed_w,
+        knee_rpm,
+        load_w_per_kw,
+    }
+}
+
+/// A workshop's air: day swing `amp` K, warmest at 15:00, the run starting
+/// at 06:00, drift `drift` K/h, weather 0.3 K over ~3 h.
+fn workshop(amp: f64, drift: f64) -> AmbientSwing {
+    AmbientSwing {
+        day_amplitude_c: amp,
+        warmest_clock_h: 15.0,
+        start_clock_h: 6.0,
+        drift_c_per_h: drift,
+        weather_c: 0.3,
+        weather_tau_s: 3.0 * 3600.0,
+    }
+}
+
+fn chiller(
+    setpoint_c: f64,
+    band_c: f64,
+    tank_j_per_k: f64,
+    capacity_w: f64,
+    base_load_w: f64,
+) -> ChillerSpec {
+    ChillerSpec {
+        setpoint_c,
+        band_c,
+        tank_j_per_k,
+        capacity_w,
+        base_load_w,
+    }
+}
+
+/// PT100-class sensors and probes: white noise, a drift over ~8 h (K) and
+/// ~6 h (um).
+fn noise(temp_c: f64, disp_um: f64) -> PlantNoise {
+    PlantNoise {
+        temp: ChannelNoise {
+            white: temp_c,
+            drift: 1.5 * temp_c,
+            drift_tau_s: 8.0 * 3600.0,
+        },
+        disp: ChannelNoise {
+            white: disp_um,
+            drift: 2.0 * disp_um,
+            drift_tau_s: 6.0 * 3600.0,
+        },
+        power_kw: 0.03,
+        boundary_c: 0.02,
+    }
+}
+
+fn vertical_column() -> Plant {
+    Plant {
+        id: "a",
+        name: "vertical-spindle column, built-in motor",
+        max_rpm: 12_000.0,
+        cut_max_kw: 6.0,
+        air_kw: [0.4, 0.9],
+        ambient_c: 21.0,
+        coolant_c: 20.0,
+        net: Network {
+            nodes: vec![
+                node("spindle", 6000.0, 2.0, 8.0),
+                node("motor", 10_000.0, 0.5, 70.0),
+                node("headstock", 150_000.0, 12.0, 0.0),
+                node("column", 900_000.0, 45.0, 0.0),
+                node("base", 2.5e6, 60.0, 0.0),
+            ],
+            links: links(&[
+                (0, 1, 12.0),
+                (0, 2, 30.0),
+                (1, 2, 18.0),
+                (2, 3, 40.0),
+                (3, 4, 80.0),
+            ]),
+        },
+        laws: HeatLaws {
+            ref_rpm: 10_000.0,
+            friction: vec![friction(0, 320.0, 1.3)],
+            motors: vec![motor(1, 1.0, 120.0, 450.0, 1.6, 150.0, 3000.0, 60.0)],
+            cutting: vec![(0, 0.02), (4, 0.03)],
+        },
+        sensors: vec![
+            Sensor::on(0, 30.0),
+            Sensor::on(1, 20.0),
+            Sensor::between(Site::Node(2), Site::Node(3), 0.3, 90.0),
+            Sensor::on(3, 120.0),
+            Sensor::on(4, 150.0),
+            Sensor::air(60.0),
+        ],
+        axes: vec![
+            Axis {
+                name: "dy_um",
+                um_per_k: vec![0.0, 0.0, 1.8, -1.0, 0.0],
+            },
+            Axis {
+                name: "dz_um",
+                um_per_k: vec![-1.4, 0.0, -2.5, 8.5, -3.0],
+            },
+        ],
+        noise: noise(0.015, 0.15),
+        effects: EffectSizes {
+            ambient: workshop(1.5, 0.03),
+            chiller: chiller(20.0, 1.0, 500_000.0, 1800.0, 200.0),
+            cut_extra: vec![(0, 0.03), (3, 0.04)],
+            motor_node: 1,
+            motor_extra_w: 300.0,
+            motor_extra_speed: 0.2,
+            lag_sensors: vec![0, 2, 3],
+            lag_tau_s: 900.0,
+            lag_air_share: 0.05,
+        },
+    }
+}
+
+fn horizontal_centre() -> Plant {
+    let mut front = friction(0, 260.0, 1.7);
+    front.preload_per_k = 0.03;
+    front.outer = Some(4);
+    Plant {
+        id: "b",
+        name: "horizontal machining centre, separate motor",
+        max_rpm: 15_000.0,
+        cut_max_kw: 8.0,
+        air_kw: [0.6, 1.2],
+        ambient_c: 20.5,
+        coolant_c: 19.5,
+        net: Network {
+            nodes: vec![
+                node("front_bearing", 1800.0, 0.4, 0.0),
+                node("rear_bearing", 1200.0, 0.8, 0.0),
+                node("shaft", 7000.0, 2.5, 0.0),
+                node("motor", 14_000.0, 25.0, 0.0),
+                node("housing", 35_000.0, 4.0, 0.0),
+                node("jacket", 9000.0, 0.0, 500.0),
+                node("column", 1.2e6, 55.0, 0.0),
+                node("bed", 3.0e6, 70.0, 0.0),
+            ],
+            links: links(&[
+                (0, 2, 14.0),
+                (0, 4, 28.0),
+                (0, 5, 18.0),
+                (1, 2, 9.0),
+                (1, 4, 18.0),
+                (2, 3, 4.0),
+                (3, 4, 6.0),
+                (4, 5, 40.0),
+                (4, 6, 30.0),
+                (6, 7, 90.0),
+                (2, 4, 2.0),
+            ]),
+        },
+        laws: HeatLaws {
+            ref_rpm: 12_000.0,
+            friction: vec![front, friction(1, 110.0, 1.7)],
+            motors: vec![motor(3, 0.5, 200.0, 600.0, 1.4, 250.0, 3750.0, 70.0)],
+            cutting: vec![(2, 0.025), (7, 0.04)],
+        },
+        sensors: vec![
+            Sensor::on(0, 40.0),
+            Sensor::on(1, 40.0),
+            Sensor::on(3, 20.0),
+            Sensor::between(Site::Node(4), Site::Node(6), 0.5, 100.0),
+            Sensor::on(5, 15.0),
+            Sensor::on(6, 150.0),
+            Sensor::on(7, 200.0),
+            Sensor::air(60.0),
+        ],
+        axes: vec![
+            Axis {
+                name: "dx_um",
+                um_per_k: vec![0.8, -0.8, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0],
+            },
+            Axis {
+                name: "dy_um",
+                um_per_k: vec![0.0, 0.0, 0.0, 0.0, 1.5, 0.0, 10.0, -2.0],
+            },
+            Axis {
+                name: "dz_um",
+                um_per_k: vec![0.0, 0.0, -1.4, 0.0, -3.5, 0.0, -1.0, 0.0],
+            },
+        ],
+        noise: noise(0.02, 0.2),
+        effects: EffectSizes {
+            ambient: workshop(1.2, 0.05),
+            chiller: chiller(19.5, 1.0, 800_000.0, 2500.0, 300.0),
+            cut_extra: vec![(2, 0.02), (6, 0.03)],
+            motor_node: 3,
+            motor_extra_w: 350.0,
+            motor_extra_speed: 0.2,
+            lag_sensors: vec![0, 1, 2, 3, 5],
+            lag_tau_s: 1200.0,
+            lag_air_share: 0.05,
+        },
+    }
+}
+
+fn lathe_headstock() -> Plant {
+    Plant {
+        id: "c",
+        name: "compact lathe headstock, gearbox, motor outside",
+        max_rpm: 4500.0,
+        cut_max_kw: 6.0,
+        air_kw: [0.5, 0.8],
+        ambient_c: 22.0,
+        coolant_c: 21.0,
+        net: Network {
+            nodes: vec![
+                node("spindle", 25_000.0, 6.0, 0.0),
+                node("headstock", 120_000.0, 20.0, 40.0),
+                node("bed", 800_000.0, 35.0, 0.0),
+            ],
+            links: links(&[(0, 1, 45.0), (1, 2, 30.0)]),
+        },
+        laws: HeatLaws {
+            ref_rpm: 3000.0,
+            friction: vec![friction(0, 200.0, 1.0), friction(1, 120.0, 2.0)],
+            motors: vec![motor(1, 0.3, 150.0, 300.0, 1.5, 300.0, 1350.0, 80.0)],
+            cutting: vec![(0, 0.03), (2, 0.03)],
+        },
+        sensors: vec![
+            Sensor::between(Site::Node(0), Site::Node(1), 0.2, 60.0),
+            Sensor::on(1, 120.0),
+            Sensor::air(60.0),
+        ],
+        axes: vec![
+            Axis {
+                name: "dx_um",
+                um_per_k: vec![0.0, 2.8, -0.6],
+            },
+            Axis {
+                name: "dz_um",
+                um_per_k: vec![2.2, 1.0, 0.0],
+            },
+        ],
+        noise: noise(0.02, 0.2),
+        effects: EffectSizes {
+            ambient: workshop(2.0, 0.04),
+            chiller: chiller(21.0, 0.8, 600_000.0, 1500.0, 150.0),
+            cut_extra: vec![(0, 0.03), (2, 0.03)],
+            motor_node: 1,
+            motor_extra_w: 150.0,
+            motor_extra_speed: 0.25,
+            lag_sensors: vec![0, 1],
+            lag_tau_s: 900.0,
+            lag_air_share: 0.05,
+        },
+    }
+}
+
+fn gantry() -> Plant {
+    Plant {
+        id: "d",
+        name: "gantry, spindle motor and feed motor",
+        max_rpm: 24_000.0,
+        cut_max_kw: 4.0,
+        air_kw: [0.3, 1.0],
+        ambient_c: 20.0,
+        coolant_c: 20.0,
+        net: Network {
+            nodes: vec![
+                node("spindle", 5000.0, 3.0, 6.0),
+                node("spindle_motor", 8000.0, 0.5, 60.0),
+                node("ram", 200_000.0, 14.0, 10.0),
+                node("crossrail", 1.5e6, 40.0, 0.0),
+                node("feed_motor", 6000.0, 8.0, 0.0),
+                node("portal", 4.0e6, 90.0, 0.0),
+            ],
+            links: links(&[
+                (0, 1, 10.0),
+                (0, 2, 22.0),
+                (1, 2, 15.0),
+                (2, 3, 25.0),
+                (4, 3, 8.0),
+                (3, 5, 60.0),
+            ]),
+        },
+        laws: HeatLaws {
+            ref_rpm: 18_000.0,
+            friction: vec![friction(0, 280.0, 1.5)],
+            motors: vec![
+                motor(1, 1.0, 100.0, 500.0, 1.7, 200.0, 4800.0, 50.0),
+                motor(4, 1.0, 60.0, 0.0, 1.0, 0.0, 1.0, 40.0),
+            ],
+            cutting: vec![(0, 0.02), (5, 0.03)],
+        },
+        sensors: vec![
+            Sensor::on(0, 30.0),
+            Sensor::on(1, 20.0),
+            Sensor::between(Site::Node(2), Site::Node(3), 0.3, 120.0),
+            Sensor::on(3, 150.0),
+            Sensor::on(4, 40.0),
+            Sensor::on(5, 200.0),
+            Sensor::air(60.0),
+        ],
+        axes: vec![
+            Axis {
+                name: "dx_um",
+                um_per_k: vec![0.0, 0.0, 0.0, 0.0, 1.2, 0.0],
+            },
+            Axis {
+                name: "dy_um",
+                um_per_k: vec![0.0, 0.0, 0.0, 4.0, 0.0, -1.0],
+            },
+            Axis {
+                name: "dz_um",
+                um_per_k: vec![-1.6, 0.0, -11.0, 2.0, 0.0, 0.0],
+            },
+        ],
+        noise: noise(0.015, 0.2),
+        effects: EffectSizes {
+            ambient: workshop(1.5, 0.04),
+            chiller: chiller(20.0, 1.0, 500_000.0, 2000.0, 200.0),
+            cut_extra: vec![(0, 0.02), (2, 0.03)],
+            motor_node: 1,
+            motor_extra_w: 250.0,
+            motor_extra_speed: 0.15,
+            lag_sensors: vec![0, 2, 3, 4],
+            lag_tau_s: 1200.0,
+            lag_air_share: 0.05,
+        },
+    }
+}
+
+fn grinder() -> Plant {
+    Plant {
+        id: "e",
+        name: "grinding wheelhead, hydrodynamic bearings, belt drive",
+        max_rpm: 6000.0,
+        cut_max_kw: 5.0,
+        air_kw: [0.8, 1.5],
+        ambient_c: 21.0,
+        coolant_c: 20.0,
+        net: Network {
+            nodes: vec![
+                node("spindle", 12_000.0, 2.0, 40.0),
+                node("motor", 15_000.0, 30.0, 0.0),
+                node("wheelhead", 250_000.0, 15.0, 0.0),
+                node("base", 2.0e6, 60.0, 15.0),
+            ],
+            links: links(&[(0, 2, 35.0), (1, 2, 10.0), (2, 3, 45.0)]),
+        },
+        laws: HeatLaws {
+            ref_rpm: 5000.0,
+            friction: vec![friction(0, 500.0, 2.0), friction(1, 100.0, 1.0)],
+            motors: vec![motor(1, 0.8, 150.0, 350.0, 1.3, 200.0, 1800.0, 60.0)],
+            cutting: vec![(0, 0.01), (3, 0.06)],
+        },
+        sensors: vec![
+            Sensor::between(Site::Node(0), Site::Coolant, 0.4, 15.0),
+            Sensor::on(1, 30.0),
+            Sensor::on(2, 90.0),
+            Sensor::on(3, 180.0),
+            Sensor::air(60.0),
+        ],
+        axes: vec![
+            Axis {
+                name: "dx_um",
+                um_per_k: vec![0.0, 0.0, -5.5, -6.0],
+            },
+            Axis {
+                name: "dz_um",
+                um_per_k: vec![1.8, 0.0, 1.2, 0.0],
+            },
+        ],
+        noise: noise(0.02, 0.25),
+        effects: EffectSizes {
+            ambient: workshop(1.5, 0.03),
+            chiller: chiller(20.0, 1.0, 600_000.0, 2500.0, 250.0),
+            cut_extra: vec![(0, 0.01), (3, 0.05)],
+            motor_node: 1,
+            motor_extra_w: 250.0,
+            motor_extra_speed: 0.25,
+            lag_sensors: vec![0, 1, 2, 3],
+            lag_tau_s: 900.0,
+            lag_air_share: 0.05,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_plant_is_valid_and_they_differ_in_structure() {
+        let plants: Vec<Plant> = IDS.iter().map(|id| plant(id).unwrap()).collect();
+        let sizes: Vec<usize> = plants.iter().map(|p| p.net.len()).collect();
+        assert_eq!(sizes, [5, 8, 3, 6, 4]);
+        let exps: Vec<f64> = plants
+            .iter()
+            .flat_map(|p| p.laws.friction.iter().map(|f| f.exponent))
+            .collect();
+        assert!(exps.contains(&1.0) && exps.contains(&2.0), "{exps:?}");
+        assert!(plant("z").is_err());
+    }
+}
