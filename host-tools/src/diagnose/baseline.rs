@@ -44,8 +44,10 @@ pub const PRIOR_REL: f64 = 0.1;
 /// Strength of the prior: a mismatch coefficient one prior size away from
 /// 0 costs as much as this share of the residual's fit-part energy (so a
 /// 30 % gain error must explain 9 times that). Chosen on the development
-/// benchmark (docs/diagnose.md, "Thresholds").
-pub const PRIOR_STRENGTH: f64 = 0.1;
+/// benchmarks (docs/diagnose.md, "Thresholds"): 0.03 / 0.1 / 0.3 / 1 gave
+/// 197 (1 false alarm) / 194 / 197 / 191 (1) of 240 zoo cases and 215 /
+/// 212 / 212 / 211 of 216 twin cases.
+pub const PRIOR_STRENGTH: f64 = 0.3;
 
 /// The baseline's regressors on one channel.
 #[derive(Debug, Clone)]
@@ -67,22 +69,14 @@ impl Baseline {
         let part = &y[rows];
         let m = part.iter().sum::<f64>() / part.len().max(1) as f64;
         let energy: f64 = part.iter().map(|v| (v - m).powi(2)).sum();
-        let strength = dev_strength();
         self.prior_sd
             .iter()
             .map(|sd| match sd {
-                Some(sd) if *sd > 0.0 => strength * energy / (sd * sd),
+                Some(sd) if *sd > 0.0 => PRIOR_STRENGTH * energy / (sd * sd),
                 _ => 0.0,
             })
             .collect()
     }
-}
-
-fn dev_strength() -> f64 {
-    std::env::var("TC_DEV_RHO")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(PRIOR_STRENGTH)
 }
 
 /// Rms of `x` about its mean.
@@ -121,6 +115,48 @@ pub fn channel_tau_s(t_s: &[f64], sim: &[f64], shapes: &[Vec<f64>; 2]) -> f64 {
     best.1
 }
 
+/// Knee of the low-speed loss shape in the baseline, share of the top
+/// speed (the middle of the motor-loss candidate's knees).
+const BASE_KNEE_SHARE: f64 = 0.35;
+
+/// The heat sources the twin may model besides speed: power beyond air
+/// cutting (if logged) and a low-speed motor loss, each as its first-order
+/// response at the channel's time constant, with its name.
+fn load_shapes(al: &Aligned, tau_c: f64, unit: &str) -> Vec<(Vec<f64>, String)> {
+    let t = &al.t_s;
+    let mut out = Vec::new();
+    if let Some(pw) = al.power_kw.as_deref() {
+        let cut = super::regime::cutting_excess_kw(&al.speed_rpm, pw);
+        out.push((
+            lsq::lowpass(t, &cut, tau_c, 0.0),
+            format!("cut_gain_{unit}_per_kw"),
+        ));
+    }
+    let top = al.speed_rpm.iter().fold(0.0f64, |a, &n| a.max(n.abs()));
+    let w = super::variants::low_speed_weight(al, BASE_KNEE_SHARE * top);
+    out.push((
+        lsq::lowpass(t, &w, tau_c, 0.0),
+        format!("low_speed_gain_{unit}"),
+    ));
+    out
+}
+
+/// Prior sizes of the load shapes' gains: [`PRIOR_REL`] times the twin's
+/// own gain on each (the sim regressed on the speed and load shapes over
+/// the whole run). A twin without cutting heat or low-speed losses has
+/// gains near 0 there, so its baseline cannot take them up; one that models
+/// them may be 10 % off.
+fn load_priors(sim: &[f64], speed: &[Vec<f64>; 2], loads: &[(Vec<f64>, String)]) -> Vec<f64> {
+    let n = sim.len();
+    let mut cols = vec![vec![1.0; n], speed[0].clone(), speed[1].clone()];
+    cols.extend(loads.iter().map(|l| l.0.clone()));
+    let coef = lsq::fit(&cols, sim, n).map_or_else(|| vec![0.0; cols.len()], |f| f.coef);
+    coef[3..]
+        .iter()
+        .map(|a| (PRIOR_REL * a.abs()).max(1e-12))
+        .collect()
+}
+
 /// The mismatch baseline of channel `ch` (see the module docs).
 pub fn mismatch_baseline(al: &Aligned, ch: &Channel) -> Baseline {
     let t = &al.t_s;
@@ -130,35 +166,43 @@ pub fn mismatch_baseline(al: &Aligned, ch: &Channel) -> Baseline {
     let tau_c = channel_tau_s(t, &ch.sim, &shapes);
     let lagged = lsq::lowpass(t, &ch.sim, tau_c, ch.sim[0]);
     let tc_error: Vec<f64> = lagged.iter().zip(&ch.sim).map(|(f, s)| f - s).collect();
-    let [f1, f2] = shapes.map(|q| lsq::lowpass(t, &q, tau_c, 0.0));
+    let speed = shapes.map(|q| lsq::lowpass(t, &q, tau_c, 0.0));
+    let loads = load_shapes(al, tau_c, unit);
     let swing = spread(&ch.sim);
     let span_h = ((t[t.len() - 1] - t0) / 3600.0).max(1e-9);
     let per_shape = |f: &[f64]| (PRIOR_REL * swing / spread(f).max(1e-12)).max(1e-12);
+    let mut prior_sd = vec![
+        None,
+        Some((PRIOR_REL * swing / span_h).max(1e-12)),
+        Some(PRIOR_REL),
+        Some(PRIOR_REL),
+        Some(per_shape(&speed[0])),
+        Some(per_shape(&speed[1])),
+    ];
+    prior_sd.extend(load_priors(&ch.sim, &speed, &loads).into_iter().map(Some));
+    let mut names = vec![
+        "offset".into(),
+        format!("drift_{unit}_per_h"),
+        "twin_gain".into(),
+        "twin_tau_error".into(),
+        format!("speed_gain_{unit}"),
+        format!("speed2_gain_{unit}"),
+    ];
+    names.extend(loads.iter().map(|l| l.1.clone()));
+    let [f1, f2] = speed;
+    let mut cols = vec![
+        vec![1.0; t.len()],
+        t.iter().map(|t| (t - t0) / 3600.0).collect(),
+        ch.sim.clone(),
+        tc_error,
+        f1,
+        f2,
+    ];
+    cols.extend(loads.into_iter().map(|l| l.0));
     Baseline {
-        prior_sd: vec![
-            None,
-            Some((PRIOR_REL * swing / span_h).max(1e-12)),
-            Some(PRIOR_REL),
-            Some(PRIOR_REL),
-            Some(per_shape(&f1)),
-            Some(per_shape(&f2)),
-        ],
-        cols: vec![
-            vec![1.0; t.len()],
-            t.iter().map(|t| (t - t0) / 3600.0).collect(),
-            ch.sim.clone(),
-            tc_error,
-            f1,
-            f2,
-        ],
-        names: vec![
-            "offset".into(),
-            format!("drift_{unit}_per_h"),
-            "twin_gain".into(),
-            "twin_tau_error".into(),
-            format!("speed_gain_{unit}"),
-            format!("speed2_gain_{unit}"),
-        ],
+        cols,
+        names,
+        prior_sd,
         tau_c_s: tau_c,
     }
 }

@@ -16,7 +16,7 @@ use super::align::{Aligned, Channel};
 use super::baseline::{self, Baseline};
 use super::lsq::{self, LinearFit};
 use super::signif;
-use super::variants::{variants, Variant};
+use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
 use serde_json::{json, Map, Value};
 
 /// Names of the candidates, in CONTRACT order.
@@ -101,6 +101,9 @@ pub struct Scored {
     pub p_value: Option<f64>,
     /// `p_value` after Holm's adjustment over the candidates tested.
     pub p_adjusted: Option<f64>,
+    /// Held-out rms over the baseline's (for `coolant`: of the errors in
+    /// the chiller band); 1 for the baseline itself.
+    pub ratio_to_none: f64,
 }
 
 impl Scored {
@@ -116,6 +119,7 @@ impl Scored {
             "params": self.params,
             "model": self.model,
             "fit_rms": round(self.fit_rms),
+            "ratio_to_none": round(self.ratio_to_none),
             "p_value": opt(self.p_value),
             "p_adjusted": opt(self.p_adjusted),
             "confidence": opt(self.confidence()),
@@ -249,6 +253,7 @@ fn score(
         pred: f.pred.clone(),
         p_value: None,
         p_adjusted: None,
+        ratio_to_none: 1.0,
     }
 }
 
@@ -315,28 +320,50 @@ pub fn fit_all(p: &Problem) -> Vec<Scored> {
         return forward;
     }
     let back = p.swapped();
-    let backward = if dev_folds() { fit_fold(&back) } else { Vec::new() };
-    let errors = |i: usize| -> Vec<f64> {
+    let backward = fit_fold(&back);
+    // Held-out errors of candidate `i`, both folds in time order, in the
+    // band the candidate is judged in.
+    let errors = |i: usize, band: Option<f64>| -> Vec<f64> {
         let mut e = backward
             .get(i)
-            .map_or_else(Vec::new, |s| s.held_out_errors(&back));
-        e.extend(forward[i].held_out_errors(p));
+            .map_or_else(Vec::new, |s| judged(&back, band, s.held_out_errors(&back)));
+        e.extend(judged(p, band, forward[i].held_out_errors(p)));
         e
     };
     let tested: Vec<usize> = (1..forward.len())
         .filter(|&i| forward[i].pred != forward[0].pred)
         .collect();
-    let e0 = errors(0);
     let raw: Vec<f64> = tested
         .iter()
-        .map(|&i| signif::p_better(&e0, &errors(i), BOOT_SEED + i as u64))
+        .map(|&i| {
+            let band = judged_band(&forward[i].name);
+            signif::p_better(&errors(0, band), &errors(i, band), BOOT_SEED + i as u64)
+        })
         .collect();
     set_p_values(&mut forward, &tested, &raw);
+    for i in 1..forward.len() {
+        let band = judged_band(&forward[i].name);
+        let e0 = judged(p, band, forward[0].held_out_errors(p));
+        let ei = judged(p, band, forward[i].held_out_errors(p));
+        forward[i].ratio_to_none = lsq::rms(&ei) / lsq::rms(&e0).max(f64::MIN_POSITIVE);
+    }
     forward
 }
 
-fn dev_folds() -> bool {
-    std::env::var("TC_DEV_FOLDS").map_or(true, |v| v != "1")
+/// The slowest period a candidate is judged on, s: the chiller band's for
+/// `coolant` (its regressors hold nothing slower, and a room's or a
+/// sensor's slow wander that nothing explains would hide a clear chiller
+/// cycle in the ratio to the baseline), none for the others.
+fn judged_band(name: &str) -> Option<f64> {
+    (name == "coolant").then_some(CHILLER_BAND_S.1)
+}
+
+/// `e` (errors on `p`'s test rows) limited to periods below `band`, if any.
+fn judged(p: &Problem, band: Option<f64>, e: Vec<f64>) -> Vec<f64> {
+    match band {
+        Some(slow) => high_pass(&p.al.t_s[p.test_rows()], &e, slow),
+        None => e,
+    }
 }
 
 /// The baseline (first) and every candidate fitted on `p`'s fit rows and
@@ -399,14 +426,14 @@ fn top_variants(d: &Design, vars: Vec<Variant>, y: &[f64], rows: &Rows) -> Vec<V
 /// One candidate's grid cut for the pair search: name, variants, model.
 type Grid = (&'static str, Vec<Variant>, String);
 
-/// `d` with `v`'s regressors appended to the baseline (free, no penalty)
-/// and `v`'s fixed part carried in `fixed`.
+/// `d` with `v`'s regressors appended to the baseline (free) and `v`'s
+/// fixed part returned apart.
 fn with_variant(d: &Design, v: &Variant) -> (Design, Option<Vec<f64>>) {
     let mut e = d.clone();
+    e.penalty.extend(v.extra.iter().map(|_| 0.0));
     e.base.cols.extend(v.extra.iter().cloned());
     e.base.names.extend(v.gains.iter().cloned());
     e.base.prior_sd.extend(v.extra.iter().map(|_| None));
-    e.penalty.extend(v.extra.iter().map(|_| 0.0));
     (e, v.fixed_part.clone())
 }
 

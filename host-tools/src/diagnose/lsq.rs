@@ -211,7 +211,11 @@ mod tests {
         let sxx: f64 = x.iter().map(|v| v * v).sum();
         let p = 0.5 * sxx;
         let f = fit_penalised(&[vec![1.0; n], x.clone()], &y, n, &[0.0, p]).expect("fit");
-        assert!((f.coef[1] - 2.0 * sxx / (sxx + p)).abs() < 1e-12, "{:?}", f.coef);
+        assert!(
+            (f.coef[1] - 2.0 * sxx / (sxx + p)).abs() < 1e-12,
+            "{:?}",
+            f.coef
+        );
         assert!((f.coef[0] - 1.0).abs() < 1e-12);
         let free = fit_penalised(&[vec![1.0; n], x], &y, n, &[]).expect("fit");
         assert!((free.coef[1] - 2.0).abs() < 1e-12);

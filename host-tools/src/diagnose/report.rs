@@ -423,7 +423,10 @@ mod tests {
         for (el, v) in lines.iter().zip(&labels) {
             let (y1, y2) = (attr(el, "y1"), attr(el, "y2"));
             assert_eq!(y1, y2, "horizontal");
-            assert!((top - 1e-9..=h - bot + 1e-9).contains(&y1), "{y1} px outside");
+            assert!(
+                (top - 1e-9..=h - bot + 1e-9).contains(&y1),
+                "{y1} px outside"
+            );
             // The label's value maps to the line's pixel row (labels are
             // rounded to 0.01, 1e-5 of the span: far below 0.01 px).
             let want = top + (hi - v) / (hi - lo) * (h - top - bot);
@@ -431,6 +434,9 @@ mod tests {
         }
         // The lowest tick is the bottom edge, the highest the top edge.
         let ys: Vec<f64> = lines.iter().map(|e| attr(e, "y1")).collect();
-        assert!((ys[0] - (h - bot)).abs() < 1e-9 && (ys[4] - top).abs() < 1e-9, "{ys:?}");
+        assert!(
+            (ys[0] - (h - bot)).abs() < 1e-9 && (ys[4] - top).abs() < 1e-9,
+            "{ys:?}"
+        );
     }
 }

@@ -31,8 +31,10 @@ const COOLANT_TAUS_S: [f64; 6] = [0.0, 300.0, 900.0, 1800.0, 3600.0, 7200.0];
 const HEAT_TAUS_S: [f64; 5] = [600.0, 1800.0, 3600.0, 7200.0, 14400.0];
 /// Sensor lags tried, s.
 const LAG_TAUS_S: [f64; 8] = [60.0, 120.0, 300.0, 600.0, 900.0, 1200.0, 1800.0, 3600.0];
-/// Knee speeds of the low-speed loss weight, rpm.
-const KNEES_RPM: [f64; 5] = [2000.0, 3000.0, 4000.0, 6000.0, 8000.0];
+/// Knee speeds of the low-speed loss weight, shares of the top speed
+/// logged (the twin's knee is 4000 of 12 000 rpm; asynchronous motors lose
+/// efficiency below a quarter to a half of their rated speed).
+const KNEE_SHARES: [f64; 5] = [0.15, 0.25, 0.35, 0.5, 0.7];
 /// A logged ambient moving less than this (peak to peak) is treated as
 /// constant, K.
 const MIN_SWING_K: f64 = 0.1;
@@ -42,13 +44,13 @@ const MIN_CUT_KW: f64 = 0.1;
 const DAY_S: f64 = 86_400.0;
 /// Periods of chiller cycling tracked on temperature channels, s: 5 min
 /// (2.5 samples at 60 s) .. 2 h (the slow end of the `mid` band).
-const CHILLER_BAND_S: (f64, f64) = (300.0, 7200.0);
-/// A temperature channel carries a chiller cycle when its band-passed
+pub const CHILLER_BAND_S: (f64, f64) = (300.0, 7200.0);
+/// A channel carries a chiller cycle when its band-passed
 /// residual (after its own mismatch baseline) has at least this many times
 /// the rms that white noise of the channel's level leaves in the band
 /// (0.45 sigma at 60 s).
 pub const MIN_TRACK_SNR: f64 = 3.0;
-/// Temperature channels tried as chiller trackers (the strongest first).
+/// Channels tried as chiller trackers (the strongest first).
 const MAX_TRACK_SOURCES: usize = 2;
 
 /// One grid point: the extra regressors and what they mean.
@@ -148,13 +150,12 @@ fn response_pairs(
     out
 }
 
-/// Which way extra heat moves the channel: the sign of the simulated
-/// channel's mean change from its first value (dz < 0 and T > 0 on a
-/// warming spindle).
+/// Which way extra heat moves the channel, where physics fixes it: up on
+/// a temperature (in a network of positive conductances every node warms
+/// when heat is added anywhere); on a displacement either way (heat at a
+/// node whose growth pulls the other way, as a column behind the spindle).
 fn heat_sign(p: &Problem) -> Option<f64> {
-    let s0 = p.ch.sim[0];
-    let m = p.ch.sim.iter().map(|v| v - s0).sum::<f64>() / p.ch.sim.len() as f64;
-    (m.abs() > 0.0).then(|| m.signum())
+    crate::runfile::is_temperature_column(&p.ch.name).then_some(1.0)
 }
 
 fn with_sign(mut v: Vec<Variant>, sign: Option<f64>) -> Vec<Variant> {
@@ -215,7 +216,8 @@ fn ambient(p: &Problem) -> (Vec<Variant>, String) {
         .collect();
     (
         v,
-        "ambient_c not logged: first-order response to an inferred 24 h cycle and a room drift".into(),
+        "ambient_c not logged: first-order response to an inferred 24 h cycle and a room drift"
+            .into(),
     )
 }
 
@@ -261,7 +263,7 @@ fn coolant(p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
         return (
             v,
             format!(
-                "coolant_c not logged: responses to the chiller cycle tracked on {} (band-passed 5-120 min residual)",
+                "coolant_c not logged: responses to the chiller cycle tracked on {} (band-passed 5-120 min residual after its own baseline)",
                 names.join(", ")
             ),
         );
@@ -284,7 +286,15 @@ fn signal_variants(
     v
 }
 
-/// Temperature channels other than the one explained whose residual,
+/// Whether channel `src` may track a chiller for explaining `ch`: a
+/// temperature always; a displacement only for a temperature (two
+/// displacements may share probes, hence noise).
+fn tracks(ch: &super::align::Channel, src: &super::align::Channel) -> bool {
+    crate::runfile::is_temperature_column(&src.name)
+        || (src.is_displacement() && !ch.is_displacement())
+}
+
+/// Channels other than the one explained ([`tracks`]) whose residual,
 /// after their own mismatch baseline (fitted on the fit rows), carries a
 /// chiller-band component at least [`MIN_TRACK_SNR`] times above their
 /// noise: up to [`MAX_TRACK_SOURCES`] of them, strongest first, with the
@@ -295,7 +305,7 @@ fn chiller_sources(p: &Problem) -> Vec<(String, Vec<f64>)> {
     let mut found: Vec<(f64, String, Vec<f64>)> = al
         .channels
         .iter()
-        .filter(|c| c.name != p.ch.name && crate::runfile::is_temperature_column(&c.name))
+        .filter(|c| c.name != p.ch.name && tracks(p.ch, c))
         .filter_map(|c| {
             let base = baseline::mismatch_baseline(al, c);
             let penalty = base.penalties(&c.resid, p.fit_rows());
@@ -366,13 +376,16 @@ fn cutting(p: &Problem) -> (Vec<Variant>, String) {
         return (Vec::new(), "no power beyond air cutting in power_kw".into());
     }
     (
-        with_sign(response_pairs(p, &u, 0.0, &HEAT_TAUS_S, "kw", &[]), heat_sign(p)),
-        "first-order responses to power_kw beyond air cutting (gain of the sign of the twin's own heating)".into(),
+        with_sign(
+            response_pairs(p, &u, 0.0, &HEAT_TAUS_S, "kw", &[]),
+            heat_sign(p),
+        ),
+        "first-order responses to power_kw beyond air cutting (warming, on a temperature)".into(),
     )
 }
 
 /// The low-speed weight `[n > 0] max(0, 1 - n/knee)`.
-fn low_speed_weight(al: &Aligned, knee: f64) -> Vec<f64> {
+pub fn low_speed_weight(al: &Aligned, knee: f64) -> Vec<f64> {
     al.speed_rpm
         .iter()
         .map(|&n| {
@@ -387,8 +400,9 @@ fn low_speed_weight(al: &Aligned, knee: f64) -> Vec<f64> {
 
 /// Motor losses: responses to the low-speed weight at each knee.
 fn motor_loss(p: &Problem) -> (Vec<Variant>, String) {
+    let top = p.al.speed_rpm.iter().fold(0.0f64, |a, &n| a.max(n.abs()));
     let mut v = Vec::new();
-    for knee in KNEES_RPM {
+    for knee in KNEE_SHARES.map(|k| (k * top).round()) {
         let u = low_speed_weight(p.al, knee);
         if u[p.fit_rows()].iter().all(|&x| x == 0.0) {
             continue;
@@ -406,9 +420,9 @@ fn motor_loss(p: &Problem) -> (Vec<Variant>, String) {
         ));
     }
     let d = if v.is_empty() {
-        "the spindle never runs below 8000 rpm in the fit part".into()
+        "the spindle never runs below 70 % of its top speed in the fit part".into()
     } else {
-        "first-order responses to the low-speed weight [n>0] max(0, 1 - n/knee) (gain of the sign of the twin's own heating)".into()
+        "first-order responses to the low-speed weight [n>0] max(0, 1 - n/knee) (warming, on a temperature)".into()
     };
     (v, d)
 }
