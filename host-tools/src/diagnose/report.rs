@@ -274,6 +274,7 @@ pub fn write(
         "held-out shrink of the main channel's rms, %",
         &bars,
     ));
+    html.push_str(&candidates_table(scored));
     let ch = &al.channels[main];
     if let Some(best) = scored.first() {
         let after: Vec<f64> = ch
@@ -351,6 +352,31 @@ pub fn write(
     let path = dir.join("index.html");
     crate::fsio::write_bytes_atomic(&path, html.as_bytes())?;
     Ok(())
+}
+
+/// The candidates' figures: held-out rms, shrink, ratio to the baseline,
+/// p-value and confidence (1 - Holm-adjusted p).
+fn candidates_table(scored: &[Scored]) -> String {
+    let mut t = String::from(
+        "<table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\">\
+         <tr><th>candidate</th><th>held-out rms</th><th>shrink, %</th><th>ratio to none</th>\
+         <th>p-value</th><th>confidence</th></tr>",
+    );
+    let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.3}"));
+    for c in scored {
+        let _ = write!(
+            t,
+            "<tr><td>{}</td><td>{:.4}</td><td>{:.1}</td><td>{:.3}</td><td>{}</td><td>{}</td></tr>",
+            esc(&c.name),
+            c.rms_after,
+            c.shrink_pct,
+            c.ratio_to_none,
+            opt(c.p_value),
+            opt(c.confidence())
+        );
+    }
+    t.push_str("</table>");
+    t
 }
 
 /// The residual energy by period band, one row per channel analysed.
