@@ -391,7 +391,7 @@ fn fit_fold(p: &Problem) -> Vec<Scored> {
 
 /// Seed of the bootstrap of candidate `i` (fixed: the same files give the
 /// same p-values).
-const BOOT_SEED: u64 = 0x7E57_0F_5EED;
+const BOOT_SEED: u64 = 0x007E_570F_5EED;
 
 /// Sets the p-values of the candidates `tested` (indices into `scored`)
 /// to `raw` and their Holm adjustment over the tested ones; a candidate

@@ -363,7 +363,7 @@ fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value)
 }
 
 /// Bootstrap seed of the pair tests.
-const PAIR_SEED: u64 = 0x9A1_2_5EED;
+const PAIR_SEED: u64 = 0x9A12_5EED;
 
 /// Fits, tests and judges the candidates on channel `c` under `rule`.
 fn look_at(al: &align::Aligned, c: usize, snr: &[f64], n_fit: usize, rule: Rule) -> Result<Look> {

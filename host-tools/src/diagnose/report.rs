@@ -231,7 +231,16 @@ fn deployment_html(d: &Value) -> String {
     h
 }
 
-/// Writes `dir/index.html`.
+/// The time axis of the plots: hours from the first row, and the hold-out
+/// start in hours.
+struct Axis {
+    t_h: Vec<f64>,
+    hold_h: Option<f64>,
+}
+
+/// Writes `dir/index.html`: the verdict, the candidates, the main
+/// channel's residual, the deployment view, where the gap is, every
+/// channel, and the JSON.
 pub fn write(
     dir: &Path,
     al: &Aligned,
@@ -243,7 +252,10 @@ pub fn write(
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let t0 = al.t_s[0];
     let t_h: Vec<f64> = al.t_s.iter().map(|t| (t - t0) / 3600.0).collect();
-    let hold_h = t_h.get(n_fit).copied();
+    let ax = Axis {
+        hold_h: t_h.get(n_fit).copied(),
+        t_h,
+    };
     let mut html = String::from("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>thermcomp diagnose</title><style>body{font-family:sans-serif;margin:20px;max-width:1150px}pre{background:#f6f6f6;padding:8px;font-size:11px;white-space:pre-wrap}</style></head><body>");
     let _ = write!(
         html,
@@ -253,7 +265,25 @@ pub fn write(
         v["holdout_from_t_s"],
         esc(v["rule"].as_str().unwrap_or(""))
     );
-    html.push_str("<h2>How far each candidate shrinks the held-out gap</h2>");
+    html.push_str(&candidates_html(al, main, scored, &ax));
+    html.push_str(&deployment_html(&v["deployment"]));
+    html.push_str(&where_html(v, t0));
+    html.push_str(&channels_html(al, &ax));
+    let pretty = serde_json::to_string_pretty(v).unwrap_or_default();
+    let _ = write!(
+        html,
+        "<h2>JSON</h2><pre>{}</pre></body></html>",
+        esc(&pretty)
+    );
+    let path = dir.join("index.html");
+    crate::fsio::write_bytes_atomic(&path, html.as_bytes())?;
+    Ok(())
+}
+
+/// The candidates: held-out shrink bars (with confidences), their table,
+/// and the main channel's residual with the best candidate's prediction.
+fn candidates_html(al: &Aligned, main: usize, scored: &[Scored], ax: &Axis) -> String {
+    let mut html = String::from("<h2>How far each candidate shrinks the held-out gap</h2>");
     let bars: Vec<(String, f64)> = scored
         .iter()
         .map(|s| {
@@ -288,18 +318,22 @@ pub fn write(
                 "{}: residual, best candidate ({}) and what is left",
                 ch.name, best.name
             ),
-            &t_h,
+            &ax.t_h,
             &[
                 ("residual", &ch.resid),
                 (&best.name, &best.pred),
                 ("left", &after),
             ],
-            hold_h,
+            ax.hold_h,
             300.0,
         ));
     }
-    html.push_str(&deployment_html(&v["deployment"]));
-    html.push_str("<h2>Where: regime segments</h2>");
+    html
+}
+
+/// Where: the regime segments' shares (bars) and the bands table.
+fn where_html(v: &Value, t0: f64) -> String {
+    let mut html = String::from("<h2>Where: regime segments</h2>");
     let seg: Vec<(String, f64)> = v["where"]
         .as_array()
         .into_iter()
@@ -322,13 +356,19 @@ pub fn write(
         &seg,
     ));
     html.push_str(&bands_table(&v["bands"]));
-    html.push_str("<h2>Sim vs real</h2>");
+    html
+}
+
+/// Sim vs real per displacement, and the residual of every displacement
+/// and temperature channel.
+fn channels_html(al: &Aligned, ax: &Axis) -> String {
+    let mut html = String::from("<h2>Sim vs real</h2>");
     for c in al.channels.iter().filter(|c| c.is_displacement()) {
         html.push_str(&line_chart(
             &format!("{} (um)", c.name),
-            &t_h,
+            &ax.t_h,
             &[("sim", &c.sim), ("real", &c.real)],
-            hold_h,
+            ax.hold_h,
             220.0,
         ));
     }
@@ -337,21 +377,13 @@ pub fn write(
         let unit = if c.is_displacement() { "um" } else { "K" };
         html.push_str(&line_chart(
             &format!("{} residual ({unit})", c.name),
-            &t_h,
+            &ax.t_h,
             &[("real - sim", &c.resid)],
-            hold_h,
+            ax.hold_h,
             160.0,
         ));
     }
-    let pretty = serde_json::to_string_pretty(v).unwrap_or_default();
-    let _ = write!(
-        html,
-        "<h2>JSON</h2><pre>{}</pre></body></html>",
-        esc(&pretty)
-    );
-    let path = dir.join("index.html");
-    crate::fsio::write_bytes_atomic(&path, html.as_bytes())?;
-    Ok(())
+    html
 }
 
 /// The candidates' figures: held-out rms, shrink, ratio to the baseline,

@@ -34,7 +34,11 @@ pub const MIN_BLOCKS: usize = 4;
 pub const N_BOOT: usize = 1999;
 
 /// First lag at which the sample autocorrelation of `x` drops below `1/e`
-/// (at least 1, at most `x.len() / 2`). A constant series has lag 1.
+/// (at least 1, at most `x.len() / 2`). A constant series has lag 1. Found
+/// by doubling the lag until the autocorrelation is below `1/e`, then
+/// bisecting between the last two lags (an autocorrelation that decays
+/// monotonically up to its first crossing, as a residual's does, gives the
+/// exact first crossing), so `O(n log n)` even for long runs at 1 s.
 pub fn decorrelation_lag(x: &[f64]) -> usize {
     let n = x.len();
     if n < 4 {
@@ -46,10 +50,25 @@ pub fn decorrelation_lag(x: &[f64]) -> usize {
     if var <= 0.0 {
         return 1;
     }
-    let limit = (-1.0f64).exp();
-    (1..n / 2)
-        .find(|&k| (0..n - k).map(|i| c[i] * c[i + k]).sum::<f64>() / var < limit)
-        .unwrap_or(n / 2)
+    let below = |k: usize| (0..n - k).map(|i| c[i] * c[i + k]).sum::<f64>() / var < (-1.0f64).exp();
+    let max = n / 2;
+    let mut hi = 1;
+    while hi < max && !below(hi) {
+        hi = (2 * hi).min(max);
+    }
+    if hi == 1 || !below(hi) {
+        return hi;
+    }
+    let mut lo = hi / 2; // not below
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if below(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
 }
 
 /// Block length of the bootstrap of `d`: [`BLOCK_FACTOR`] decorrelation
