@@ -113,6 +113,18 @@ pub struct Rule {
     pub max_ratio_to_none: f64,
 }
 
+/// A candidate that leaves at most this fraction of the baseline's
+/// held-out rms (a decisive practical size) counts at the level
+/// [`STRONG_ALPHA`] instead: an effect that shows in a few events of the
+/// hold-out only (a lag after the two speed changes of a stepped test) has
+/// few independent blocks to resample, however clearly it explains them.
+/// Development: with 0.3 / 0.3, 3 more zoo cases of seed 2, 4 more twin
+/// cases of seed 1 and 6 more of seed 3 right, no false alarm more (no
+/// `none` case reached a ratio below 0.42).
+pub const STRONG_RATIO: f64 = 0.3;
+/// The level for a candidate of [`STRONG_RATIO`] (Holm-adjusted, per look).
+pub const STRONG_ALPHA: f64 = 0.3;
+
 /// The rule on the main channel.
 pub const MAIN_RULE: Rule = Rule {
     alpha: ALPHA,
@@ -234,7 +246,7 @@ fn rule_text() -> String {
          the smallest held-out rms among those that are significant (two-fold block-bootstrap p-value of the \
          held-out absolute-error differential against the mismatch baseline, Holm-adjusted over the candidates), \
          shrink the held-out rms by >= {MIN_SHRINK_PCT} % and leave <= {MAX_RATIO_TO_NONE} x what the baseline \
-         leaves (coolant: in the chiller band); the verdict is the channel's whose winner leaves the smallest share \
+         leaves (coolant: in the chiller band), or <= {STRONG_RATIO} x at p <= {STRONG_ALPHA}; the verdict is the channel's whose winner leaves the smallest share \
          of its baseline; else none. If the winner leaves > {MIN_GAP_SNR} noise sigmas and a joint two-effect model \
          leaves <= {PAIR_MAX_RATIO} x its held-out rms, significantly, the pair's more important member is the \
          verdict and the other is `second`",
@@ -451,10 +463,11 @@ fn main_channel(al: &align::Aligned, snr: &[f64]) -> usize {
 }
 
 /// The verdict rule: among the candidates (sorted by held-out rms) the
-/// first that is significant (Holm-adjusted p <= `rule.alpha`), shrinks the
-/// held-out rms by >= `rule.min_shrink_pct` and leaves <=
-/// `rule.max_ratio_to_none` x the baseline's held-out rms, if the channel's
-/// gap is significant (rms > 3 noise sigmas). Otherwise `none`.
+/// first that is significant (Holm-adjusted p <= `rule.alpha`) and leaves
+/// <= `rule.max_ratio_to_none` x the baseline's held-out rms (or p <=
+/// [`STRONG_ALPHA`] and <= [`STRONG_RATIO`] x), and shrinks the held-out
+/// rms by >= `rule.min_shrink_pct`, if the channel's gap is significant
+/// (rms > 3 noise sigmas). Otherwise `none`.
 pub fn verdict(scored: &[Scored], gap_significant: bool, rule: &Rule) -> String {
     if !gap_significant {
         return "none".to_string();
@@ -463,9 +476,10 @@ pub fn verdict(scored: &[Scored], gap_significant: bool, rule: &Rule) -> String 
         .iter()
         .filter(|s| s.name != "none")
         .find(|s| {
-            s.p_adjusted.is_some_and(|p| p <= rule.alpha)
-                && s.shrink_pct >= rule.min_shrink_pct
-                && s.ratio_to_none <= rule.max_ratio_to_none
+            let p = s.p_adjusted.unwrap_or(1.0);
+            let significant = (p <= rule.alpha && s.ratio_to_none <= rule.max_ratio_to_none)
+                || (p <= STRONG_ALPHA && s.ratio_to_none <= STRONG_RATIO);
+            significant && s.shrink_pct >= rule.min_shrink_pct
         })
         .map_or_else(|| "none".to_string(), |s| s.name.clone())
 }
@@ -583,12 +597,17 @@ mod tests {
         ];
         assert_eq!(verdict(&s, true, r), "none"); // beats none, but shrinks only 15 %
         let s = [
-            cand("cutting", 1.0, 9.0, 0.3),
+            cand("cutting", 1.0, 9.0, 0.5),
             cand("ambient", 2.0, 9.0, 0.001),
             cand("none", 9.0, 9.0, 1.0),
         ];
         assert_eq!(verdict(&s, false, r), "none"); // the gap is noise
                                                    // The best significant one, not the best.
         assert_eq!(verdict(&s, true, r), "ambient");
+        // A decisive size needs less significance: 0.2 x none at p 0.25.
+        let s = [cand("lag", 1.0, 5.0, 0.25), cand("none", 5.0, 5.0, 1.0)];
+        assert_eq!(verdict(&s, true, r), "lag");
+        let s = [cand("lag", 1.0, 5.0, 0.35), cand("none", 5.0, 5.0, 1.0)];
+        assert_eq!(verdict(&s, true, r), "none");
     }
 }
