@@ -4,7 +4,9 @@
 //! a machine with eight parameters drawn within +-4 %: 36 cases. The base
 //! seed (4242) was never used while developing the diagnosis or choosing
 //! these thresholds (development used seed 1; docs/gap-benchmark.md), so
-//! this is a held-out check of the rule, not a replay.
+//! this is a held-out check of the rule, not a replay. With the calibrated
+//! rule (mismatch baseline, block-bootstrap significance; docs/diagnose.md
+//! section 3) it gives 35 of 36, no false alarm, median shrink 90.2 %.
 //!
 //! The full benchmark (324 cases, 3 profiles) runs in release:
 //! `thermcomp bench gap --twin --seed 3 --out DIR` (23-31 s). This file takes

@@ -35,6 +35,10 @@ pub struct Diagnosis {
     pub deploy_sim_um: Option<f64>,
     /// See `deploy_sim_um`.
     pub deploy_sim_effect_um: Option<f64>,
+    /// Confidence of the true cause's candidate (`None` for `none`).
+    pub true_confidence: Option<f64>,
+    /// The diagnosis's looks (channel, candidates' figures; JSON `looks`).
+    pub looks: Value,
     /// Wall time of the case (both runs and the diagnosis), s.
     pub elapsed_s: f64,
 }
@@ -76,6 +80,10 @@ impl Diagnosis {
             true_shrink_pct: (truth != "none")
                 .then(|| effect_field(v, truth, "shrink_pct"))
                 .flatten(),
+            true_confidence: (truth != "none")
+                .then(|| effect_field(v, truth, "confidence"))
+                .flatten(),
+            looks: v["looks"].clone(),
             best_ratio_to_none: best_after / none_after,
             best,
             second: v["second"]["name"].as_str().map(str::to_string),
@@ -101,6 +109,7 @@ impl Diagnosis {
             "best": self.best, "best_ratio_to_none": round(self.best_ratio_to_none),
             "deployment_rmse_um": {"trained_on_sim": self.deploy_sim_um.map(round),
                                     "trained_on_sim_plus_effect": self.deploy_sim_effect_um.map(round)},
+            "true_confidence": self.true_confidence.map(round), "looks": self.looks,
             "correct": self.correct(), "elapsed_s": round(self.elapsed_s),
         })
     }

@@ -1,57 +1,32 @@
 //! The candidate explanations of a residual, one per effect of the
 //! vocabulary (CONTRACT.md section 3) plus the `none` baseline, each a
-//! physically shaped linear model over a small grid of nonlinear parameters.
+//! physically shaped linear model over a small grid of nonlinear parameters
+//! ([`super::variants`]), nested on the mismatch baseline
+//! ([`super::baseline`]): every candidate contains the baseline's
+//! regressors, so it can only add explanation.
 //!
-//! Every candidate contains the baseline's regressors (nested models):
-//!
-//! ```text
-//! none:        r(t) = c0 + c1 (t - t0)/1 h + c2 sim(t)                  offset, linear drift, twin gain error
-//! ambient:     + g1 F(Ta - Ta(0); tau1) + g2 F(Ta - Ta(0); tau2)         logged ambient_c, tau1 < tau2 in 0.5..8 h
-//!              + F(sin w t - 0; tau), F(cos w t - 1; tau), w = 2 pi/24 h  ambient not logged (inferred day cycle)
-//! coolant:     + g1 F(Tc - Tc(0); tau1) + g2 F(Tc - Tc(0); tau2)         logged coolant_c, 5 min..2 h
-//!              + sin/cos(2 pi t/P), sin/cos(4 pi t/P)                    not logged: P from the residual's 10-120 min peak
-//! cutting:     + g1 F(Pcut; tau1) + g2 F(Pcut; tau2)                     Pcut = power_kw - air-cutting power at that speed
-//! motor_loss:  + g1 F(w; tau1) + g2 F(w; tau2),  w = [n > 0] max(0, 1 - n/knee)
-//! sensor_lag:  + g (F(sim; tau) - sim)  on a temperature channel (r ~ -g tau dsim/dt; g = lagged share);
-//!                                 nothing on a displacement (probes do not lag)
-//! ```
-//!
-//! `F(u; tau)` is the first-order response [`lsq::lowpass`] (state 0 for a
-//! heat input on a machine starting cold, the first value for boundary
-//! temperatures). The linear coefficients come from SVD least squares on the
-//! fit part only (rows before the hold-out time); among the grid the variant
-//! with the smallest fit-part error wins. Gains are steady-state gains of the
-//! channel per unit input (`gain_um_per_k`, `gain_um_per_kw`, ...).
+//! `F(u; tau)` is the first-order response [`lsq::lowpass`]. The linear
+//! coefficients come from SVD least squares on the fit part only (rows
+//! before the hold-out time); among the grid the variant with the smallest
+//! fit-part error wins. Gains are steady-state gains of the channel per unit
+//! input (`gain_um_per_k`, `gain_um_per_kw`, ...). Each candidate's held-out
+//! errors are then compared with the baseline's ([`super::signif`]).
 
 use super::align::{Aligned, Channel};
+use super::baseline::{self, Baseline};
 use super::lsq::{self, LinearFit};
-use super::regime;
-use super::spectrum;
+use super::signif;
+use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
 use serde_json::{json, Map, Value};
-
-/// Time constants of ambient responses, s (0.5 h .. 8 h).
-const AMBIENT_TAUS_S: [f64; 5] = [1800.0, 3600.0, 7200.0, 14400.0, 28800.0];
-/// Time constants of coolant responses, s (the jacket and motor are fast).
-const COOLANT_TAUS_S: [f64; 5] = [300.0, 900.0, 1800.0, 3600.0, 7200.0];
-/// Time constants of responses to extra heat, s (twin: 0.6 h dz 63 % time,
-/// slowest node 1.9 h).
-const HEAT_TAUS_S: [f64; 5] = [600.0, 1800.0, 3600.0, 7200.0, 14400.0];
-/// Sensor lags tried, s.
-const LAG_TAUS_S: [f64; 8] = [60.0, 120.0, 300.0, 600.0, 900.0, 1200.0, 1800.0, 3600.0];
-/// Knee speeds of the low-speed loss weight, rpm.
-const KNEES_RPM: [f64; 5] = [2000.0, 3000.0, 4000.0, 6000.0, 8000.0];
-/// A logged boundary temperature moving less than this (peak to peak) is
-/// treated as constant, K.
-const MIN_SWING_K: f64 = 0.1;
-/// Cutting needs at least this much power beyond air cutting somewhere, kW.
-const MIN_CUT_KW: f64 = 0.1;
-/// Day period of the inferred ambient, s.
-const DAY_S: f64 = 86_400.0;
 
 /// Names of the candidates, in CONTRACT order.
 pub const NAMES: [&str; 5] = ["ambient", "coolant", "cutting", "motor_loss", "sensor_lag"];
 
+/// A contiguous range of rows.
+pub type Rows = std::ops::Range<usize>;
+
 /// The problem a candidate is fitted to.
+#[derive(Clone)]
 pub struct Problem<'a> {
     /// Aligned runs.
     pub al: &'a Aligned,
@@ -59,23 +34,47 @@ pub struct Problem<'a> {
     pub ch: &'a Channel,
     /// Rows `0..n_fit` are the fit part, the rest the hold-out.
     pub n_fit: usize,
+    /// Roles swapped (the backward fold of the significance test): fit on
+    /// the hold-out rows, predict the fit part.
+    pub swapped: bool,
 }
 
-/// One grid point: the extra regressors and what they mean.
-#[derive(Debug, Clone)]
-struct Variant {
-    extra: Vec<Vec<f64>>,
-    /// Nonlinear parameters of this grid point.
-    fixed: Vec<(String, f64)>,
-    /// Name of each extra regressor's coefficient.
-    gains: Vec<String>,
-    /// Time constant of each extra regressor, if it is a response.
-    taus: Vec<f64>,
-    /// Name of the sum of the gains (the steady-state gain), if meaningful.
-    total: Option<String>,
-    /// Required sign of that sum, if physics fixes it (extra heat moves a
-    /// channel the way the machine's own heat does).
-    sign: Option<f64>,
+impl<'a> Problem<'a> {
+    /// Fit on rows `0..n_fit`, score on the rest.
+    pub fn new(al: &'a Aligned, ch: &'a Channel, n_fit: usize) -> Self {
+        Problem {
+            al,
+            ch,
+            n_fit,
+            swapped: false,
+        }
+    }
+
+    /// The same problem with the fit and test rows swapped.
+    pub fn swapped(&self) -> Self {
+        Problem {
+            swapped: !self.swapped,
+            ..self.clone()
+        }
+    }
+
+    /// Rows the candidates are fitted on.
+    pub fn fit_rows(&self) -> Rows {
+        if self.swapped {
+            self.n_fit..self.ch.resid.len()
+        } else {
+            0..self.n_fit
+        }
+    }
+
+    /// Rows the candidates are scored on.
+    pub fn test_rows(&self) -> Rows {
+        if self.swapped {
+            0..self.n_fit
+        } else {
+            self.n_fit..self.ch.resid.len()
+        }
+    }
 }
 
 /// A fitted candidate, scored on the hold-out part.
@@ -97,11 +96,21 @@ pub struct Scored {
     pub model: String,
     /// Prediction on every row.
     pub pred: Vec<f64>,
+    /// One-sided block-bootstrap p-value that the candidate's held-out
+    /// errors are smaller than the baseline's (`None` for the baseline).
+    pub p_value: Option<f64>,
+    /// `p_value` after Holm's adjustment over the candidates tested.
+    pub p_adjusted: Option<f64>,
+    /// Held-out rms over the baseline's (for `coolant`: of the errors in
+    /// the chiller band); 1 for the baseline itself.
+    pub ratio_to_none: f64,
 }
 
 impl Scored {
-    /// The CONTRACT's effect object (plus `model`, `fit_rms`).
+    /// The CONTRACT's effect object (plus `model`, `fit_rms`, `p_value`,
+    /// `p_adjusted`, `confidence` = 1 - `p_adjusted`; null for `none`).
     pub fn to_json(&self) -> Value {
+        let opt = |v: Option<f64>| v.map_or(Value::Null, |x| json!(round(x)));
         json!({
             "name": self.name,
             "rms_before": round(self.rms_before),
@@ -110,7 +119,24 @@ impl Scored {
             "params": self.params,
             "model": self.model,
             "fit_rms": round(self.fit_rms),
+            "ratio_to_none": round(self.ratio_to_none),
+            "p_value": opt(self.p_value),
+            "p_adjusted": opt(self.p_adjusted),
+            "confidence": opt(self.confidence()),
         })
+    }
+
+    /// `1 - p_adjusted`: how sure the test is that the candidate beats the
+    /// baseline on the hold-out, with five candidates tested at once.
+    pub fn confidence(&self) -> Option<f64> {
+        self.p_adjusted.map(|p| 1.0 - p)
+    }
+
+    /// Held-out errors left by this candidate on `p`'s channel.
+    pub fn held_out_errors(&self, p: &Problem) -> Vec<f64> {
+        p.test_rows()
+            .map(|k| p.ch.resid[k] - self.pred[k])
+            .collect()
     }
 }
 
@@ -123,264 +149,84 @@ pub fn round(v: f64) -> f64 {
     }
 }
 
-fn baseline(p: &Problem) -> Vec<Vec<f64>> {
-    let t0 = p.al.t_s[0];
-    vec![
-        vec![1.0; p.al.t_s.len()],
-        p.al.t_s.iter().map(|t| (t - t0) / 3600.0).collect(),
-        p.ch.sim.clone(),
-    ]
+/// The baseline of a channel as a design: its columns and their ridge
+/// penalties for the channel's residual.
+#[derive(Debug, Clone)]
+struct Design {
+    base: Baseline,
+    penalty: Vec<f64>,
 }
 
-fn swing(x: &[f64]) -> f64 {
-    let (lo, hi) = x
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    hi - lo
-}
-
-/// Two-time-constant response variants of input `u` (`y0` initial state).
-fn response_pairs(
-    p: &Problem,
-    u: &[f64],
-    y0: f64,
-    taus: &[f64],
-    in_unit: &str,
-    extra_fixed: &[(String, f64)],
-) -> Vec<Variant> {
-    let unit = p.ch.unit();
-    let f: Vec<Vec<f64>> = taus
-        .iter()
-        .map(|&tau| lsq::lowpass(&p.al.t_s, u, tau, y0))
-        .collect();
-    let mut out = Vec::new();
-    for i in 0..taus.len() {
-        for j in i + 1..taus.len() {
-            let mut fixed = vec![
-                ("tau1_s".to_string(), taus[i]),
-                ("tau2_s".to_string(), taus[j]),
-            ];
-            fixed.extend_from_slice(extra_fixed);
-            out.push(Variant {
-                extra: vec![f[i].clone(), f[j].clone()],
-                fixed,
-                gains: vec![
-                    format!("gain1_{unit}_per_{in_unit}"),
-                    format!("gain2_{unit}_per_{in_unit}"),
-                ],
-                taus: vec![taus[i], taus[j]],
-                total: Some(format!("gain_{unit}_per_{in_unit}")),
-                sign: None,
-            });
-        }
+impl Design {
+    /// The mismatch baseline of `p`'s channel.
+    fn of(p: &Problem) -> Self {
+        let base = baseline::mismatch_baseline(p.al, p.ch);
+        let penalty = base.penalties(&p.ch.resid, p.fit_rows());
+        Design { base, penalty }
     }
-    out
-}
 
-/// Which way extra heat moves the channel: the sign of the simulated
-/// channel's mean change from its first value (dz < 0 and T > 0 on a
-/// warming spindle).
-fn heat_sign(p: &Problem) -> Option<f64> {
-    let s0 = p.ch.sim[0];
-    let m = p.ch.sim.iter().map(|v| v - s0).sum::<f64>() / p.ch.sim.len() as f64;
-    (m.abs() > 0.0).then(|| m.signum())
-}
-
-fn with_sign(mut v: Vec<Variant>, sign: Option<f64>) -> Vec<Variant> {
-    for x in &mut v {
-        x.sign = sign;
+    /// Number of baseline columns (where a variant's gains start).
+    fn len(&self) -> usize {
+        self.base.cols.len()
     }
-    v
-}
 
-/// The grid of variants of one candidate, and the model form's description.
-fn variants(name: &str, p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
-    let al = p.al;
-    let t = &al.t_s;
-    let t0 = t[0];
-    let unit = p.ch.unit();
-    match name {
-        "ambient" => match al.ambient_c.as_deref().filter(|a| swing(a) >= MIN_SWING_K) {
-            Some(a) => {
-                let u: Vec<f64> = a.iter().map(|v| v - a[0]).collect();
-                (
-                    response_pairs(p, &u, 0.0, &AMBIENT_TAUS_S, "k", &[]),
-                    "first-order responses to logged ambient_c - first value".into(),
-                )
-            }
-            None => {
-                let w = std::f64::consts::TAU / DAY_S;
-                let s: Vec<f64> = t.iter().map(|t| (w * (t - t0)).sin()).collect();
-                let c: Vec<f64> = t.iter().map(|t| (w * (t - t0)).cos() - 1.0).collect();
-                let v = AMBIENT_TAUS_S
-                    .iter()
-                    .map(|&tau| Variant {
-                        extra: vec![lsq::lowpass(t, &s, tau, 0.0), lsq::lowpass(t, &c, tau, 0.0)],
-                        fixed: vec![("tau_s".into(), tau), ("period_s".into(), DAY_S)],
-                        gains: vec![format!("sin_{unit}"), format!("cos_{unit}")],
-                        taus: vec![],
-                        total: None,
-                        sign: None,
-                    })
-                    .collect();
-                (v, "ambient_c not logged: first-order response to an inferred 24 h cycle (+ the baseline's drift)".into())
-            }
-        },
-        "coolant" => match al.coolant_c.as_deref().filter(|c| swing(c) >= MIN_SWING_K) {
-            Some(c) => {
-                let u: Vec<f64> = c.iter().map(|v| v - c[0]).collect();
-                (
-                    response_pairs(p, &u, 0.0, &COOLANT_TAUS_S, "k", &[]),
-                    "first-order responses to logged coolant_c - first value".into(),
-                )
-            }
-            None => {
-                let fit_t = &t[..p.n_fit];
-                let r: Vec<f64> = (0..p.n_fit).map(|k| p.ch.resid[k] - base_pred[k]).collect();
-                let Some(p0) = spectrum::peak_period_s(fit_t, &r, 600.0, 7200.0) else {
-                    return (
-                        Vec::new(),
-                        "coolant_c not logged and no 10-120 min peak".into(),
-                    );
-                };
-                let v = (-6..=6)
-                    .map(|k| {
-                        let period = p0 * (1.0 + 0.01 * k as f64);
-                        let w = std::f64::consts::TAU / period;
-                        let h = |m: f64, f: fn(f64) -> f64| -> Vec<f64> {
-                            t.iter().map(|t| f(m * w * (t - t0))).collect()
-                        };
-                        Variant {
-                            extra: vec![
-                                h(1.0, f64::sin),
-                                h(1.0, f64::cos),
-                                h(2.0, f64::sin),
-                                h(2.0, f64::cos),
-                            ],
-                            fixed: vec![("period_s".into(), period)],
-                            gains: vec![
-                                format!("sin1_{unit}"),
-                                format!("cos1_{unit}"),
-                                format!("sin2_{unit}"),
-                                format!("cos2_{unit}"),
-                            ],
-                            taus: vec![],
-                            total: None,
-                            sign: None,
-                        }
-                    })
-                    .collect();
-                (v, "coolant_c not logged: harmonic regression (2 harmonics) at the residual's 10-120 min spectral peak".into())
-            }
-        },
-        "cutting" => match al.power_kw.as_deref() {
-            Some(pw) => {
-                let u = regime::cutting_excess_kw(&al.speed_rpm, pw);
-                if u.iter().fold(0.0f64, |a, &v| a.max(v)) < MIN_CUT_KW {
-                    return (Vec::new(), "no power beyond air cutting in power_kw".into());
-                }
-                (
-                    with_sign(response_pairs(p, &u, 0.0, &HEAT_TAUS_S, "kw", &[]), heat_sign(p)),
-                    "first-order responses to power_kw beyond air cutting (gain of the sign of the twin's own heating)".into(),
-                )
-            }
-            None => (Vec::new(), "power_kw not logged".into()),
-        },
-        "motor_loss" => {
-            let mut v = Vec::new();
-            for knee in KNEES_RPM {
-                let u: Vec<f64> = al
-                    .speed_rpm
-                    .iter()
-                    .map(|&n| {
-                        if n > 0.0 {
-                            (1.0 - n / knee).max(0.0)
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect();
-                if u[..p.n_fit].iter().all(|&x| x == 0.0) {
-                    continue;
-                }
-                v.extend(with_sign(
-                    response_pairs(
-                        p,
-                        &u,
-                        0.0,
-                        &HEAT_TAUS_S,
-                        "weight",
-                        &[("knee_rpm".into(), knee)],
-                    ),
-                    heat_sign(p),
-                ));
-            }
-            let d = if v.is_empty() {
-                "the spindle never runs below 8000 rpm in the fit part".into()
-            } else {
-                "first-order responses to the low-speed weight [n>0] max(0, 1 - n/knee) (gain of the sign of the twin's own heating)".into()
-            };
-            (v, d)
+    /// The baseline fitted alone.
+    fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+        lsq::fit_rows_penalised(&self.base.cols, y, rows.clone(), &self.penalty)
+    }
+
+    /// The baseline and variant `v` fitted on rows `rows`: `v`'s fixed
+    /// part (gain 1) is taken off `y` first and added back to the
+    /// prediction. Returns the fit (coefficients: baseline, then `v`'s
+    /// regressors) and the columns, or `None` if the fit fails or breaks
+    /// `v`'s sign rule.
+    fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<(LinearFit, Vec<Vec<f64>>)> {
+        let mut cols = self.base.cols.clone();
+        cols.extend(v.extra.iter().cloned());
+        let target: Vec<f64> = match &v.fixed_part {
+            Some(fp) => y.iter().zip(fp).map(|(a, b)| a - b).collect(),
+            None => y.to_vec(),
+        };
+        let mut f = lsq::fit_rows_penalised(&cols, &target, rows.clone(), &self.penalty)?;
+        let total: f64 = f.coef[self.len()..].iter().sum();
+        if v.sign.is_some_and(|s| s * total <= 0.0) {
+            return None;
         }
-        "sensor_lag" => {
-            if !crate::runfile::is_temperature_column(&p.ch.name) {
-                return (
-                    Vec::new(),
-                    "not a temperature channel: probes and displacements do not lag, no signature"
-                        .into(),
-                );
+        if let Some(fp) = &v.fixed_part {
+            for (q, x) in f.pred.iter_mut().zip(fp) {
+                *q += x;
             }
-            // The lag's own signature F(sim) - sim rather than F(sim): the
-            // same column space (sim is a baseline regressor), so the same
-            // fit, but the gain is the lagged share (1 for a sensor that
-            // lags entirely) and the regressor alone is the effect.
-            let v = LAG_TAUS_S
-                .iter()
-                .map(|&tau| Variant {
-                    extra: vec![lsq::lowpass(t, &p.ch.sim, tau, p.ch.sim[0])
-                        .iter()
-                        .zip(&p.ch.sim)
-                        .map(|(f, s)| f - s)
-                        .collect()],
-                    fixed: vec![("tau_s".into(), tau)],
-                    gains: vec!["gain".into()],
-                    taus: vec![],
-                    total: None,
-                    sign: None,
-                })
-                .collect();
-            (
-                v,
-                "lagged simulated temperature: r ~ g (F(sim; tau) - sim) ~ -g tau dsim/dt".into(),
-            )
+            f.sse_fit = rows.clone().map(|k| (y[k] - f.pred[k]).powi(2)).sum();
         }
-        _ => (Vec::new(), "offset + linear drift + twin gain".into()),
+        Some((f, cols))
+    }
+
+    /// Fits each variant and keeps the best on the fit part.
+    fn best(
+        &self,
+        vars: Vec<Variant>,
+        y: &[f64],
+        rows: &Rows,
+    ) -> Option<(LinearFit, Variant, Vec<Vec<f64>>)> {
+        vars.into_iter()
+            .filter_map(|v| {
+                let (f, cols) = self.fit(&v, y, rows)?;
+                Some((f, v, cols))
+            })
+            .min_by(|a, b| a.0.sse_fit.total_cmp(&b.0.sse_fit))
+    }
+
+    /// What variant `v` fitted as `f` adds on row `k`: its regressors
+    /// (columns `from..to` of `cols`) times their coefficients plus its
+    /// fixed part.
+    fn part(v: &Variant, f: &LinearFit, cols: &[Vec<f64>], from: usize, k: usize) -> f64 {
+        let to = from + v.extra.len();
+        let lin: f64 = (from..to).map(|j| f.coef[j] * cols[j][k]).sum();
+        lin + v.fixed_part.as_ref().map_or(0.0, |fp| fp[k])
     }
 }
 
-/// Fits each variant on top of `base` and keeps the best on the fit part.
-fn best(
-    base: &[Vec<f64>],
-    vars: Vec<Variant>,
-    y: &[f64],
-    n_fit: usize,
-) -> Option<(LinearFit, Variant, Vec<Vec<f64>>)> {
-    vars.into_iter()
-        .filter_map(|v| {
-            let mut cols = base.to_vec();
-            cols.extend(v.extra.iter().cloned());
-            let f = lsq::fit(&cols, y, n_fit)?;
-            let total: f64 = f.coef[cols.len() - v.extra.len()..].iter().sum();
-            if v.sign.is_some_and(|s| s * total <= 0.0) {
-                return None;
-            }
-            Some((f, v, cols))
-        })
-        .min_by(|a, b| a.0.sse_fit.total_cmp(&b.0.sse_fit))
-}
-
+/// Scores a fit on the hold-out rows of `p`'s channel (p-values unset).
 fn score(
     name: &str,
     p: &Problem,
@@ -389,10 +235,8 @@ fn score(
     params: Map<String, Value>,
 ) -> Scored {
     let r = &p.ch.resid;
-    let n_fit = p.n_fit;
-    let hold: Vec<f64> = r[n_fit..].to_vec();
-    let after: Vec<f64> = (n_fit..r.len()).map(|k| r[k] - f.pred[k]).collect();
-    let rms_before = lsq::rms(&hold);
+    let after: Vec<f64> = p.test_rows().map(|k| r[k] - f.pred[k]).collect();
+    let rms_before = lsq::rms(&r[p.test_rows()]);
     let rms_after = lsq::rms(&after);
     Scored {
         name: name.to_string(),
@@ -403,18 +247,27 @@ fn score(
         } else {
             0.0
         },
-        fit_rms: (f.sse_fit / n_fit.max(1) as f64).sqrt(),
+        fit_rms: (f.sse_fit / p.fit_rows().len().max(1) as f64).sqrt(),
         params,
         model,
         pred: f.pred.clone(),
+        p_value: None,
+        p_adjusted: None,
+        ratio_to_none: 1.0,
     }
 }
 
+/// The parameters of variant `v` fitted with coefficients `coef` (the
+/// variant's own start at `n_base`): grid point, labels, gains, their sum
+/// and the dominant time constant.
 fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
     let mut m = Map::new();
     let g = &coef[n_base..(n_base + v.gains.len()).min(coef.len())];
     for (k, val) in &v.fixed {
         m.insert(k.clone(), json!(round(*val)));
+    }
+    for (k, val) in &v.labels {
+        m.insert(k.clone(), json!(val));
     }
     for (k, val) in v.gains.iter().zip(g) {
         m.insert(k.clone(), json!(round(*val)));
@@ -435,34 +288,98 @@ fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
     m
 }
 
-/// Fits and scores the baseline and every candidate on `p`'s channel.
-/// A candidate without a usable input falls back to the baseline (and says
-/// so in `model`).
-pub fn fit_all(p: &Problem) -> Vec<Scored> {
-    let base = baseline(p);
-    let y = &p.ch.resid;
-    let Some(bf) = lsq::fit(&base, y, p.n_fit) else {
-        return Vec::new();
-    };
-    let mut out = vec![score(
+/// The baseline's fit scored as the `none` candidate.
+fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> Scored {
+    let mut params: Map<String, Value> = base
+        .names
+        .iter()
+        .zip(&bf.coef)
+        .map(|(k, c)| (k.clone(), json!(round(*c))))
+        .collect();
+    params.insert("tau_c_s".into(), json!(base.tau_c_s));
+    score(
         "none",
         p,
-        &bf,
-        "offset + linear drift + twin gain (baseline; every candidate adds to it)".into(),
-        Map::from_iter([
-            ("offset".to_string(), json!(round(bf.coef[0]))),
-            (
-                format!("drift_{}_per_h", p.ch.unit()),
-                json!(round(bf.coef[1])),
-            ),
-            ("twin_gain".to_string(), json!(round(bf.coef[2]))),
-        ]),
-    )];
+        bf,
+        "mismatch baseline: offset + drift + twin gain + twin time-constant error + speed and speed^2 heat gains at the channel's time constant (every candidate adds to it)".into(),
+        params,
+    )
+}
+
+/// Fits and scores the baseline (first) and every candidate on `p`'s
+/// channel, each candidate with its block-bootstrap p-value against the
+/// baseline and their Holm adjustment. The p-value pools both folds of a
+/// two-fold split: the hold-out predicted from the fit part (the figures
+/// reported) and the fit part predicted from the hold-out, so an effect
+/// seen in both parts counts twice as much evidence as one seen once. A
+/// candidate without a usable input falls back to the baseline (and says so
+/// in `model`; p = 1).
+pub fn fit_all(p: &Problem) -> Vec<Scored> {
+    let mut forward = fit_fold(p);
+    if forward.is_empty() {
+        return forward;
+    }
+    let back = p.swapped();
+    let backward = fit_fold(&back);
+    // Held-out errors of candidate `i`, both folds in time order, in the
+    // band the candidate is judged in.
+    let errors = |i: usize, band: Option<f64>| -> Vec<f64> {
+        let mut e = backward
+            .get(i)
+            .map_or_else(Vec::new, |s| judged(&back, band, s.held_out_errors(&back)));
+        e.extend(judged(p, band, forward[i].held_out_errors(p)));
+        e
+    };
+    let tested: Vec<usize> = (1..forward.len())
+        .filter(|&i| forward[i].pred != forward[0].pred)
+        .collect();
+    let raw: Vec<f64> = tested
+        .iter()
+        .map(|&i| {
+            let band = judged_band(&forward[i].name);
+            signif::p_better(&errors(0, band), &errors(i, band), BOOT_SEED + i as u64)
+        })
+        .collect();
+    set_p_values(&mut forward, &tested, &raw);
+    for i in 1..forward.len() {
+        let band = judged_band(&forward[i].name);
+        let e0 = judged(p, band, forward[0].held_out_errors(p));
+        let ei = judged(p, band, forward[i].held_out_errors(p));
+        forward[i].ratio_to_none = lsq::rms(&ei) / lsq::rms(&e0).max(f64::MIN_POSITIVE);
+    }
+    forward
+}
+
+/// The slowest period a candidate is judged on, s: the chiller band's for
+/// `coolant` (its regressors hold nothing slower, and a room's or a
+/// sensor's slow wander that nothing explains would hide a clear chiller
+/// cycle in the ratio to the baseline), none for the others.
+fn judged_band(name: &str) -> Option<f64> {
+    (name == "coolant").then_some(CHILLER_BAND_S.1)
+}
+
+/// `e` (errors on `p`'s test rows) limited to periods below `band`, if any.
+fn judged(p: &Problem, band: Option<f64>, e: Vec<f64>) -> Vec<f64> {
+    match band {
+        Some(slow) => high_pass(&p.al.t_s[p.test_rows()], &e, slow),
+        None => e,
+    }
+}
+
+/// The baseline (first) and every candidate fitted on `p`'s fit rows and
+/// scored on its test rows (p-values unset); empty if the baseline fails.
+fn fit_fold(p: &Problem) -> Vec<Scored> {
+    let d = Design::of(p);
+    let y = &p.ch.resid;
+    let Some(bf) = d.fit_alone(y, &p.fit_rows()) else {
+        return Vec::new();
+    };
+    let mut out = vec![score_none(p, &d.base, &bf)];
     for name in NAMES {
         let (vars, model) = variants(name, p, &bf.pred);
-        let s = match best(&base, vars, y, p.n_fit) {
+        let s = match d.best(vars, y, &p.fit_rows()) {
             Some((f, v, _)) => {
-                let params = params_of(&v, &f.coef, base.len());
+                let params = params_of(&v, &f.coef, d.len());
                 score(name, p, &f, model, params)
             }
             None => score(name, p, &bf, format!("{model} (baseline only)"), Map::new()),
@@ -472,98 +389,164 @@ pub fn fit_all(p: &Problem) -> Vec<Scored> {
     out
 }
 
+/// Seed of the bootstrap of candidate `i` (fixed: the same files give the
+/// same p-values).
+const BOOT_SEED: u64 = 0x007E_570F_5EED;
+
+/// Sets the p-values of the candidates `tested` (indices into `scored`)
+/// to `raw` and their Holm adjustment over the tested ones; a candidate
+/// that fell back to the baseline (no usable input) is no test (p = 1, not
+/// counted in the adjustment).
+fn set_p_values(scored: &mut [Scored], tested: &[usize], raw: &[f64]) {
+    let adj = signif::holm(raw);
+    for s in scored[1..].iter_mut() {
+        s.p_value = Some(1.0);
+        s.p_adjusted = Some(1.0);
+    }
+    for (k, &i) in tested.iter().enumerate() {
+        scored[i].p_value = Some(raw[k]);
+        scored[i].p_adjusted = Some(adj[k]);
+    }
+}
+
 /// Grid points kept per candidate for the pair search.
 const PAIR_GRID: usize = 8;
 
 /// The `PAIR_GRID` variants with the smallest fit-part error on their own
 /// (sign rule applied), best first.
-fn top_variants(base: &[Vec<f64>], vars: Vec<Variant>, y: &[f64], n_fit: usize) -> Vec<Variant> {
+fn top_variants(d: &Design, vars: Vec<Variant>, y: &[f64], rows: &Rows) -> Vec<Variant> {
     let mut scored: Vec<(f64, Variant)> = vars
         .into_iter()
-        .filter_map(|v| {
-            let (f, v, _) = best(base, vec![v], y, n_fit)?;
-            Some((f.sse_fit, v))
-        })
+        .filter_map(|v| Some((d.fit(&v, y, rows)?.0.sse_fit, v)))
         .collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
     scored.into_iter().take(PAIR_GRID).map(|x| x.1).collect()
 }
 
-/// The best joint model of two effects: for each pair, coordinate descent
-/// over the two grids, each cut to its 8 best variants on their own (start
-/// from the second's best, then best first-given-second, best
-/// second-given-first, twice). Returns the
-/// joint fit (named `a+b`) with its members ordered by importance: the one
-/// whose removal from the joint prediction raises the held-out rms more
-/// comes first.
-pub fn best_pair(p: &Problem) -> Option<(Scored, String, String)> {
-    let base = baseline(p);
+/// One candidate's grid cut for the pair search: name, variants, model.
+type Grid = (&'static str, Vec<Variant>, String);
+
+/// `d` with `v`'s regressors appended to the baseline (free) and `v`'s
+/// fixed part returned apart.
+fn with_variant(d: &Design, v: &Variant) -> (Design, Option<Vec<f64>>) {
+    let mut e = d.clone();
+    e.penalty.extend(v.extra.iter().map(|_| 0.0));
+    e.base.cols.extend(v.extra.iter().cloned());
+    e.base.names.extend(v.gains.iter().cloned());
+    e.base.prior_sd.extend(v.extra.iter().map(|_| None));
+    (e, v.fixed_part.clone())
+}
+
+/// `y` minus a fixed part, if any.
+fn minus(y: &[f64], fixed: &Option<Vec<f64>>) -> Vec<f64> {
+    match fixed {
+        Some(fp) => y.iter().zip(fp).map(|(a, b)| a - b).collect(),
+        None => y.to_vec(),
+    }
+}
+
+/// Coordinate descent over two grids on top of the baseline: start from
+/// `b`'s best, then best of `a` given `b`, best of `b` given `a`, twice.
+fn descend(
+    d: &Design,
+    va: &[Variant],
+    vb: &[Variant],
+    y: &[f64],
+    rows: &Rows,
+) -> Option<(Variant, Variant)> {
+    let mut sel_b = vb.first()?.clone();
+    let mut sel_a = None;
+    for _ in 0..2 {
+        let (db, fb) = with_variant(d, &sel_b);
+        let Some((_, a, _)) = db.best(va.to_vec(), &minus(y, &fb), rows) else {
+            break;
+        };
+        let (da, fa) = with_variant(d, &a);
+        let Some((_, b, _)) = da.best(vb.to_vec(), &minus(y, &fa), rows) else {
+            break;
+        };
+        sel_a = Some(a);
+        sel_b = b;
+    }
+    Some((sel_a?, sel_b))
+}
+
+/// Variants `a` and `b` as one (regressors of `a` first, fixed parts
+/// summed).
+fn merged(a: &Variant, b: &Variant) -> Variant {
+    let mut m = a.clone();
+    m.extra.extend(b.extra.iter().cloned());
+    m.gains.extend(b.gains.iter().cloned());
+    m.sign = None;
+    m.fixed_part = match (&a.fixed_part, &b.fixed_part) {
+        (Some(x), Some(y)) => Some(x.iter().zip(y).map(|(u, v)| u + v).collect()),
+        (Some(x), None) | (None, Some(x)) => Some(x.clone()),
+        (None, None) => None,
+    };
+    m
+}
+
+/// The joint fit of two grids' selected variants, scored, with its members
+/// ordered by importance (the one whose removal from the joint prediction
+/// raises the held-out rms more first).
+fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<(Scored, String, String)> {
     let y = &p.ch.resid;
-    let bf = lsq::fit(&base, y, p.n_fit)?;
-    let grids: Vec<(&str, Vec<Variant>, String)> = NAMES
+    let (sel_a, sel_b) = descend(d, &ga.1, &gb.1, y, &p.fit_rows())?;
+    let both = merged(&sel_a, &sel_b);
+    let (f, cols) = d.fit(&both, y, &p.fit_rows())?;
+    let (ka, kb) = (d.len(), d.len() + sel_a.extra.len());
+    let mut params = Map::new();
+    for (prefix, v, from) in [(ga.0, &sel_a, ka), (gb.0, &sel_b, kb)] {
+        for (k, val) in params_of(v, &f.coef[from - d.len()..], d.len()) {
+            params.insert(format!("{prefix}.{k}"), val);
+        }
+    }
+    let s = score(
+        &format!("{}+{}", ga.0, gb.0),
+        p,
+        &f,
+        format!("{}; {}", ga.2, gb.2),
+        params,
+    );
+    let without = |v: &Variant, from: usize| -> f64 {
+        let left: Vec<f64> = p
+            .test_rows()
+            .map(|k| y[k] - (f.pred[k] - Design::part(v, &f, &cols, from, k)))
+            .collect();
+        lsq::rms(&left)
+    };
+    let (wa, wb) = (without(&sel_a, ka), without(&sel_b, kb));
+    let (first, second) = if wa >= wb { (ga.0, gb.0) } else { (gb.0, ga.0) };
+    Some((s, first.to_string(), second.to_string()))
+}
+
+/// The best joint model of two effects: for each pair, coordinate descent
+/// over the two grids, each cut to its 8 best variants on their own.
+/// Returns the joint fit (named `a+b`) with its members ordered by
+/// importance.
+pub fn best_pair(p: &Problem) -> Option<(Scored, String, String)> {
+    let d = Design::of(p);
+    let y = &p.ch.resid;
+    let bf = d.fit_alone(y, &p.fit_rows())?;
+    let grids: Vec<Grid> = NAMES
         .iter()
         .map(|&n| {
             let (v, m) = variants(n, p, &bf.pred);
-            (n, v, m)
+            (n, top_variants(&d, v, y, &p.fit_rows()), m)
         })
         .filter(|g| !g.1.is_empty())
-        .map(|(n, v, m)| (n, top_variants(&base, v, y, p.n_fit), m))
-        .filter(|g| !g.1.is_empty())
         .collect();
-    let with = |extra: &Variant| -> Vec<Vec<f64>> {
-        let mut c = base.clone();
-        c.extend(extra.extra.iter().cloned());
-        c
-    };
     let mut best_pair: Option<(Scored, String, String)> = None;
     for i in 0..grids.len() {
         for j in i + 1..grids.len() {
-            let (na, va, ma) = &grids[i];
-            let (nb, vb, mb) = &grids[j];
-            let mut sel_b = vb[0].clone();
-            let mut sel_a = None;
-            for _ in 0..2 {
-                let Some((_, a, _)) = best(&with(&sel_b), va.clone(), y, p.n_fit) else {
-                    break;
-                };
-                let Some((_, b, _)) = best(&with(&a), vb.clone(), y, p.n_fit) else {
-                    break;
-                };
-                sel_a = Some(a);
-                sel_b = b;
-            }
-            let Some(sel_a) = sel_a else { continue };
-            let mut cols = with(&sel_a);
-            cols.extend(sel_b.extra.iter().cloned());
-            let Some(f) = lsq::fit(&cols, y, p.n_fit) else {
+            let Some(cand) = joint(p, &d, &grids[i], &grids[j]) else {
                 continue;
             };
-            let (ka, kb) = (base.len(), base.len() + sel_a.extra.len());
-            let mut params = Map::new();
-            for (prefix, v, from) in [(na, &sel_a, ka), (nb, &sel_b, kb)] {
-                for (k, val) in params_of(v, &f.coef[from - base.len()..], base.len()) {
-                    params.insert(format!("{prefix}.{k}"), val);
-                }
-            }
-            let name = format!("{na}+{nb}");
-            let s = score(&name, p, &f, format!("{ma}; {mb}"), params);
-            // Importance: held-out rms without each member's part.
-            let without = |from: usize, to: usize| -> f64 {
-                let left: Vec<f64> = (p.n_fit..y.len())
-                    .map(|k| {
-                        let part: f64 = (from..to).map(|c| f.coef[c] * cols[c][k]).sum();
-                        y[k] - (f.pred[k] - part)
-                    })
-                    .collect();
-                lsq::rms(&left)
-            };
-            let (wa, wb) = (without(ka, kb), without(kb, cols.len()));
-            let (first, second) = if wa >= wb { (na, nb) } else { (nb, na) };
             if best_pair
                 .as_ref()
-                .is_none_or(|b| s.rms_after < b.0.rms_after)
+                .is_none_or(|b| cand.0.rms_after < b.0.rms_after)
             {
-                best_pair = Some((s, first.to_string(), second.to_string()));
+                best_pair = Some(cand);
             }
         }
     }
@@ -584,21 +567,19 @@ pub struct EffectPart {
 /// What candidate `name` adds to `p`'s channel: its own regressors times
 /// their coefficients, fitted with the baseline on the fit rows only
 /// exactly as [`fit_all`] fits it (the grid point with the smallest
-/// fit-part error); the baseline's offset, drift and twin gain are left
-/// out (they are the twin's mismatch, not the effect). `None` when the
-/// candidate has no usable input on this channel (e.g. `sensor_lag` on a
-/// displacement) or a fit fails.
+/// fit-part error); the baseline's part is left out (it is the twin's
+/// mismatch, not the effect). `None` when the candidate has no usable input
+/// on this channel (e.g. `sensor_lag` on a displacement) or a fit fails.
 pub fn effect_part(name: &str, p: &Problem) -> Option<EffectPart> {
-    let base = baseline(p);
+    let d = Design::of(p);
     let y = &p.ch.resid;
-    let bf = lsq::fit(&base, y, p.n_fit)?;
+    let bf = d.fit_alone(y, &p.fit_rows())?;
     let (vars, _) = variants(name, p, &bf.pred);
-    let (f, _, cols) = best(&base, vars, y, p.n_fit)?;
-    let n_base = base.len();
-    let n_fit = p.n_fit.max(1) as f64;
+    let (f, v, cols) = d.best(vars, y, &p.fit_rows())?;
+    let n_fit = p.fit_rows().len().max(1) as f64;
     Some(EffectPart {
         values: (0..y.len())
-            .map(|k| (n_base..cols.len()).map(|j| f.coef[j] * cols[j][k]).sum())
+            .map(|k| Design::part(&v, &f, &cols, d.len(), k))
             .collect(),
         fit_rms_base: (bf.sse_fit / n_fit).sqrt(),
         fit_rms_with: (f.sse_fit / n_fit).sqrt(),

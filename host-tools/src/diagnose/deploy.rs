@@ -128,7 +128,7 @@ pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Val
         return out;
     }
     let plus_effect = |c: &Channel| -> Vec<f64> {
-        let p = Problem { al, ch: c, n_fit };
+        let p = Problem::new(al, c, n_fit);
         match candidates::effect_part(verdict, &p) {
             Some(e) if e.fit_rms_with <= (1.0 - MIN_FIT_SHRINK) * e.fit_rms_base => {
                 c.sim.iter().zip(&e.values).map(|(s, e)| s + e).collect()

@@ -30,9 +30,13 @@ pub struct Segment {
 }
 
 /// Air-cutting power at each row's speed, kW: the 20th percentile of the
-/// power logged at that speed (100 rpm bins). Speed-dependent losses
-/// (bearings, motor, even extra low-speed losses) are the same every time a
-/// speed comes back; cutting only adds, so a low quantile is air cutting.
+/// power logged at that speed (100 rpm bins), or a smooth lower envelope
+/// over all speeds ([`air_envelope_kw`]) where that percentile lies more
+/// than the cutting margin above it.
+/// Speed-dependent losses (bearings, motor, even extra low-speed losses)
+/// are the same every time a speed comes back; cutting only adds, so a low
+/// quantile is air cutting, unless the spindle always cuts at that speed:
+/// the envelope, fitted where other speeds air-cut, covers those.
 pub fn air_power_kw(speed_rpm: &[f64], power_kw: &[f64]) -> Vec<f64> {
     use std::collections::HashMap;
     let bin = |s: f64| (s / 100.0).round() as i64;
@@ -47,9 +51,68 @@ pub fn air_power_kw(speed_rpm: &[f64], power_kw: &[f64]) -> Vec<f64> {
             (b, v[(v.len() - 1) / 5])
         })
         .collect();
+    let envelope = air_envelope_kw(speed_rpm, power_kw);
     speed_rpm
         .iter()
-        .map(|&s| q20.get(&bin(s)).copied().unwrap_or(0.0))
+        .zip(&envelope)
+        .map(|(&s, &e)| {
+            let q = q20.get(&bin(s)).copied().unwrap_or(0.0);
+            if q > e + CUT_MARGIN_KW.max(0.15 * e) {
+                e
+            } else {
+                q
+            }
+        })
+        .collect()
+}
+
+/// Share of the running samples the lower envelope passes through.
+const ENVELOPE_SHARE: f64 = 0.25;
+
+/// A smooth lower envelope of power against speed, kW:
+/// `c0 + c1 n/n_max + c2 (n/n_max)^2` on running rows (the air-cutting
+/// power of bearings and motor, n^1 .. n^2 plus an idle draw; 0 at
+/// standstill), fitted by least squares trimmed four times to the rows
+/// whose residual lies in the lowest [`ENVELOPE_SHARE`] of the previous
+/// fit's. `+inf` (no bound) where the fit is not possible.
+pub fn air_envelope_kw(speed_rpm: &[f64], power_kw: &[f64]) -> Vec<f64> {
+    let top = speed_rpm
+        .iter()
+        .fold(0.0f64, |a, &n| a.max(n.abs()))
+        .max(1.0);
+    let q: Vec<f64> = speed_rpm.iter().map(|n| n.abs() / top).collect();
+    let curve = |c: &[f64], x: f64| c[0] + c[1] * x + c[2] * x * x;
+    let running: Vec<usize> = (0..q.len()).filter(|&k| q[k] > 0.0).collect();
+    let keep = ((ENVELOPE_SHARE * running.len() as f64).ceil() as usize).max(3);
+    let mut rows = running.clone();
+    let mut coef: Option<Vec<f64>> = None;
+    for _ in 0..5 {
+        let cols = vec![
+            vec![1.0; rows.len()],
+            rows.iter().map(|&k| q[k]).collect(),
+            rows.iter().map(|&k| q[k] * q[k]).collect(),
+        ];
+        let y: Vec<f64> = rows.iter().map(|&k| power_kw[k]).collect();
+        let Some(f) = super::lsq::fit(&cols, &y, y.len()) else {
+            break;
+        };
+        let mut r: Vec<(f64, usize)> = running
+            .iter()
+            .map(|&k| (power_kw[k] - curve(&f.coef, q[k]), k))
+            .collect();
+        r.sort_by(|a, b| a.0.total_cmp(&b.0));
+        coef = Some(f.coef);
+        if r.len() <= keep {
+            break;
+        }
+        rows = r[..keep].iter().map(|x| x.1).collect();
+    }
+    q.iter()
+        .map(|&x| match &coef {
+            Some(c) if x > 0.0 => curve(c, x),
+            Some(_) => 0.0,
+            None => f64::INFINITY,
+        })
         .collect()
 }
 

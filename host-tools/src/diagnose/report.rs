@@ -18,35 +18,70 @@ pub(super) fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
-/// A time-series chart: x in hours, several series, optional vertical
-/// line (the hold-out start).
-pub(super) fn line_chart(
-    title: &str,
-    t_h: &[f64],
-    series: &[(&str, &[f64])],
-    vline_h: Option<f64>,
+/// Margins of a line chart's plot area, px: left, right, top, bottom.
+const MARGINS: (f64, f64, f64, f64) = (70.0, 20.0, 28.0, 32.0);
+
+/// A line chart's plot area and data ranges, and the maps from data to
+/// pixels.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    /// Chart height, px.
     h: f64,
-) -> String {
-    let (l, r, top, bot) = (70.0, 20.0, 28.0, 32.0);
-    let (x0, x1) = (
-        t_h.first().copied().unwrap_or(0.0),
-        t_h.last().copied().unwrap_or(1.0).max(1e-9),
-    );
-    let (mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (_, s) in series {
-        for &v in *s {
+    /// Data range on x (hours).
+    x0: f64,
+    x1: f64,
+    /// Data range on y (padded by 5 % on each side).
+    y0: f64,
+    y1: f64,
+}
+
+impl Frame {
+    /// The frame of `series` over `t_h`, `h` px high.
+    fn new(t_h: &[f64], series: &[(&str, &[f64])], h: f64) -> Self {
+        let x0 = t_h.first().copied().unwrap_or(0.0);
+        let x1 = t_h.last().copied().unwrap_or(1.0).max(1e-9);
+        let (mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &v in series.iter().flat_map(|(_, s)| s.iter()) {
             y0 = y0.min(v);
             y1 = y1.max(v);
         }
+        if y1.partial_cmp(&y0) != Some(std::cmp::Ordering::Greater) {
+            y0 -= 1.0;
+            y1 += 1.0;
+        }
+        let pad = 0.05 * (y1 - y0);
+        Frame {
+            h,
+            x0,
+            x1,
+            y0: y0 - pad,
+            y1: y1 + pad,
+        }
     }
-    if y1.partial_cmp(&y0) != Some(std::cmp::Ordering::Greater) {
-        y0 -= 1.0;
-        y1 += 1.0;
+
+    /// Pixel column of time `x`.
+    fn px(&self, x: f64) -> f64 {
+        let (l, r, _, _) = MARGINS;
+        l + (x - self.x0) / (self.x1 - self.x0).max(1e-12) * (W - l - r)
     }
-    let pad = 0.05 * (y1 - y0);
-    let (y0, y1) = (y0 - pad, y1 + pad);
-    let px = |x: f64| l + (x - x0) / (x1 - x0).max(1e-12) * (W - l - r);
-    let py = |y: f64| top + (y1 - y) / (y1 - y0) * (h - top - bot);
+
+    /// Pixel row of value `y` (top of the plot area = `y1`).
+    fn py(&self, y: f64) -> f64 {
+        let (_, _, top, bot) = MARGINS;
+        top + (self.y1 - y) / (self.y1 - self.y0) * (self.h - top - bot)
+    }
+
+    /// Five evenly spaced tick values from `y0` to `y1`.
+    fn y_ticks(&self) -> [f64; 5] {
+        std::array::from_fn(|k| self.y0 + (self.y1 - self.y0) * k as f64 / 4.0)
+    }
+}
+
+/// The frame, title, y grid with labels, x labels and the optional
+/// vertical line of a line chart.
+fn chart_axes(title: &str, f: &Frame, vline_h: Option<f64>) -> String {
+    let (l, r, top, bot) = MARGINS;
+    let h = f.h;
     let mut s = format!(
         r##"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{h}" font-family="sans-serif" font-size="12">"##
     );
@@ -61,41 +96,52 @@ pub(super) fn line_chart(
         r##"<text x="{l}" y="18" font-size="14" font-weight="bold">{}</text>"##,
         esc(title)
     );
-    for k in 0..=4 {
-        let y = y0 + (y1 - y0) * k as f64 / 4.0;
+    for (k, y) in f.y_ticks().into_iter().enumerate() {
+        let (ypx, xr) = (f.py(y), W - r);
         let _ = write!(
             s,
-            r##"<text x="{}" y="{}" text-anchor="end">{:.2}</text><line x1="{l}" x2="{}" y1="{2}" y2="{2}" stroke="#eee"/>"##,
+            r##"<text x="{}" y="{}" text-anchor="end">{y:.2}</text><line x1="{l}" x2="{xr}" y1="{ypx}" y2="{ypx}" stroke="#eee"/>"##,
             l - 4.0,
-            py(y) + 4.0,
-            y,
-            W - r
+            ypx + 4.0,
         );
-        let x = x0 + (x1 - x0) * k as f64 / 4.0;
+        let x = f.x0 + (f.x1 - f.x0) * k as f64 / 4.0;
         let _ = write!(
             s,
-            r##"<text x="{}" y="{}" text-anchor="middle">{:.1} h</text>"##,
-            px(x),
+            r##"<text x="{}" y="{}" text-anchor="middle">{x:.1} h</text>"##,
+            f.px(x),
             h - bot + 16.0,
-            x
         );
     }
     if let Some(v) = vline_h {
         let _ = write!(
             s,
             r##"<line x1="{0}" x2="{0}" y1="{top}" y2="{1}" stroke="#555" stroke-dasharray="5,4"/><text x="{2}" y="{3}">hold-out</text>"##,
-            px(v),
+            f.px(v),
             h - bot,
-            px(v) + 4.0,
+            f.px(v) + 4.0,
             top + 14.0
         );
     }
+    s
+}
+
+/// A time-series chart: x in hours, several series, optional vertical
+/// line (the hold-out start).
+pub(super) fn line_chart(
+    title: &str,
+    t_h: &[f64],
+    series: &[(&str, &[f64])],
+    vline_h: Option<f64>,
+    h: f64,
+) -> String {
+    let f = Frame::new(t_h, series, h);
+    let mut s = chart_axes(title, &f, vline_h);
     let stride = (t_h.len() / 1500).max(1);
     for (i, (name, ys)) in series.iter().enumerate() {
         let c = COLORS[i % COLORS.len()];
         let pts: String = (0..t_h.len().min(ys.len()))
             .step_by(stride)
-            .map(|k| format!("{:.1},{:.1} ", px(t_h[k]), py(ys[k])))
+            .map(|k| format!("{:.1},{:.1} ", f.px(t_h[k]), f.py(ys[k])))
             .collect();
         let _ = write!(
             s,
@@ -104,7 +150,7 @@ pub(super) fn line_chart(
         let _ = write!(
             s,
             r##"<text x="{}" y="18" fill="{c}">{}</text>"##,
-            W - r - 130.0 * (series.len() - i) as f64,
+            W - MARGINS.1 - 130.0 * (series.len() - i) as f64,
             esc(name)
         );
     }
@@ -185,7 +231,17 @@ fn deployment_html(d: &Value) -> String {
     h
 }
 
-/// Writes `dir/index.html`; `extra` (HTML) goes before the JSON.
+/// The time axis of the plots: hours from the first row, and the hold-out
+/// start in hours.
+struct Axis {
+    t_h: Vec<f64>,
+    hold_h: Option<f64>,
+}
+
+/// Writes `dir/index.html`: the verdict, the candidates, the main
+/// channel's residual, the deployment view, where the gap is, every
+/// channel, `extra` (HTML: the physical diagnosis with `--machine`), and
+/// the JSON.
 pub fn write(
     dir: &Path,
     al: &Aligned,
@@ -198,7 +254,10 @@ pub fn write(
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let t0 = al.t_s[0];
     let t_h: Vec<f64> = al.t_s.iter().map(|t| (t - t0) / 3600.0).collect();
-    let hold_h = t_h.get(n_fit).copied();
+    let ax = Axis {
+        hold_h: t_h.get(n_fit).copied(),
+        t_h,
+    };
     let mut html = String::from("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>thermcomp diagnose</title><style>body{font-family:sans-serif;margin:20px;max-width:1150px}pre{background:#f6f6f6;padding:8px;font-size:11px;white-space:pre-wrap}</style></head><body>");
     let _ = write!(
         html,
@@ -208,12 +267,38 @@ pub fn write(
         v["holdout_from_t_s"],
         esc(v["rule"].as_str().unwrap_or(""))
     );
-    html.push_str("<h2>How far each candidate shrinks the held-out gap</h2>");
+    html.push_str(&candidates_html(al, main, scored, &ax));
+    html.push_str(&deployment_html(&v["deployment"]));
+    html.push_str(&where_html(v, t0));
+    html.push_str(&channels_html(al, &ax));
+    html.push_str(extra);
+    let pretty = serde_json::to_string_pretty(v).unwrap_or_default();
+    let _ = write!(
+        html,
+        "<h2>JSON</h2><pre>{}</pre></body></html>",
+        esc(&pretty)
+    );
+    let path = dir.join("index.html");
+    crate::fsio::write_bytes_atomic(&path, html.as_bytes())?;
+    Ok(())
+}
+
+/// The candidates: held-out shrink bars (with confidences), their table,
+/// and the main channel's residual with the best candidate's prediction.
+fn candidates_html(al: &Aligned, main: usize, scored: &[Scored], ax: &Axis) -> String {
+    let mut html = String::from("<h2>How far each candidate shrinks the held-out gap</h2>");
     let bars: Vec<(String, f64)> = scored
         .iter()
         .map(|s| {
             (
-                format!("{} (rms {:.3} -> {:.3})", s.name, s.rms_before, s.rms_after),
+                format!(
+                    "{} (rms {:.3} -> {:.3}{})",
+                    s.name,
+                    s.rms_before,
+                    s.rms_after,
+                    s.confidence()
+                        .map_or(String::new(), |c| format!(", confidence {c:.3}"))
+                ),
                 s.shrink_pct,
             )
         })
@@ -222,6 +307,7 @@ pub fn write(
         "held-out shrink of the main channel's rms, %",
         &bars,
     ));
+    html.push_str(&candidates_table(scored));
     let ch = &al.channels[main];
     if let Some(best) = scored.first() {
         let after: Vec<f64> = ch
@@ -235,18 +321,22 @@ pub fn write(
                 "{}: residual, best candidate ({}) and what is left",
                 ch.name, best.name
             ),
-            &t_h,
+            &ax.t_h,
             &[
                 ("residual", &ch.resid),
                 (&best.name, &best.pred),
                 ("left", &after),
             ],
-            hold_h,
+            ax.hold_h,
             300.0,
         ));
     }
-    html.push_str(&deployment_html(&v["deployment"]));
-    html.push_str("<h2>Where: regime segments</h2>");
+    html
+}
+
+/// Where: the regime segments' shares (bars) and the bands table.
+fn where_html(v: &Value, t0: f64) -> String {
+    let mut html = String::from("<h2>Where: regime segments</h2>");
     let seg: Vec<(String, f64)> = v["where"]
         .as_array()
         .into_iter()
@@ -269,13 +359,19 @@ pub fn write(
         &seg,
     ));
     html.push_str(&bands_table(&v["bands"]));
-    html.push_str("<h2>Sim vs real</h2>");
+    html
+}
+
+/// Sim vs real per displacement, and the residual of every displacement
+/// and temperature channel.
+fn channels_html(al: &Aligned, ax: &Axis) -> String {
+    let mut html = String::from("<h2>Sim vs real</h2>");
     for c in al.channels.iter().filter(|c| c.is_displacement()) {
         html.push_str(&line_chart(
             &format!("{} (um)", c.name),
-            &t_h,
+            &ax.t_h,
             &[("sim", &c.sim), ("real", &c.real)],
-            hold_h,
+            ax.hold_h,
             220.0,
         ));
     }
@@ -284,22 +380,38 @@ pub fn write(
         let unit = if c.is_displacement() { "um" } else { "K" };
         html.push_str(&line_chart(
             &format!("{} residual ({unit})", c.name),
-            &t_h,
+            &ax.t_h,
             &[("real - sim", &c.resid)],
-            hold_h,
+            ax.hold_h,
             160.0,
         ));
     }
-    html.push_str(extra);
-    let pretty = serde_json::to_string_pretty(v).unwrap_or_default();
-    let _ = write!(
-        html,
-        "<h2>JSON</h2><pre>{}</pre></body></html>",
-        esc(&pretty)
+    html
+}
+
+/// The candidates' figures: held-out rms, shrink, ratio to the baseline,
+/// p-value and confidence (1 - Holm-adjusted p).
+fn candidates_table(scored: &[Scored]) -> String {
+    let mut t = String::from(
+        "<table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\">\
+         <tr><th>candidate</th><th>held-out rms</th><th>shrink, %</th><th>ratio to none</th>\
+         <th>p-value</th><th>confidence</th></tr>",
     );
-    let path = dir.join("index.html");
-    crate::fsio::write_bytes_atomic(&path, html.as_bytes())?;
-    Ok(())
+    let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.3}"));
+    for c in scored {
+        let _ = write!(
+            t,
+            "<tr><td>{}</td><td>{:.4}</td><td>{:.1}</td><td>{:.3}</td><td>{}</td><td>{}</td></tr>",
+            esc(&c.name),
+            c.rms_after,
+            c.shrink_pct,
+            c.ratio_to_none,
+            opt(c.p_value),
+            opt(c.confidence())
+        );
+    }
+    t.push_str("</table>");
+    t
 }
 
 /// The residual energy by period band, one row per channel analysed.
@@ -328,4 +440,64 @@ fn bands_table(bands: &Value) -> String {
     }
     t.push_str("</table>");
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The value of attribute `name` in an SVG element's text.
+    fn attr(el: &str, name: &str) -> f64 {
+        let key = format!(" {name}=\"");
+        let from = el.find(&key).map(|i| i + key.len()).expect("attribute");
+        let to = el[from..].find('"').expect("closing quote") + from;
+        el[from..to].parse().expect("number")
+    }
+
+    #[test]
+    fn grid_lines_sit_in_the_plot_area_at_their_tick_values() {
+        // Data in the thousands: the old code drew the lines at y = the
+        // data values (e.g. 1000 px), far below a 200 px chart.
+        let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.5).collect();
+        let y: Vec<f64> = (0..50).map(|k| 1000.0 + 40.0 * k as f64).collect();
+        let h = 200.0;
+        let svg = line_chart("t", &t, &[("y", &y)], None, h);
+        let (_, _, top, bot) = MARGINS;
+        let lines: Vec<&str> = svg
+            .split("<line ")
+            .skip(1)
+            .filter(|e| e.contains("#eee"))
+            .collect();
+        let labels: Vec<f64> = svg
+            .split("<text ")
+            .skip(1)
+            .filter(|e| e.contains("text-anchor=\"end\""))
+            .map(|e| {
+                let v = &e[e.find('>').expect(">") + 1..e.find('<').expect("<")];
+                v.parse::<f64>().expect("tick value")
+            })
+            .collect();
+        assert_eq!(lines.len(), 5);
+        assert_eq!(labels.len(), 5);
+        // Span of the data with the 5 % pad: 1000 - 98 .. 2960 + 98.
+        let (lo, hi) = (1000.0 - 0.05 * 1960.0, 2960.0 + 0.05 * 1960.0);
+        for (el, v) in lines.iter().zip(&labels) {
+            let (y1, y2) = (attr(el, "y1"), attr(el, "y2"));
+            assert_eq!(y1, y2, "horizontal");
+            assert!(
+                (top - 1e-9..=h - bot + 1e-9).contains(&y1),
+                "{y1} px outside"
+            );
+            // The label's value maps to the line's pixel row (labels are
+            // rounded to 0.01, 1e-5 of the span: far below 0.01 px).
+            let want = top + (hi - v) / (hi - lo) * (h - top - bot);
+            assert!((y1 - want).abs() < 0.01, "{v}: line at {y1}, want {want}");
+        }
+        // The lowest tick is the bottom edge, the highest the top edge.
+        let ys: Vec<f64> = lines.iter().map(|e| attr(e, "y1")).collect();
+        assert!(
+            (ys[0] - (h - bot)).abs() < 1e-9 && (ys[4] - top).abs() < 1e-9,
+            "{ys:?}"
+        );
+    }
 }

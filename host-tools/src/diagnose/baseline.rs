@@ -1,0 +1,222 @@
+//! The `none` baseline: what a slightly wrong twin leaves in a channel's
+//! residual, so that an effect has to beat the twin's mismatch, not just an
+//! offset and a drift.
+//!
+//! A twin whose parameters are a few % off (heat capacities, losses,
+//! conductances, an expansion coefficient) leaves, to first order, a
+//! residual in the span of the sensitivities of the simulated channel `s`
+//! to those parameters:
+//!
+//! ```text
+//! r(t) ~ c0 + c1 (t - t0)/1 h                      offset, drift (sensor offset, slow room change)
+//!      + c2 s(t)                                   gain error of the whole channel
+//!      + c3 (F(s; tau_c) - s)                      time-constant error: for y = F(u; tau),
+//!                                                  dy/dtau = (F(y; tau) - y) / tau
+//!      + c4 F(q1; tau_c) + c5 F(q2; tau_c)          gain errors per heat source, q1 = n/n_max,
+//!                                                  q2 = (n/n_max)^2 (heat laws n^1 .. n^2)
+//! ```
+//!
+//! `tau_c` is the channel's own time constant, estimated from the sim alone
+//! (the time constant whose responses to `q1`, `q2` fit `s` best over the
+//! whole run: the sim is driven by logged inputs only, so using its
+//! held-out part leaks nothing of the real run). The twin's response to each
+//! heat source separately is not in the files, hence the speed shapes
+//! through the channel's own first-order response.
+//!
+//! The effects' own regressors are shapes this span cannot produce: a logged
+//! boundary temperature, power beyond air cutting, the low-speed weight with
+//! its knee and its jump at standstill, a periodic chiller component, a lag
+//! of a temperature sensor much faster than its part.
+
+use super::align::{Aligned, Channel};
+use super::lsq;
+
+/// Time constants tried for a channel's own response, s (5 min .. 6 h: the
+/// twin's fastest sensor sites to its structure's 1.9 h and beyond).
+const CHANNEL_TAUS_S: [f64; 10] = [
+    300.0, 600.0, 1200.0, 1800.0, 3600.0, 5400.0, 7200.0, 10_800.0, 14_400.0, 21_600.0,
+];
+
+/// Prior size of every mismatch term: a 10 % twin error (gain, time
+/// constant, each heat source's gain; the drift over the whole run as 10 %
+/// of the channel's simulated swing).
+pub const PRIOR_REL: f64 = 0.1;
+/// Strength of the prior: a mismatch coefficient one prior size away from
+/// 0 costs as much as this share of the residual's fit-part energy (so a
+/// 30 % gain error must explain 9 times that). Chosen on the development
+/// benchmarks (docs/diagnose.md, "Thresholds"): 0.03 / 0.1 / 0.3 / 1 gave
+/// 197 (1 false alarm) / 194 / 197 / 191 (1) of 240 zoo cases and 215 /
+/// 212 / 212 / 211 of 216 twin cases.
+pub const PRIOR_STRENGTH: f64 = 0.3;
+
+/// The baseline's regressors on one channel.
+#[derive(Debug, Clone)]
+pub struct Baseline {
+    /// Regressors, every row.
+    pub cols: Vec<Vec<f64>>,
+    /// Name of each regressor's coefficient (for `params`).
+    pub names: Vec<String>,
+    /// Prior standard deviation of each coefficient (`None`: free).
+    pub prior_sd: Vec<Option<f64>>,
+    /// The channel's own time constant, s.
+    pub tau_c_s: f64,
+}
+
+impl Baseline {
+    /// Ridge penalties of the baseline's columns for explaining `y` on
+    /// `rows`: `PRIOR_STRENGTH n var(y) / sd^2` (0 for free ones).
+    pub fn penalties(&self, y: &[f64], rows: std::ops::Range<usize>) -> Vec<f64> {
+        let part = &y[rows];
+        let m = part.iter().sum::<f64>() / part.len().max(1) as f64;
+        let energy: f64 = part.iter().map(|v| (v - m).powi(2)).sum();
+        self.prior_sd
+            .iter()
+            .map(|sd| match sd {
+                Some(sd) if *sd > 0.0 => PRIOR_STRENGTH * energy / (sd * sd),
+                _ => 0.0,
+            })
+            .collect()
+    }
+}
+
+/// Rms of `x` about its mean.
+fn spread(x: &[f64]) -> f64 {
+    let m = x.iter().sum::<f64>() / x.len().max(1) as f64;
+    lsq::rms(&x.iter().map(|v| v - m).collect::<Vec<_>>())
+}
+
+/// The speed shapes of the heat sources: `n/n_max` and `(n/n_max)^2`.
+pub fn heat_shapes(al: &Aligned) -> [Vec<f64>; 2] {
+    let top = al
+        .speed_rpm
+        .iter()
+        .fold(0.0f64, |a, &n| a.max(n.abs()))
+        .max(1.0);
+    let q1: Vec<f64> = al.speed_rpm.iter().map(|n| n.abs() / top).collect();
+    let q2 = q1.iter().map(|q| q * q).collect();
+    [q1, q2]
+}
+
+/// The channel's own time constant: the grid value whose first-order
+/// responses to the heat shapes (state 0: a machine starting cold) fit the
+/// simulated channel best over the whole run.
+pub fn channel_tau_s(t_s: &[f64], sim: &[f64], shapes: &[Vec<f64>; 2]) -> f64 {
+    let n = sim.len();
+    let mut best = (f64::INFINITY, CHANNEL_TAUS_S[4]);
+    for tau in CHANNEL_TAUS_S {
+        let mut cols = vec![vec![1.0; n]];
+        cols.extend(shapes.iter().map(|q| lsq::lowpass(t_s, q, tau, 0.0)));
+        if let Some(f) = lsq::fit(&cols, sim, n) {
+            if f.sse_fit < best.0 {
+                best = (f.sse_fit, tau);
+            }
+        }
+    }
+    best.1
+}
+
+/// Knee of the low-speed loss shape in the baseline, share of the top
+/// speed (the middle of the motor-loss candidate's knees).
+const BASE_KNEE_SHARE: f64 = 0.35;
+
+/// The heat sources the twin may model besides speed: power beyond air
+/// cutting (if logged) and a low-speed motor loss, each as its first-order
+/// response at the channel's time constant, with its name.
+fn load_shapes(al: &Aligned, tau_c: f64, unit: &str) -> Vec<(Vec<f64>, String)> {
+    let t = &al.t_s;
+    let mut out = Vec::new();
+    if let Some(pw) = al.power_kw.as_deref() {
+        let cut = super::regime::cutting_excess_kw(&al.speed_rpm, pw);
+        out.push((
+            lsq::lowpass(t, &cut, tau_c, 0.0),
+            format!("cut_gain_{unit}_per_kw"),
+        ));
+    }
+    let top = al.speed_rpm.iter().fold(0.0f64, |a, &n| a.max(n.abs()));
+    let w = super::variants::low_speed_weight(al, BASE_KNEE_SHARE * top);
+    out.push((
+        lsq::lowpass(t, &w, tau_c, 0.0),
+        format!("low_speed_gain_{unit}"),
+    ));
+    out
+}
+
+/// Prior sizes of the load shapes' gains: [`PRIOR_REL`] times the twin's
+/// own gain on each (the sim regressed on the speed and load shapes over
+/// the whole run). A twin without cutting heat or low-speed losses has
+/// gains near 0 there, so its baseline cannot take them up; one that models
+/// them may be 10 % off.
+fn load_priors(sim: &[f64], speed: &[Vec<f64>; 2], loads: &[(Vec<f64>, String)]) -> Vec<f64> {
+    let n = sim.len();
+    let mut cols = vec![vec![1.0; n], speed[0].clone(), speed[1].clone()];
+    cols.extend(loads.iter().map(|l| l.0.clone()));
+    let coef = lsq::fit(&cols, sim, n).map_or_else(|| vec![0.0; cols.len()], |f| f.coef);
+    coef[3..]
+        .iter()
+        .map(|a| (PRIOR_REL * a.abs()).max(1e-12))
+        .collect()
+}
+
+/// The mismatch baseline of channel `ch` (see the module docs).
+pub fn mismatch_baseline(al: &Aligned, ch: &Channel) -> Baseline {
+    let t = &al.t_s;
+    let t0 = t[0];
+    let unit = ch.unit();
+    let shapes = heat_shapes(al);
+    let tau_c = channel_tau_s(t, &ch.sim, &shapes);
+    let lagged = lsq::lowpass(t, &ch.sim, tau_c, ch.sim[0]);
+    let tc_error: Vec<f64> = lagged.iter().zip(&ch.sim).map(|(f, s)| f - s).collect();
+    let speed = shapes.map(|q| lsq::lowpass(t, &q, tau_c, 0.0));
+    let loads = load_shapes(al, tau_c, unit);
+    let swing = spread(&ch.sim);
+    let span_h = ((t[t.len() - 1] - t0) / 3600.0).max(1e-9);
+    let per_shape = |f: &[f64]| (PRIOR_REL * swing / spread(f).max(1e-12)).max(1e-12);
+    let mut prior_sd = vec![
+        None,
+        Some((PRIOR_REL * swing / span_h).max(1e-12)),
+        Some(PRIOR_REL),
+        Some(PRIOR_REL),
+        Some(per_shape(&speed[0])),
+        Some(per_shape(&speed[1])),
+    ];
+    prior_sd.extend(load_priors(&ch.sim, &speed, &loads).into_iter().map(Some));
+    let mut names = vec![
+        "offset".into(),
+        format!("drift_{unit}_per_h"),
+        "twin_gain".into(),
+        "twin_tau_error".into(),
+        format!("speed_gain_{unit}"),
+        format!("speed2_gain_{unit}"),
+    ];
+    names.extend(loads.iter().map(|l| l.1.clone()));
+    let [f1, f2] = speed;
+    let mut cols = vec![
+        vec![1.0; t.len()],
+        t.iter().map(|t| (t - t0) / 3600.0).collect(),
+        ch.sim.clone(),
+        tc_error,
+        f1,
+        f2,
+    ];
+    cols.extend(loads.into_iter().map(|l| l.0));
+    Baseline {
+        cols,
+        names,
+        prior_sd,
+        tau_c_s: tau_c,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_channel_time_constant_of_a_first_order_response_is_found() {
+        let t: Vec<f64> = (0..2000).map(|k| 60.0 * k as f64).collect();
+        let q: Vec<f64> = (0..2000).map(|k| ((k / 200) % 3) as f64 / 2.0).collect();
+        let q2: Vec<f64> = q.iter().map(|v| v * v).collect();
+        let s = lsq::lowpass(&t, &q, 3600.0, 0.0);
+        assert_eq!(channel_tau_s(&t, &s, &[q, q2]), 3600.0);
+    }
+}

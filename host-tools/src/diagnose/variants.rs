@@ -1,0 +1,467 @@
+//! The grids of the effect candidates: for each effect of the vocabulary,
+//! the regressors it adds to the baseline at each point of a small grid of
+//! nonlinear parameters (time constants, knees, periods, sources).
+//!
+//! ```text
+//! ambient:     F(Ta - Ta(0); tau1), F(Ta - Ta(0); tau2)            logged ambient_c, 0.5..8 h
+//!              F(sin w t; tau), F(cos w t - 1; tau), w = 2 pi/24 h  not logged (inferred day cycle)
+//! coolant:     x, F(x; tau)  (or F(x; tau1), F(x; tau2))            x = logged coolant_c, high-passed (> 2 h removed)
+//!              x = band-passed (5-120 min) residual of the         not logged: a temperature channel that
+//!                  temperature channel carrying a chiller cycle     follows the chiller, period and phase tracked
+//!              sin/cos(2 pi t/P), sin/cos(4 pi t/P)                 no such channel: P from the residual's peak
+//! cutting:     F(Pcut; tau1), F(Pcut; tau2)                         Pcut = power_kw beyond air cutting
+//! motor_loss:  F(w; tau1), F(w; tau2), w = [n > 0] max(0, 1 - n/knee)
+//! sensor_lag:  F(sim; tau) - sim   on a temperature channel only
+//! ```
+
+use super::align::Aligned;
+use super::baseline;
+use super::candidates::Problem;
+use super::lsq;
+use super::regime;
+use super::spectrum;
+
+/// Time constants of ambient responses, s (0.5 h .. 8 h).
+const AMBIENT_TAUS_S: [f64; 5] = [1800.0, 3600.0, 7200.0, 14400.0, 28800.0];
+/// Time constants of the responses to a coolant signal, s; 0 is the signal
+/// itself (the jacket and motor follow the supply within minutes).
+const COOLANT_TAUS_S: [f64; 6] = [0.0, 300.0, 900.0, 1800.0, 3600.0, 7200.0];
+/// Time constants of responses to extra heat, s (twin: 0.6 h dz 63 % time,
+/// slowest node 1.9 h).
+const HEAT_TAUS_S: [f64; 5] = [600.0, 1800.0, 3600.0, 7200.0, 14400.0];
+/// Sensor lags tried, s.
+const LAG_TAUS_S: [f64; 8] = [60.0, 120.0, 300.0, 600.0, 900.0, 1200.0, 1800.0, 3600.0];
+/// Knee speeds of the low-speed loss weight, shares of the top speed
+/// logged (the twin's knee is 4000 of 12 000 rpm; asynchronous motors lose
+/// efficiency below a quarter to a half of their rated speed).
+const KNEE_SHARES: [f64; 5] = [0.15, 0.25, 0.35, 0.5, 0.7];
+/// A logged ambient moving less than this (peak to peak) is treated as
+/// constant, K.
+const MIN_SWING_K: f64 = 0.1;
+/// Cutting needs at least this much power beyond air cutting somewhere, kW.
+const MIN_CUT_KW: f64 = 0.1;
+/// Day period of the inferred ambient, s.
+const DAY_S: f64 = 86_400.0;
+/// Periods of chiller cycling tracked on temperature channels, s: 5 min
+/// (2.5 samples at 60 s) .. 2 h (the slow end of the `mid` band).
+pub const CHILLER_BAND_S: (f64, f64) = (300.0, 7200.0);
+/// A channel carries a chiller cycle when its band-passed
+/// residual (after its own mismatch baseline) has at least this many times
+/// the rms that white noise of the channel's level leaves in the band
+/// (0.45 sigma at 60 s).
+pub const MIN_TRACK_SNR: f64 = 3.0;
+/// Channels tried as chiller trackers (the strongest first).
+const MAX_TRACK_SOURCES: usize = 2;
+
+/// One grid point: the extra regressors and what they mean.
+#[derive(Debug, Clone)]
+pub struct Variant {
+    /// The regressors added to the baseline, every row.
+    pub extra: Vec<Vec<f64>>,
+    /// Nonlinear parameters of this grid point.
+    pub fixed: Vec<(String, f64)>,
+    /// Named text parameters (e.g. the tracked channel).
+    pub labels: Vec<(String, String)>,
+    /// Name of each extra regressor's coefficient.
+    pub gains: Vec<String>,
+    /// Time constant of each extra regressor, if it is a response.
+    pub taus: Vec<f64>,
+    /// Name of the sum of the gains (the steady-state gain), if meaningful.
+    pub total: Option<String>,
+    /// Required sign of that sum, if physics fixes it (extra heat moves a
+    /// channel the way the machine's own heat does).
+    pub sign: Option<f64>,
+    /// A part of the prediction with a gain fixed by physics (1), every
+    /// row: the baseline is fitted to what it leaves.
+    pub fixed_part: Option<Vec<f64>>,
+}
+
+impl Variant {
+    /// A variant with regressors `extra` and gains named `gains`, nothing
+    /// else set.
+    fn plain(extra: Vec<Vec<f64>>, gains: Vec<String>, fixed: Vec<(String, f64)>) -> Self {
+        Variant {
+            extra,
+            fixed,
+            labels: Vec::new(),
+            gains,
+            taus: Vec::new(),
+            total: None,
+            sign: None,
+            fixed_part: None,
+        }
+    }
+}
+
+/// Peak-to-peak range of `x`.
+fn swing(x: &[f64]) -> f64 {
+    let (lo, hi) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    hi - lo
+}
+
+/// First-order response of `u`, or `u` itself for `tau_s == 0`.
+fn response(t: &[f64], u: &[f64], tau_s: f64, y0: f64) -> Vec<f64> {
+    if tau_s > 0.0 {
+        lsq::lowpass(t, u, tau_s, y0)
+    } else {
+        u.to_vec()
+    }
+}
+
+/// Two-time-constant response variants of input `u` (`y0` initial state).
+fn response_pairs(
+    p: &Problem,
+    u: &[f64],
+    y0: f64,
+    taus: &[f64],
+    in_unit: &str,
+    extra_fixed: &[(String, f64)],
+) -> Vec<Variant> {
+    let unit = p.ch.unit();
+    let f: Vec<Vec<f64>> = taus
+        .iter()
+        .map(|&tau| response(&p.al.t_s, u, tau, y0))
+        .collect();
+    let mut out = Vec::new();
+    for i in 0..taus.len() {
+        for j in i + 1..taus.len() {
+            let mut fixed = vec![
+                ("tau1_s".to_string(), taus[i]),
+                ("tau2_s".to_string(), taus[j]),
+            ];
+            fixed.extend_from_slice(extra_fixed);
+            let mut v = Variant::plain(
+                vec![f[i].clone(), f[j].clone()],
+                vec![
+                    format!("gain1_{unit}_per_{in_unit}"),
+                    format!("gain2_{unit}_per_{in_unit}"),
+                ],
+                fixed,
+            );
+            v.taus = vec![taus[i], taus[j]];
+            v.total = Some(format!("gain_{unit}_per_{in_unit}"));
+            out.push(v);
+        }
+    }
+    out
+}
+
+/// Which way extra heat moves the channel, where physics fixes it: up on
+/// a temperature (in a network of positive conductances every node warms
+/// when heat is added anywhere); on a displacement either way (heat at a
+/// node whose growth pulls the other way, as a column behind the spindle).
+fn heat_sign(p: &Problem) -> Option<f64> {
+    crate::runfile::is_temperature_column(&p.ch.name).then_some(1.0)
+}
+
+fn with_sign(mut v: Vec<Variant>, sign: Option<f64>) -> Vec<Variant> {
+    for x in &mut v {
+        x.sign = sign;
+    }
+    v
+}
+
+/// The grid of variants of candidate `name`, and the model form's
+/// description. `base_pred` is the baseline's prediction of the channel's
+/// residual (fitted on the fit rows).
+pub fn variants(name: &str, p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
+    match name {
+        "ambient" => ambient(p),
+        "coolant" => coolant(p, base_pred),
+        "cutting" => cutting(p),
+        "motor_loss" => motor_loss(p),
+        "sensor_lag" => sensor_lag(p),
+        _ => (Vec::new(), "the mismatch baseline only".into()),
+    }
+}
+
+/// Ambient: responses to the logged ambient, else an inferred day cycle.
+fn ambient(p: &Problem) -> (Vec<Variant>, String) {
+    let al = p.al;
+    let t = &al.t_s;
+    let t0 = t[0];
+    let unit = p.ch.unit();
+    if let Some(a) = al.ambient_c.as_deref().filter(|a| swing(a) >= MIN_SWING_K) {
+        let u: Vec<f64> = a.iter().map(|v| v - a[0]).collect();
+        return (
+            response_pairs(p, &u, 0.0, &AMBIENT_TAUS_S, "k", &[]),
+            "first-order responses to logged ambient_c - first value".into(),
+        );
+    }
+    let w = std::f64::consts::TAU / DAY_S;
+    let s: Vec<f64> = t.iter().map(|t| (w * (t - t0)).sin()).collect();
+    let c: Vec<f64> = t.iter().map(|t| (w * (t - t0)).cos() - 1.0).collect();
+    let drift: Vec<f64> = t.iter().map(|t| (t - t0) / 3600.0).collect();
+    let v = AMBIENT_TAUS_S
+        .iter()
+        .map(|&tau| {
+            Variant::plain(
+                vec![
+                    lsq::lowpass(t, &s, tau, 0.0),
+                    lsq::lowpass(t, &c, tau, 0.0),
+                    lsq::lowpass(t, &drift, tau, 0.0),
+                ],
+                vec![
+                    format!("sin_{unit}"),
+                    format!("cos_{unit}"),
+                    format!("drift_{unit}_per_h"),
+                ],
+                vec![("tau_s".into(), tau), ("period_s".into(), DAY_S)],
+            )
+        })
+        .collect();
+    (
+        v,
+        "ambient_c not logged: first-order response to an inferred 24 h cycle and a room drift"
+            .into(),
+    )
+}
+
+/// Twice-applied first-order low-pass (a second-order roll-off).
+fn lowpass2(t: &[f64], x: &[f64], tau_s: f64) -> Vec<f64> {
+    let once = lsq::lowpass(t, x, tau_s, x[0]);
+    lsq::lowpass(t, &once, tau_s, x[0])
+}
+
+/// `x` without what is slower than `slow_s` (period): `x - LP2(x)`.
+pub fn high_pass(t: &[f64], x: &[f64], slow_s: f64) -> Vec<f64> {
+    let lp = lowpass2(t, x, slow_s / std::f64::consts::TAU);
+    x.iter().zip(&lp).map(|(a, b)| a - b).collect()
+}
+
+/// `x` limited to periods `band.0 .. band.1`: `LP2(x; fast) - LP2(x; slow)`,
+/// causal (the same filter on the fit part and the hold-out).
+pub fn band_pass(t: &[f64], x: &[f64], band: (f64, f64)) -> Vec<f64> {
+    let fast = lowpass2(t, x, band.0 / std::f64::consts::TAU);
+    let slow = lowpass2(t, x, band.1 / std::f64::consts::TAU);
+    fast.iter().zip(&slow).map(|(a, b)| a - b).collect()
+}
+
+/// Coolant: responses to the logged coolant (always a candidate when
+/// logged), else a tracked chiller component of another temperature
+/// channel, else a fixed harmonic at the residual's peak.
+fn coolant(p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
+    let t = &p.al.t_s;
+    if let Some(c) = p.al.coolant_c.as_deref() {
+        let u = high_pass(t, c, CHILLER_BAND_S.1);
+        return (
+            signal_variants(p, &u, "k", &[]),
+            "responses to logged coolant_c (periods above 2 h removed)".into(),
+        );
+    }
+    let sources = chiller_sources(p);
+    if !sources.is_empty() {
+        let names: Vec<&str> = sources.iter().map(|s| s.0.as_str()).collect();
+        let v = sources
+            .iter()
+            .flat_map(|(name, x)| signal_variants(p, x, "k", &[("source".into(), name.clone())]))
+            .collect();
+        return (
+            v,
+            format!(
+                "coolant_c not logged: responses to the chiller cycle tracked on {} (band-passed 5-120 min residual after its own baseline)",
+                names.join(", ")
+            ),
+        );
+    }
+    harmonic_variants(p, base_pred)
+}
+
+/// Pairs of responses (the signal itself or first-order responses, so any
+/// phase lag up to 90 degrees) of a chiller signal `x`.
+fn signal_variants(
+    p: &Problem,
+    x: &[f64],
+    in_unit: &str,
+    labels: &[(String, String)],
+) -> Vec<Variant> {
+    let mut v = response_pairs(p, x, 0.0, &COOLANT_TAUS_S, in_unit, &[]);
+    for var in &mut v {
+        var.labels = labels.to_vec();
+    }
+    v
+}
+
+/// Whether channel `src` may track a chiller for explaining `ch`: a
+/// temperature always; a displacement only for a temperature (two
+/// displacements may share probes, hence noise).
+fn tracks(ch: &super::align::Channel, src: &super::align::Channel) -> bool {
+    crate::runfile::is_temperature_column(&src.name)
+        || (src.is_displacement() && !ch.is_displacement())
+}
+
+/// Channels other than the one explained ([`tracks`]) whose residual,
+/// after their own mismatch baseline (fitted on the fit rows), carries a
+/// chiller-band component at least [`MIN_TRACK_SNR`] times above their
+/// noise: up to [`MAX_TRACK_SOURCES`] of them, strongest first, with the
+/// band-passed component. Only measured signals of those channels enter,
+/// so the hold-out of the explained channel leaks nothing.
+fn chiller_sources(p: &Problem) -> Vec<(String, Vec<f64>)> {
+    let al = p.al;
+    let mut found: Vec<(f64, String, Vec<f64>)> = al
+        .channels
+        .iter()
+        .filter(|c| c.name != p.ch.name && tracks(p.ch, c))
+        .filter_map(|c| {
+            let base = baseline::mismatch_baseline(al, c);
+            let penalty = base.penalties(&c.resid, p.fit_rows());
+            let f = lsq::fit_rows_penalised(&base.cols, &c.resid, p.fit_rows(), &penalty)?;
+            let left: Vec<f64> = c.resid.iter().zip(&f.pred).map(|(r, q)| r - q).collect();
+            let x = band_pass(&al.t_s, &left, CHILLER_BAND_S);
+            let white = 0.45 * lsq::noise_sigma(&c.resid).max(1e-12);
+            let snr = lsq::rms(&x) / white;
+            (snr >= MIN_TRACK_SNR).then(|| (snr, c.name.clone(), x))
+        })
+        .collect();
+    found.sort_by(|a, b| b.0.total_cmp(&a.0));
+    found
+        .into_iter()
+        .take(MAX_TRACK_SOURCES)
+        .map(|(_, n, x)| (n, x))
+        .collect()
+}
+
+/// Harmonic regression (2 harmonics) at periods around the fit part's
+/// 10-120 min spectral peak of what the baseline leaves: the fallback when
+/// no channel tracks the chiller (a fixed period and phase).
+fn harmonic_variants(p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
+    let t = &p.al.t_s;
+    let t0 = t[0];
+    let unit = p.ch.unit();
+    let rows = p.fit_rows();
+    let r: Vec<f64> = rows.clone().map(|k| p.ch.resid[k] - base_pred[k]).collect();
+    let Some(p0) = spectrum::peak_period_s(&t[rows], &r, 600.0, 7200.0) else {
+        return (
+            Vec::new(),
+            "coolant_c not logged and no 10-120 min peak".into(),
+        );
+    };
+    let v = (-6..=6)
+        .map(|k| {
+            let period = p0 * (1.0 + 0.01 * k as f64);
+            let w = std::f64::consts::TAU / period;
+            let h = |m: f64, f: fn(f64) -> f64| -> Vec<f64> {
+                t.iter().map(|t| f(m * w * (t - t0))).collect()
+            };
+            Variant::plain(
+                vec![
+                    h(1.0, f64::sin),
+                    h(1.0, f64::cos),
+                    h(2.0, f64::sin),
+                    h(2.0, f64::cos),
+                ],
+                ["sin1", "cos1", "sin2", "cos2"]
+                    .iter()
+                    .map(|g| format!("{g}_{unit}"))
+                    .collect(),
+                vec![("period_s".into(), period)],
+            )
+        })
+        .collect();
+    (v, "coolant_c not logged, no channel tracks a chiller: harmonic regression (2 harmonics) at the residual's 10-120 min spectral peak".into())
+}
+
+/// Cutting: responses to the power beyond air cutting.
+fn cutting(p: &Problem) -> (Vec<Variant>, String) {
+    let al = p.al;
+    let Some(pw) = al.power_kw.as_deref() else {
+        return (Vec::new(), "power_kw not logged".into());
+    };
+    let u = regime::cutting_excess_kw(&al.speed_rpm, pw);
+    if u.iter().fold(0.0f64, |a, &v| a.max(v)) < MIN_CUT_KW {
+        return (Vec::new(), "no power beyond air cutting in power_kw".into());
+    }
+    (
+        with_sign(
+            response_pairs(p, &u, 0.0, &HEAT_TAUS_S, "kw", &[]),
+            heat_sign(p),
+        ),
+        "first-order responses to power_kw beyond air cutting (warming, on a temperature)".into(),
+    )
+}
+
+/// The low-speed weight `[n > 0] max(0, 1 - n/knee)`.
+pub fn low_speed_weight(al: &Aligned, knee: f64) -> Vec<f64> {
+    al.speed_rpm
+        .iter()
+        .map(|&n| {
+            if n > 0.0 {
+                (1.0 - n / knee).max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Motor losses: responses to the low-speed weight at each knee.
+fn motor_loss(p: &Problem) -> (Vec<Variant>, String) {
+    let top = p.al.speed_rpm.iter().fold(0.0f64, |a, &n| a.max(n.abs()));
+    let mut v = Vec::new();
+    for knee in KNEE_SHARES.map(|k| (k * top).round()) {
+        let u = low_speed_weight(p.al, knee);
+        if u[p.fit_rows()].iter().all(|&x| x == 0.0) {
+            continue;
+        }
+        v.extend(with_sign(
+            response_pairs(
+                p,
+                &u,
+                0.0,
+                &HEAT_TAUS_S,
+                "weight",
+                &[("knee_rpm".into(), knee)],
+            ),
+            heat_sign(p),
+        ));
+    }
+    let d = if v.is_empty() {
+        "the spindle never runs below 70 % of its top speed in the fit part".into()
+    } else {
+        "first-order responses to the low-speed weight [n>0] max(0, 1 - n/knee) (warming, on a temperature)".into()
+    };
+    (v, d)
+}
+
+/// Sensor lag: the lag's own signature `F(sim; tau) - sim` on a
+/// temperature channel with its gain fixed at 1 (a sensor reading
+/// `F(site; tau)` of a site the twin gets right to a few % leaves exactly
+/// that), the baseline fitted to the rest. A twin's time-constant error
+/// looks like a lag at low frequencies with a gain `dtau / tau` of a few %,
+/// so a free gain would let mismatch pass as a lag; nothing on
+/// displacements and probes, which do not lag.
+fn sensor_lag(p: &Problem) -> (Vec<Variant>, String) {
+    if !crate::runfile::is_temperature_column(&p.ch.name) {
+        return (
+            Vec::new(),
+            "not a temperature channel: probes and displacements do not lag, no signature".into(),
+        );
+    }
+    let t = &p.al.t_s;
+    let v = LAG_TAUS_S
+        .iter()
+        .map(|&tau| {
+            let lag: Vec<f64> = lsq::lowpass(t, &p.ch.sim, tau, p.ch.sim[0])
+                .iter()
+                .zip(&p.ch.sim)
+                .map(|(f, s)| f - s)
+                .collect();
+            let mut v = Variant::plain(
+                Vec::new(),
+                Vec::new(),
+                vec![("tau_s".into(), tau), ("gain".into(), 1.0)],
+            );
+            v.fixed_part = Some(lag);
+            v
+        })
+        .collect();
+    (
+        v,
+        "lagged simulated temperature with the whole sensor lagging: r = (F(sim; tau) - sim) + baseline"
+            .into(),
+    )
+}
