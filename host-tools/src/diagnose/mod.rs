@@ -243,7 +243,8 @@ pub fn diagnose_with_machine(
         );
     }
     let (gap, snr) = gap_table(&al);
-    let looks = judge(&al, main_channel(&al, &snr), &snr, n_fit)?;
+    let first = main_channel(&al, &snr);
+    let looks = judge(&al, first, &snr, n_fit)?;
     let look = decisive(&looks);
     let main = look.channel;
     let (where_, bands) = where_and_bands(&al, main);
@@ -265,7 +266,15 @@ pub fn diagnose_with_machine(
         "rule": rule_text(),
     });
     let physical = twin
-        .map(|m| physical::diagnose(&m, real, &al, (n_fit, holdout), &al.channels[main].name))
+        .map(|m| {
+            physical::diagnose(
+                &m,
+                real,
+                &al,
+                (n_fit, holdout),
+                physical_channel(&al, first, main, &verdict),
+            )
+        })
         .transpose()?;
     if let Some(p) = &physical {
         v["physical"] = p.json.clone();
@@ -275,6 +284,23 @@ pub fn diagnose_with_machine(
         report::write(dir, &al, main, n_fit, &look.scored, &v, extra)?;
     }
     Ok(v)
+}
+
+/// The channel the physical diagnosis explains: the main channel (the
+/// largest displacement gap), or the deciding look's temperature when the
+/// statistical verdict is a sensor lag (it acts on the sensors only and is
+/// invisible on the probes).
+fn physical_channel<'a>(
+    al: &'a align::Aligned,
+    first: usize,
+    decided: usize,
+    verdict: &str,
+) -> &'a str {
+    if verdict == "sensor_lag" {
+        &al.channels[decided].name
+    } else {
+        &al.channels[first].name
+    }
 }
 
 /// The verdict rule in words (JSON `rule`).
