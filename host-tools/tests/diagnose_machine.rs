@@ -266,38 +266,25 @@ fn a_bad_machine_file_fails_with_one_line() {
         "bad.toml",
         &text.replacen("c_j_per_k = 1500.0", "c_j_per_k = -1500.0", 1),
     );
-    let e = fails_one_line(&[
-        "diagnose",
-        "--sim",
-        p(&sim),
-        "--real",
-        p(&real),
-        "--machine",
-        &bad,
-        "--json",
-    ]);
+    let fails = |machine: &str| {
+        fails_one_line(&[
+            "diagnose",
+            "--sim",
+            p(&sim),
+            "--real",
+            p(&real),
+            "--machine",
+            machine,
+            "--json",
+        ])
+    };
+    let e = fails(&bad);
     assert!(
         e.contains("--machine") && e.contains("bad.toml:") && e.contains("c_j_per_k"),
         "{e}"
     );
-    let e = fails_one_line(&[
-        "diagnose",
-        "--sim",
-        p(&sim),
-        "--real",
-        p(&real),
-        "--machine",
-        "/nonexistent/m.toml",
-    ]);
+    let e = fails("/nonexistent/m.toml");
     assert!(e.contains("m.toml"), "{e}");
-    let e = fails_one_line(&[
-        "diagnose",
-        "--sim",
-        p(&sim),
-        "--real",
-        p(&real),
-        "--machine",
-        p(&real),
-    ]);
+    let e = fails(p(&real));
     assert!(e.contains("real.csv"), "{e}");
 }
