@@ -37,9 +37,9 @@
 //! searches) so the test suite's unoptimised build finishes in reasonable
 //! time; the figures are then coarser.
 
+use crate::data::runfile::{ReadOptions, RunFile};
 use crate::fit::{self, FitArgs, FitKind};
 use crate::replay::{self, ReplayArgs};
-use crate::runfile::{ReadOptions, RunFile};
 use crate::runner::{self, ColumnMap};
 use crate::select::{self, SelectArgs};
 use crate::simulate;
@@ -221,9 +221,9 @@ impl Progress {
 pub fn run(a: &DemoArgs) -> Result<()> {
     let out = demo(a)?;
     if a.json {
-        crate::fsio::print_line(&out.to_string())?;
+        crate::data::fsio::print_line(&out.to_string())?;
     } else {
-        crate::fsio::print(&summary_text(&out))?;
+        crate::data::fsio::print(&summary_text(&out))?;
     }
     Ok(())
 }
@@ -346,7 +346,7 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
             names.join(", ")
         ),
     );
-    let bar = crate::fit::arx::progress(KINDS.len(), "fit");
+    let bar = crate::num::progress::progress(KINDS.len(), "fit");
     let mut models = Vec::new();
     let mut fitted: Vec<(FitKind, ValidModel, PathBuf)> = Vec::new();
     for kind in KINDS {
@@ -435,11 +435,11 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
     let model_bin = dir.join("model.bin");
     let bytes =
         std::fs::read(best_blob).with_context(|| format!("cannot read {}", best_blob.display()))?;
-    crate::fsio::write_bytes_atomic(&model_bin, &bytes)?;
+    crate::data::fsio::write_bytes_atomic(&model_bin, &bytes)?;
     let described = crate::show::describe_json(best_model, &bytes);
     let model_txt = dir.join("model.txt");
     let text = crate::show::describe_text(&model_bin, best_model, &bytes);
-    crate::fsio::write_bytes_atomic(&model_txt, text.as_bytes())?;
+    crate::data::fsio::write_bytes_atomic(&model_txt, text.as_bytes())?;
     let t = p.end(&format!(
         "{} bytes, {} model, format v{}, CRC {}, dt {} s, inputs {}",
         bytes.len(),

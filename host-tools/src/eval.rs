@@ -1,8 +1,8 @@
 //! `thermcomp eval`: a model's predictions scored against the measured
 //! columns, over all runs together and per run (CONTRACT.md section 1).
 
+use crate::data::source::{ModelSource, RunSource};
 use crate::runner;
-use crate::source::{ModelSource, RunSource};
 use anyhow::{anyhow, Result};
 use clap::Args;
 use model_core::metrics::{Metrics, MetricsAccumulator};
@@ -50,7 +50,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
     }
     let map = a.runs.column_map()?;
     let runs = a.runs.read(map.model_columns(&model, true))?;
-    let skipped_rows = crate::source::skipped_rows(&runs);
+    let skipped_rows = crate::data::source::skipped_rows(&runs);
     let n_out = model.outputs().len();
     let mut all = vec![MetricsAccumulator::new(); n_out];
     let mut per_run: Vec<Vec<Value>> = vec![Vec::new(); n_out];
@@ -120,9 +120,9 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         out.insert(name.to_string(), obj);
     }
     if a.json {
-        crate::fsio::print_line(&Value::Object(out).to_string())?;
+        crate::data::fsio::print_line(&Value::Object(out).to_string())?;
     } else {
-        crate::fsio::print(&table_text(&out))?;
+        crate::data::fsio::print(&table_text(&out))?;
     }
     Ok(())
 }

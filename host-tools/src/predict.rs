@@ -1,8 +1,8 @@
 //! `thermcomp predict`: a model's outputs for run files, row for row.
 
-use crate::runfile::RunFile;
+use crate::data::runfile::RunFile;
+use crate::data::source::{ModelSource, RunSource};
 use crate::runner::{self, ColumnMap};
-use crate::source::{ModelSource, RunSource};
 use anyhow::{Context, Result};
 use clap::Args;
 use model_core::ValidModel;
@@ -50,14 +50,14 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     let map = a.runs.column_map()?;
     let runs = a.runs.read(map.model_columns(&model, false))?;
     let inputs = [a.model.paths(), a.runs.paths()].concat();
-    crate::fsio::check_distinct(&inputs, &[crate::fsio::named("--out", &a.out)])?;
+    crate::data::fsio::check_distinct(&inputs, &[crate::data::fsio::named("--out", &a.out)])?;
     let (rows, missing) =
-        crate::fsio::write_atomic(&a.out, |w| write_predictions(a, &model, &runs, &map, w))?;
+        crate::data::fsio::write_atomic(&a.out, |w| write_predictions(a, &model, &runs, &map, w))?;
     if a.json {
-        crate::fsio::print_line(
+        crate::data::fsio::print_line(
             &serde_json::json!({"out": a.out.display().to_string(), "runs": runs.len(), "rows": rows,
                 "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
-                "missing_cells": missing, "skipped_rows": crate::source::skipped_rows(&runs)})
+                "missing_cells": missing, "skipped_rows": crate::data::source::skipped_rows(&runs)})
             .to_string(),
         )?;
     } else {

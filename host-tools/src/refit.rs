@@ -26,8 +26,8 @@
 mod rls;
 pub mod stats;
 
+use crate::data::runfile::{ReadOptions, RunFile};
 use crate::eval::metrics_json;
-use crate::runfile::{ReadOptions, RunFile};
 use crate::runner::{self, ColumnMap};
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
@@ -328,7 +328,7 @@ fn gains_ls(rows: &[Vec<f64>], y: &[f64], m: usize) -> Result<Vec<f64>> {
             0.0
         }
     });
-    let svd = crate::fit::linalg::svd(a)?;
+    let svd = crate::num::linalg::svd(a)?;
     let tol = 1e-10 * svd.singular_values.max();
     let g = svd
         .solve(&DVector::from_column_slice(y), tol)
@@ -398,7 +398,7 @@ fn update_one(
     }
     match s.method {
         Method::Rls => Ok(rls::rls(&xs, &yv, &st.old, s.lambda, s.n_prior)),
-        Method::Window => crate::fit::linalg::least_squares(&xs, &yv),
+        Method::Window => crate::num::linalg::least_squares(&xs, &yv),
     }
 }
 
@@ -507,16 +507,16 @@ pub fn run(a: &RefitArgs) -> Result<()> {
             a.holdout_fraction
         );
     }
-    let reads: Vec<_> = [crate::fsio::named("--model", &a.model)]
+    let reads: Vec<_> = [crate::data::fsio::named("--model", &a.model)]
         .into_iter()
-        .chain(a.data.iter().map(|p| crate::fsio::named("--data", p)))
+        .chain(a.data.iter().map(|p| crate::data::fsio::named("--data", p)))
         .chain(
             a.baseline
                 .iter()
-                .map(|p| crate::fsio::named("--baseline", p)),
+                .map(|p| crate::data::fsio::named("--baseline", p)),
         )
         .collect();
-    crate::fsio::check_distinct(&reads, &[crate::fsio::named("--out", &a.out)])?;
+    crate::data::fsio::check_distinct(&reads, &[crate::data::fsio::named("--out", &a.out)])?;
     if !(a.alpha > 0.0 && a.alpha < 1.0) {
         bail!("--alpha {} must be in (0, 1)", a.alpha);
     }
@@ -540,16 +540,16 @@ pub fn run(a: &RefitArgs) -> Result<()> {
             bail!("{name} must be a positive number of hours");
         }
     }
-    let (old, old_bytes) = crate::blobfile::read(&a.model)?;
+    let (old, old_bytes) = crate::data::blobfile::read(&a.model)?;
     let map = ColumnMap::default();
     let opts = ReadOptions {
         skip_bad_rows: a.skip_bad_rows,
         only: Some(map.model_columns(&old, true)),
     };
-    let runs = crate::source::read_runs(&a.data, &opts)?;
-    let baseline = crate::source::read_runs(&a.baseline, &opts)?;
+    let runs = crate::data::source::read_runs(&a.data, &opts)?;
+    let baseline = crate::data::source::read_runs(&a.baseline, &opts)?;
     for r in runs.iter().chain(&baseline) {
-        crate::dataset::check_scalable_columns(r)?;
+        crate::data::dataset::check_scalable_columns(r)?;
     }
     let outputs: Vec<String> = old.outputs().iter().map(|o| o.to_string()).collect();
     let ys: Vec<Vec<&[Option<f64>]>> = runs
@@ -741,9 +741,9 @@ pub fn run(a: &RefitArgs) -> Result<()> {
         }
     }
     let out_bytes = match &final_model {
-        Some(m) => crate::blobfile::write(m, &a.out)?,
+        Some(m) => crate::data::blobfile::write(m, &a.out)?,
         None => {
-            crate::fsio::write_bytes_atomic(&a.out, &old_bytes)?;
+            crate::data::fsio::write_bytes_atomic(&a.out, &old_bytes)?;
             old_bytes.clone()
         }
     };
@@ -758,7 +758,7 @@ pub fn run(a: &RefitArgs) -> Result<()> {
             .zip(&verdicts)
             .map(|(o, v)| (o.clone(), verdict_json(v)))
             .collect();
-        crate::fsio::print_line(
+        crate::data::fsio::print_line(
             &json!({
                 "changed": changed,
                 "test": {
@@ -785,14 +785,14 @@ pub fn run(a: &RefitArgs) -> Result<()> {
                 "kept": kept,
                 "targets_updated": kept_targets,
                 "notes": notes,
-                "skipped_rows": crate::source::skipped_rows(runs.iter().chain(&baseline)),
+                "skipped_rows": crate::data::source::skipped_rows(runs.iter().chain(&baseline)),
                 "out": a.out.display().to_string(),
                 "bytes": out_bytes.len(),
             })
             .to_string(),
         )?;
     } else {
-        crate::fsio::print(&text_report(
+        crate::data::fsio::print(&text_report(
             &outputs,
             &verdicts,
             decision,

@@ -8,7 +8,7 @@
 //! are interpolated back to the run's rows. Whatever was done is reported as
 //! a note, never silently.
 
-use crate::runfile::{resample_linear, uniform_grid, RunFile};
+use crate::data::runfile::{resample_linear, uniform_grid, RunFile};
 use anyhow::{bail, Result};
 use model_core::model::{ModelState, StepError, MAX_OUTPUTS};
 use model_core::ValidModel;
@@ -261,14 +261,14 @@ pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Pre
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::runfile::ReadOptions;
+    use crate::data::runfile::ReadOptions;
 
     fn run(csv: &str) -> RunFile {
         RunFile::from_reader("t.csv", csv.as_bytes(), &ReadOptions::default()).unwrap()
     }
 
     fn first_order() -> ValidModel {
-        crate::spec::parse(
+        crate::data::spec::parse(
             "m.toml",
             "kind = \"tf\"\ndt_s = 1.0\n[[tf]]\noutput = \"dz_um\"\ninput = \"T1\"\na = [0.5]\nb = [1.0, -0.5]\n",
         )

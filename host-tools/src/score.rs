@@ -4,8 +4,8 @@
 //! part, as it would on the machine); rows are then scored by which part
 //! they belong to.
 
+use crate::data::runfile::RunFile;
 use crate::eval::metrics_json;
-use crate::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
 use anyhow::{anyhow, Result};
 use model_core::metrics::{Metrics, MetricsAccumulator};

@@ -1,7 +1,7 @@
 //! `thermcomp simulate`: run the thermal twin ([`crate::twin`]) and write a
 //! run file (CONTRACT.md section 2).
 
-use crate::fsio::{named, Named};
+use crate::data::fsio::{named, Named};
 use crate::twin::calibrate;
 use crate::twin::effects::EffectSet;
 use crate::twin::machine::{Machine, DEFAULT_MACHINE_TOML, N_NODES};
@@ -73,7 +73,7 @@ pub struct SimulateArgs {
 /// Runs `thermcomp simulate`.
 pub fn run(a: &SimulateArgs) -> Result<()> {
     if a.print_machine {
-        crate::fsio::print(DEFAULT_MACHINE_TOML)?;
+        crate::data::fsio::print(DEFAULT_MACHINE_TOML)?;
         return Ok(());
     }
     if let Some(real) = &a.calibrate {
@@ -99,7 +99,7 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
     let (summary, n_sensors) = write_run(&machine, &schedule, &opts, out)?;
     let elapsed_s = started.elapsed().as_secs_f64();
     if a.json {
-        crate::fsio::print_line(
+        crate::data::fsio::print_line(
             &summary_json(&summary, a, &profile, &effects, n_sensors, out, elapsed_s).to_string(),
         )?;
     } else {
@@ -132,7 +132,10 @@ fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
         bail!("--hours, --effects and --sensors do not apply to --calibrate (the run file sets the grid, the speed and the sensors)");
     }
     let (text, label) = match &a.machine {
-        Some(p) => (crate::fsio::read_text_capped(p)?, p.display().to_string()),
+        Some(p) => (
+            crate::data::fsio::read_text_capped(p)?,
+            p.display().to_string(),
+        ),
         None => (DEFAULT_MACHINE_TOML.to_string(), "<default machine>".into()),
     };
     let base = crate::twin::machine::parse(&label, &text)?;
@@ -143,7 +146,7 @@ fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
     };
     let cal = calibrate::calibrate(&base, &data, &opts)?;
     let toml = calibrate::to_toml(&text, &cal, &real.display().to_string())?;
-    crate::fsio::write_bytes_atomic(save, toml.as_bytes())?;
+    crate::data::fsio::write_bytes_atomic(save, toml.as_bytes())?;
     let mut v = calibrate::to_json(&cal);
     v["machine"] = save.display().to_string().into();
     if let Some(out) = &a.out {
@@ -156,7 +159,7 @@ fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
         v["out"] = out.display().to_string().into();
     }
     if a.json {
-        crate::fsio::print_line(&v.to_string())?;
+        crate::data::fsio::print_line(&v.to_string())?;
     } else {
         eprint!("{}", calibration_table(&cal));
         eprintln!("wrote {}", save.display());
@@ -182,7 +185,7 @@ fn check_paths(a: &SimulateArgs, extra: &[Named<'_>]) -> Result<()> {
             .as_deref()
             .map(|p| named("--save-machine", p)),
     );
-    crate::fsio::check_distinct(&reads, &writes)
+    crate::data::fsio::check_distinct(&reads, &writes)
 }
 
 /// A human-readable summary of a calibration (stderr).
@@ -221,7 +224,7 @@ pub fn write_run(
     out: &std::path::Path,
 ) -> Result<(Summary, usize)> {
     let n_sensors = opts.sensors.unwrap_or(machine.sensors.sites.len());
-    let summary = crate::fsio::write_atomic(out, |w| {
+    let summary = crate::data::fsio::write_atomic(out, |w| {
         write_rows(machine, schedule, opts, n_sensors, w, out)
     })?;
     Ok((summary, n_sensors))
@@ -259,7 +262,7 @@ fn write_rows(
     w.write_all(header.as_bytes()).with_context(write_err)?;
     let n = schedule.t_s.len();
     // Hidden when stderr is not a terminal; only worth drawing for long runs.
-    let pb = (n >= 200_000).then(|| crate::fit::arx::progress(n, "simulate"));
+    let pb = (n >= 200_000).then(|| crate::num::progress::progress(n, "simulate"));
     let mut line = String::with_capacity(512);
     let mut reference: Option<crate::twin::network::State> = None;
     let summary = sim::run(machine, schedule, opts, |r| {

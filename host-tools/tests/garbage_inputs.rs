@@ -2,7 +2,7 @@
 //! CSV/TOML-shaped noise into the run-file reader, the spec reader and the
 //! runner. (The blob decoder has its own: model-core/tests/blob_garbage.rs.)
 
-use host_tools::runfile::{ReadOptions, RunFile};
+use host_tools::data::runfile::{ReadOptions, RunFile};
 use host_tools::runner::{predict, ColumnMap};
 use proptest::prelude::*;
 
@@ -56,7 +56,7 @@ proptest! {
     /// a dynamic model (resampling, gaps): errors are one line, never panics.
     #[test]
     fn csv_noise_reads_or_fails_cleanly(text in csv_text()) {
-        let model = host_tools::spec::parse("m.toml", TF_SPEC).unwrap();
+        let model = host_tools::data::spec::parse("m.toml", TF_SPEC).unwrap();
         for skip in [false, true] {
             let opts = ReadOptions { skip_bad_rows: skip, only: None };
             match RunFile::from_reader("n.csv", text.as_bytes(), &opts) {
@@ -72,7 +72,7 @@ proptest! {
 
     #[test]
     fn spec_reader_never_panics(text in "[ -~\n]{0,300}") {
-        if let Err(e) = host_tools::spec::parse("g.toml", &text) {
+        if let Err(e) = host_tools::data::spec::parse("g.toml", &text) {
             prop_assert!(!e.to_string().contains('\n'), "{}", e);
         }
     }
@@ -90,7 +90,7 @@ proptest! {
             "kind = \"{kind}\"\ndt_s = {dt}\n[[tf]]\noutput = \"dz_um\"\ninput = \"T1\"\na = [{}]\nb = [{}]\n",
             list(&a), list(&b)
         );
-        if let Err(e) = host_tools::spec::parse("s.toml", &text) {
+        if let Err(e) = host_tools::data::spec::parse("s.toml", &text) {
             prop_assert!(!e.to_string().contains('\n'), "{}", e);
         }
     }

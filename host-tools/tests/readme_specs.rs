@@ -9,7 +9,7 @@ fn every_full_spec_in_the_readme_builds() {
         if !toml.contains("kind =") {
             continue; // a fragment such as the `position = ...` line
         }
-        host_tools::spec::parse(&format!("README block {}", i + 1), toml)
+        host_tools::data::spec::parse(&format!("README block {}", i + 1), toml)
             .unwrap_or_else(|e| panic!("{e}\n{toml}"));
         built += 1;
     }

@@ -603,7 +603,7 @@ proptest::proptest! {
         use firmware::pipeline::{Pipeline, PipelineConfig, Reading};
         use firmware::report::{HubState, StatusFlags};
         use host_tools::replay::causal_values;
-        use host_tools::runfile::uniform_grid;
+        use host_tools::data::runfile::uniform_grid;
         // Row k at k * dt, unless dropped from the log; its cell empty
         // unless `present`. Values tell the row: 20 + k / 1000 C.
         let (mut t_s, mut x) = (Vec::new(), Vec::new());

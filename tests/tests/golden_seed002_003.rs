@@ -7,7 +7,7 @@ use model_core::{ModelState, ValidModel};
 use thermcomp_tests::isclose;
 
 fn through_blob(name: &str, spec: &str) -> ValidModel {
-    let model = host_tools::spec::parse(name, spec).expect("spec builds");
+    let model = host_tools::data::spec::parse(name, spec).expect("spec builds");
     let blob = model_core::blob::encode_to_vec(&model).expect("encodes");
     model_core::decode(&blob).expect("decodes")
 }
@@ -44,7 +44,7 @@ coef = { T3 = 0.0189, T4 = -0.0124, T10 = 0.0082, T12 = -0.0074 }
         -0.215801, -0.216670,
     ];
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/seed002_fig3.csv");
-    let run = host_tools::runfile::RunFile::read(path.as_ref(), &Default::default()).unwrap();
+    let run = host_tools::data::runfile::RunFile::read(path.as_ref(), &Default::default()).unwrap();
     assert_eq!(run.len(), EXPECTED.len());
     let cols: Vec<&[Option<f64>]> = ["T3", "T4", "T10", "T12"]
         .iter()

@@ -59,7 +59,7 @@ fn flashed(tf: &PrintedTf) -> ValidModel {
         list(tf.a),
         list(tf.b)
     );
-    let model = host_tools::spec::parse(tf.name, &spec).expect("printed TF builds");
+    let model = host_tools::data::spec::parse(tf.name, &spec).expect("printed TF builds");
     let blob = model_core::blob::encode_to_vec(&model).expect("encodes");
     model_core::decode(&blob).expect("decodes")
 }

@@ -321,7 +321,7 @@ fn drop_columns(path: &Path, names: &[&str]) -> Result<()> {
         out.push_str(&row.join(","));
         out.push('\n');
     }
-    crate::fsio::write_bytes_atomic(path, out.as_bytes())
+    crate::data::fsio::write_bytes_atomic(path, out.as_bytes())
 }
 
 #[cfg(test)]

@@ -220,9 +220,9 @@ fn run_twin(a: &GapArgs) -> Result<()> {
     if a.json {
         let mut v = summary;
         v["per_case"] = Value::Array(outs.iter().map(Outcome::to_json).collect());
-        crate::fsio::print_line(&v.to_string())?;
+        crate::data::fsio::print_line(&v.to_string())?;
     } else {
-        crate::fsio::print(&report::text(&outs, &s, wall_s))?;
+        crate::data::fsio::print(&report::text(&outs, &s, wall_s))?;
     }
     Ok(())
 }

@@ -171,7 +171,7 @@ pub fn run_parallel<C: Send, R: Send>(
     what: &str,
     f: impl Fn(C) -> Result<R> + Sync + Send,
 ) -> Result<Vec<R>> {
-    let pb = crate::fit::arx::progress(cases.len(), what);
+    let pb = crate::num::progress::progress(cases.len(), what);
     let out: Result<Vec<R>> = cases
         .into_par_iter()
         .map(|c| {

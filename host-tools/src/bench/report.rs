@@ -16,7 +16,7 @@ pub fn write(dir: &Path, outs: &[Outcome<Case>], s: &Summary, summary: &Value) -
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let put = |name: &str, text: String| -> Result<()> {
         let p = dir.join(name);
-        crate::fsio::write_bytes_atomic(&p, text.as_bytes())
+        crate::data::fsio::write_bytes_atomic(&p, text.as_bytes())
     };
     put("cases.csv", cases_csv(outs))?;
     put("confusion.md", markdown(outs, s))?;

@@ -2,7 +2,7 @@
 //! own `t_s`, with the simulation interpolated onto it, and the residual
 //! `r = real - sim` of every channel both files have.
 
-use crate::runfile::{is_temperature_column, resample_linear, ReadOptions, RunFile};
+use crate::data::runfile::{is_temperature_column, resample_linear, ReadOptions, RunFile};
 use anyhow::{bail, Context, Result};
 use std::path::Path;
 
@@ -112,7 +112,7 @@ pub fn read(sim_path: &Path, real_path: &Path) -> Result<Aligned> {
                 continue;
             };
             let label = format!("{}: column {name}", path.display());
-            crate::fit::linalg::check_scalable(&label, values.iter().flatten().copied())?;
+            crate::num::linalg::check_scalable(&label, values.iter().flatten().copied())?;
         }
     }
     let grid = &real.t_s;

@@ -29,7 +29,7 @@
 //! of a temperature sensor much faster than its part.
 
 use super::align::{Aligned, Channel};
-use super::lsq;
+use crate::num::lsq;
 
 /// Time constants tried for a channel's own response, s (5 min .. 6 h: the
 /// twin's fastest sensor sites to its structure's 1.9 h and beyond).

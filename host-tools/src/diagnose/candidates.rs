@@ -14,9 +14,9 @@
 
 use super::align::{Aligned, Channel};
 use super::baseline::{self, Baseline};
-use super::lsq::{self, LinearFit};
 use super::signif;
 use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
+use crate::num::lsq::{self, LinearFit};
 use serde_json::{json, Map, Value};
 
 /// Names of the candidates, in CONTRACT order.

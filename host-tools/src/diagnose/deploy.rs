@@ -3,7 +3,7 @@
 //!
 //! A multiple linear regression of the main displacement on the temperature
 //! channels both files share (the model `thermcomp fit --model mlr` trains,
-//! by the same solver, [`crate::fit::linalg::least_squares`]) is trained on
+//! by the same solver, [`crate::num::linalg::least_squares`]) is trained on
 //! the fit rows (before the hold-out) of
 //!
 //! 1. the nominal sim,
@@ -20,8 +20,8 @@
 
 use super::align::{Aligned, Channel};
 use super::candidates::{self, round, Problem};
-use super::lsq;
-use crate::fit::linalg;
+use crate::num::linalg;
+use crate::num::lsq;
 use serde_json::{json, Value};
 
 /// The effect is added to a channel only where it explains at least this

@@ -19,7 +19,6 @@ pub mod align;
 pub mod baseline;
 pub mod candidates;
 pub mod deploy;
-pub mod lsq;
 pub mod physical;
 pub mod regime;
 pub mod report;
@@ -27,6 +26,7 @@ pub mod signif;
 pub mod spectrum;
 pub mod variants;
 
+use crate::num::lsq;
 use anyhow::{bail, Result};
 use candidates::{round, Problem, Scored};
 use clap::Args;
@@ -93,18 +93,18 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let page = a.report.as_ref().map(|d| d.join("index.html"));
     let writes: Vec<_> = page
         .iter()
-        .map(|p| crate::fsio::named("--report", p))
+        .map(|p| crate::data::fsio::named("--report", p))
         .collect();
     let mut reads = vec![
-        crate::fsio::named("--sim", &a.sim),
-        crate::fsio::named("--real", &a.real),
+        crate::data::fsio::named("--sim", &a.sim),
+        crate::data::fsio::named("--real", &a.real),
     ];
     reads.extend(
         a.machine
             .as_deref()
-            .map(|m| crate::fsio::named("--machine", m)),
+            .map(|m| crate::data::fsio::named("--machine", m)),
     );
-    crate::fsio::check_distinct(&reads, &writes)?;
+    crate::data::fsio::check_distinct(&reads, &writes)?;
     let v = diagnose_with_machine(
         &a.sim,
         &a.real,
@@ -113,9 +113,9 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         a.machine.as_deref(),
     )?;
     if a.json {
-        crate::fsio::print_line(&v.to_string())?;
+        crate::data::fsio::print_line(&v.to_string())?;
     } else {
-        crate::fsio::print(&(text_table(&v) + &physical::text(&v["physical"])))?;
+        crate::data::fsio::print(&(text_table(&v) + &physical::text(&v["physical"])))?;
     }
     eprintln!("diagnose: {:.2} s", started.elapsed().as_secs_f64());
     Ok(())
@@ -477,7 +477,7 @@ fn judge(al: &align::Aligned, main: usize, snr: &[f64], n_fit: usize) -> Result<
         .filter(|&i| i != main && snr[i] >= MIN_GAP_SNR)
         .filter(|&i| {
             let c = &al.channels[i];
-            crate::runfile::is_temperature_column(&c.name) || c.is_displacement()
+            crate::data::runfile::is_temperature_column(&c.name) || c.is_displacement()
         })
         .collect();
     temps.sort_by(|&a, &b| snr[b].total_cmp(&snr[a]));

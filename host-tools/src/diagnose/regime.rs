@@ -93,7 +93,7 @@ pub fn air_envelope_kw(speed_rpm: &[f64], power_kw: &[f64]) -> Vec<f64> {
             rows.iter().map(|&k| q[k] * q[k]).collect(),
         ];
         let y: Vec<f64> = rows.iter().map(|&k| power_kw[k]).collect();
-        let Some(f) = super::lsq::fit(&cols, &y, y.len()) else {
+        let Some(f) = crate::num::lsq::fit(&cols, &y, y.len()) else {
             break;
         };
         let mut r: Vec<(f64, usize)> = running

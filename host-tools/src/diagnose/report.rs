@@ -279,7 +279,7 @@ pub fn write(
         esc(&pretty)
     );
     let path = dir.join("index.html");
-    crate::fsio::write_bytes_atomic(&path, html.as_bytes())?;
+    crate::data::fsio::write_bytes_atomic(&path, html.as_bytes())?;
     Ok(())
 }
 

@@ -17,7 +17,7 @@
 //! Holm's step-down procedure ([`holm`]), which controls the family-wise
 //! error rate without assuming independence between the tests.
 
-use crate::rng::SplitMix64;
+use crate::num::rng::SplitMix64;
 
 /// Block length = this many decorrelation lags of the loss differential.
 /// Chosen on pairs of independent AR(1) error series (720 samples, a 12 h

@@ -3,7 +3,7 @@
 //! bands of period: slow drift (> 2 h, with the mean), mid (10 min - 2 h:
 //! chiller-like cycling) and fast (< 10 min).
 
-use crate::runfile::resample_linear;
+use crate::data::runfile::resample_linear;
 
 /// Periods above this are slow drift, s.
 pub const SLOW_ABOVE_S: f64 = 7200.0;

@@ -17,9 +17,9 @@
 use super::align::Aligned;
 use super::baseline;
 use super::candidates::Problem;
-use super::lsq;
 use super::regime;
 use super::spectrum;
+use crate::num::lsq;
 
 /// Time constants of ambient responses, s (0.5 h .. 8 h).
 const AMBIENT_TAUS_S: [f64; 5] = [1800.0, 3600.0, 7200.0, 14400.0, 28800.0];
@@ -155,7 +155,7 @@ fn response_pairs(
 /// when heat is added anywhere); on a displacement either way (heat at a
 /// node whose growth pulls the other way, as a column behind the spindle).
 fn heat_sign(p: &Problem) -> Option<f64> {
-    crate::runfile::is_temperature_column(&p.ch.name).then_some(1.0)
+    crate::data::runfile::is_temperature_column(&p.ch.name).then_some(1.0)
 }
 
 fn with_sign(mut v: Vec<Variant>, sign: Option<f64>) -> Vec<Variant> {
@@ -290,7 +290,7 @@ fn signal_variants(
 /// temperature always; a displacement only for a temperature (two
 /// displacements may share probes, hence noise).
 fn tracks(ch: &super::align::Channel, src: &super::align::Channel) -> bool {
-    crate::runfile::is_temperature_column(&src.name)
+    crate::data::runfile::is_temperature_column(&src.name)
         || (src.is_displacement() && !ch.is_displacement())
 }
 
@@ -435,7 +435,7 @@ fn motor_loss(p: &Problem) -> (Vec<Variant>, String) {
 /// so a free gain would let mismatch pass as a lag; nothing on
 /// displacements and probes, which do not lag.
 fn sensor_lag(p: &Problem) -> (Vec<Variant>, String) {
-    if !crate::runfile::is_temperature_column(&p.ch.name) {
+    if !crate::data::runfile::is_temperature_column(&p.ch.name) {
         return (
             Vec::new(),
             "not a temperature channel: probes and displacements do not lag, no signature".into(),

@@ -43,10 +43,10 @@
 //! `b = A` (the common denominator), so the bank sums to the ARX model.
 
 use super::{channels, outputs, Fitted};
-use crate::dataset::{Dataset, GridRun, InputForm};
+use crate::data::dataset::{Dataset, GridRun, InputForm};
+use crate::num::progress::progress;
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use model_core::tf::{RealisedTf, TfEntry, TfHistory, MAX_ORDER, MAX_TF_ENTRIES};
 use model_core::{Model, Params, ValidModel};
 use nalgebra::{DMatrix, DVector};
@@ -530,7 +530,7 @@ impl Triangle {
                 0.0
             }
         });
-        let svd = crate::fit::linalg::svd(scaled)?;
+        let svd = crate::num::linalg::svd(scaled)?;
         let tol = 1e-10 * svd.singular_values.max();
         let beta = svd
             .solve(&zz, tol)
@@ -835,16 +835,6 @@ impl SearchRow {
         let v: Option<Vec<f64>> = self.fit.iter().copied().collect();
         v.map(|v| v.iter().sum::<f64>() / v.len() as f64)
     }
-}
-
-/// A progress bar on stderr (hidden when stderr is not a terminal).
-pub fn progress(n: usize, what: &str) -> ProgressBar {
-    let pb = ProgressBar::new(n as u64);
-    if let Ok(style) = ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed}") {
-        pb.set_style(style.progress_chars("=> "));
-    }
-    pb.set_message(what.to_string());
-    pb
 }
 
 /// `ds` restricted to the inputs `idx` (in that order). In the change form

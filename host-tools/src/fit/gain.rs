@@ -12,8 +12,8 @@
 
 use super::arx::ArxArgs;
 use super::Fitted;
-use crate::dataset::Dataset;
-use crate::runfile::RunFile;
+use crate::data::dataset::Dataset;
+use crate::data::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
 use crate::score::score;
 use anyhow::{anyhow, bail, Result};
@@ -43,7 +43,7 @@ pub fn fit(ds: &Dataset, args: &ArxArgs, runs: &[RunFile], validate: &[RunFile])
         .gain_from
         .as_ref()
         .ok_or_else(|| anyhow!("--model gain needs --gain-from MODEL.bin"))?;
-    let (old, _) = crate::blobfile::read(path)?;
+    let (old, _) = crate::data::blobfile::read(path)?;
     let Params::Tf(entries) = &old.model().params else {
         bail!(
             "{}: a {} model; --gain-from needs a TF bank (kind tf)",

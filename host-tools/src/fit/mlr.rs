@@ -1,8 +1,9 @@
 //! Multiple linear regression (seed 002, Eq. 2-6): one least-squares
 //! equation per target on the calibration rows, written as a `linear` model.
 
-use super::{channels, linalg, outputs, Fitted};
-use crate::dataset::Dataset;
+use super::{channels, outputs, Fitted};
+use crate::data::dataset::Dataset;
+use crate::num::linalg;
 use anyhow::{anyhow, Result};
 use model_core::linear::{Coef, Linear, LinearOutput};
 use model_core::{Model, Params};

@@ -11,13 +11,12 @@ pub mod arx;
 pub mod auto;
 pub mod bp;
 pub mod gain;
-pub mod linalg;
 pub mod mlr;
 pub mod pcr;
 pub mod tfbank;
 
-use crate::dataset::{Dataset, InputForm};
-use crate::runfile::{ReadOptions, RunFile};
+use crate::data::dataset::{Dataset, InputForm};
+use crate::data::runfile::{ReadOptions, RunFile};
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
@@ -177,7 +176,7 @@ fn default_inputs(run: &RunFile, auto: bool) -> Vec<String> {
     run.columns
         .iter()
         .filter(|c| {
-            crate::runfile::is_temperature_column(c)
+            crate::data::runfile::is_temperature_column(c)
                 || (auto && AUTO_EXTRA_INPUTS.contains(&c.as_str()))
         })
         .cloned()
@@ -261,8 +260,8 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
         skip_bad_rows: a.skip_bad_rows,
         only: Some(needed),
     };
-    let runs = crate::source::read_runs(&a.data, &opts)?;
-    let validate = crate::source::read_runs(&a.validate, &opts)?;
+    let runs = crate::data::source::read_runs(&a.data, &opts)?;
+    let validate = crate::data::source::read_runs(&a.validate, &opts)?;
     let ds = Dataset::new(&runs, &validate, &inputs, &a.target, form, a.holdout_from_s)?;
     let fitted = match a.model {
         FitKind::Auto => {
@@ -284,7 +283,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
         FitKind::Gabp => bp::fit(&ds, &a.bp, true)?,
         FitKind::Arma => arma::fit(&ds, &a.arma, a.arx.dt_s)?,
     };
-    let bytes = crate::blobfile::write(&fitted.model, &a.out)?;
+    let bytes = crate::data::blobfile::write(&fitted.model, &a.out)?;
     // Score what was written, decoded back: the figures are the blob's.
     let flashed = model_core::decode(&bytes).map_err(|e| anyhow!("written blob: {e}"))?;
     let split: Vec<(&RunFile, usize)> = runs
@@ -308,7 +307,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
         "holdout_from_s": a.holdout_from_s,
         "calibration_rows": n_calib,
         "holdout_rows": ds.holdout_len(),
-        "skipped_rows": crate::source::skipped_rows(runs.iter().chain(&validate)),
+        "skipped_rows": crate::data::source::skipped_rows(runs.iter().chain(&validate)),
         "targets": targets,
         "details": fitted.details,
     });
@@ -324,22 +323,22 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
 
 /// Refuses an `--out` that is the same file as a `--data` or `--validate` run.
 fn check_paths(a: &FitArgs) -> Result<()> {
-    let data = a.data.iter().map(|p| crate::fsio::named("--data", p));
+    let data = a.data.iter().map(|p| crate::data::fsio::named("--data", p));
     let validate = a
         .validate
         .iter()
-        .map(|p| crate::fsio::named("--validate", p));
+        .map(|p| crate::data::fsio::named("--validate", p));
     let reads: Vec<_> = data.chain(validate).collect();
-    crate::fsio::check_distinct(&reads, &[crate::fsio::named("--out", &a.out)])
+    crate::data::fsio::check_distinct(&reads, &[crate::data::fsio::named("--out", &a.out)])
 }
 
 /// Runs `thermcomp fit`.
 pub fn run(a: &FitArgs) -> Result<()> {
     let o = fit_files(a)?;
     if a.json {
-        crate::fsio::print_line(&o.json.to_string())?;
+        crate::data::fsio::print_line(&o.json.to_string())?;
     } else {
-        crate::fsio::print(&scores_text(&o.scores))?;
+        crate::data::fsio::print(&scores_text(&o.scores))?;
         eprintln!(
             "wrote {} ({} bytes, {} model on {} inputs, {} calibration rows)",
             a.out.display(),

@@ -7,8 +7,9 @@
 //! the PCR form, with the standardisation folded into each component:
 //! `C_j = c_j + sum_i w_ji x_i`, `w_ji = v_ij / s_i`, `c_j = -sum_i v_ij m_i / s_i`.
 
-use super::{channels, linalg, outputs, Fitted};
-use crate::dataset::Dataset;
+use super::{channels, outputs, Fitted};
+use crate::data::dataset::Dataset;
+use crate::num::linalg;
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use model_core::pcr::{Component, Pcr, PcrOutput, MAX_COMPONENTS};

@@ -31,11 +31,12 @@
 
 use super::arx::{
     bank, candidates, check_holdout, entry, fit_pct, forward_select, grid_runs, max_selected,
-    progress, sample_time, search_split, step_info, sub_grid, subset, ArxArgs, OrderRange, Orders,
-    Selection, Tsqr,
+    sample_time, search_split, step_info, sub_grid, subset, ArxArgs, OrderRange, Orders, Selection,
+    Tsqr,
 };
 use super::Fitted;
-use crate::dataset::{Dataset, GridRun};
+use crate::data::dataset::{Dataset, GridRun};
+use crate::num::progress::progress;
 use anyhow::{bail, Result};
 use model_core::tf::{RealisedTf, MAX_TF_ENTRIES};
 use nalgebra::{DMatrix, DVector};
@@ -305,7 +306,7 @@ pub fn fit_target(
                 }
             });
             let b = DVector::from_fn(k + p, |i, _| if i < k { z[i] } else { 0.0 });
-            let Ok(svd) = crate::fit::linalg::svd(a) else {
+            let Ok(svd) = crate::num::linalg::svd(a) else {
                 break 'outer;
             };
             let tol = 1e-13 * svd.singular_values.max();

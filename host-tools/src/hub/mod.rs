@@ -19,7 +19,7 @@ use anyhow::{anyhow, bail, Result};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::blobfile;
+use crate::data::blobfile;
 use monitor::Names;
 use serial::SerialLink;
 use session::{Session, Timeouts};
@@ -177,11 +177,11 @@ fn ping(a: &PingArgs) -> Result<()> {
     let (protocol, rtt) = s.ping(timeout).map_err(|e| anyhow!("ping: {e}"))?;
     let rtt_ms = rtt.as_secs_f64() * 1e3;
     if a.json {
-        crate::fsio::print_line(
+        crate::data::fsio::print_line(
             &serde_json::json!({"protocol": protocol, "rtt_ms": rtt_ms}).to_string(),
         )?;
     } else {
-        crate::fsio::print_line(&format!(
+        crate::data::fsio::print_line(&format!(
             "hub on {} answered: protocol {protocol}, {rtt_ms:.1} ms",
             a.port.port.display()
         ))?;
@@ -215,9 +215,9 @@ fn monitor(a: &MonitorArgs) -> Result<()> {
             );
         };
         if a.json {
-            crate::fsio::print_line(&monitor::json_line(&t, names.as_ref()).to_string())?;
+            crate::data::fsio::print_line(&monitor::json_line(&t, names.as_ref()).to_string())?;
         } else {
-            crate::fsio::print_line(&monitor::text_line(&t, names.as_ref()))?;
+            crate::data::fsio::print_line(&monitor::text_line(&t, names.as_ref()))?;
         }
         seen += 1;
     }

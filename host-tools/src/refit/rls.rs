@@ -18,7 +18,7 @@
 //! uncorrelated regressors, and that weight decays like the data's. The
 //! unit test checks the recursion against this closed form.
 
-use crate::fit::linalg::moments;
+use crate::num::linalg::moments;
 use nalgebra::{DMatrix, DVector};
 
 /// Coefficients `(intercept, slopes)` in raw regressor units.

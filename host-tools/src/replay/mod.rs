@@ -37,8 +37,8 @@
 
 pub mod virtual_rtd;
 
-use crate::runfile::{is_temperature_column, uniform_grid, RunFile};
-use crate::source::RunSource;
+use crate::data::runfile::{is_temperature_column, uniform_grid, RunFile};
+use crate::data::source::RunSource;
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use embedded_can::Frame as _;
@@ -71,7 +71,7 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub candump: PathBuf,
     /// CAN interface name written in the log.
-    #[arg(long, default_value = "can0", value_parser = crate::source::interface_name)]
+    #[arg(long, default_value = "can0", value_parser = crate::data::source::interface_name)]
     pub interface: String,
     /// Also write a CSV of every sample: the inputs as the hub read them and
     /// the offsets decoded from the frames sent (`<output>_sent`), the
@@ -185,12 +185,12 @@ struct Tally {
 pub fn run(a: &ReplayArgs) -> Result<()> {
     let summary = replay_files(a)?;
     if a.json {
-        crate::fsio::print_line(&summary.to_string())?;
+        crate::data::fsio::print_line(&summary.to_string())?;
     } else {
         let runs = summary["runs"].as_array().map(Vec::as_slice).unwrap_or(&[]);
         for r in runs {
             let st = &r["states"];
-            crate::fsio::print_line(&format!(
+            crate::data::fsio::print_line(&format!(
                 "{}: {} samples, {} frames ({} from the CNC); running {}, holding {}, ramping {}, zeroed {}, no model {}",
                 r["run"].as_str().unwrap_or(""),
                 r["samples"],
@@ -216,17 +216,20 @@ pub fn run(a: &ReplayArgs) -> Result<()> {
 /// `stale_samples`, `max_abs_offset_um`. `thermcomp demo` calls it too.
 pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     let reads = [
-        vec![crate::fsio::named("--model", &a.model)],
+        vec![crate::data::fsio::named("--model", &a.model)],
         a.runs.paths(),
     ]
     .concat();
-    let writes = [Some(crate::fsio::named("--candump", &a.candump))]
+    let writes = [Some(crate::data::fsio::named("--candump", &a.candump))]
         .into_iter()
-        .chain([a.trace.as_deref().map(|p| crate::fsio::named("--trace", p))])
+        .chain([a
+            .trace
+            .as_deref()
+            .map(|p| crate::data::fsio::named("--trace", p))])
         .flatten()
         .collect::<Vec<_>>();
-    crate::fsio::check_distinct(&reads, &writes)?;
-    let bytes = crate::fsio::read_capped(&a.model, model_core::blob::MAX_BLOB_LEN as u64)?;
+    crate::data::fsio::check_distinct(&reads, &writes)?;
+    let bytes = crate::data::fsio::read_capped(&a.model, model_core::blob::MAX_BLOB_LEN as u64)?;
     let probe = Hub::load(&bytes);
     if let Some(e) = probe.load_error() {
         eprintln!(
@@ -285,9 +288,9 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
         let tally = replay_run(&bytes, run, &shape, a, &mut log, trace.as_mut())?;
         per_run.push((run.path.display().to_string(), tally));
     }
-    crate::fsio::write_bytes_atomic(&a.candump, &log)?;
+    crate::data::fsio::write_bytes_atomic(&a.candump, &log)?;
     if let (Some(p), Some(w)) = (&a.trace, &trace) {
-        crate::fsio::write_bytes_atomic(p, w)?;
+        crate::data::fsio::write_bytes_atomic(p, w)?;
     }
     let summary: Vec<_> = per_run
         .iter()
@@ -314,7 +317,7 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
         "sample_period_s": PipelineConfig::DEFAULT.sample_period_s(&probe),
         "outputs": outputs,
         "runs": summary,
-        "skipped_rows": crate::source::skipped_rows(&runs),
+        "skipped_rows": crate::data::source::skipped_rows(&runs),
     }))
 }
 

@@ -27,10 +27,10 @@
 
 pub mod grey;
 pub mod maxtree;
-pub mod stats;
 pub mod wgrey;
 
-use crate::runfile::{ReadOptions, RunFile};
+use crate::data::runfile::{ReadOptions, RunFile};
+use crate::num::stats;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, ValueEnum};
 use serde_json::{json, Map, Value};
@@ -291,7 +291,7 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
         inputs = head
             .columns
             .iter()
-            .filter(|c| crate::runfile::is_temperature_column(c) && !a.target.contains(c))
+            .filter(|c| crate::data::runfile::is_temperature_column(c) && !a.target.contains(c))
             .cloned()
             .collect();
         if inputs.len() < 2 {
@@ -322,7 +322,7 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
         skip_bad_rows: a.skip_bad_rows,
         only: Some(needed.clone()),
     };
-    let files = crate::source::read_runs(&a.data, &opts)?;
+    let files = crate::data::source::read_runs(&a.data, &opts)?;
     for (p, run) in a.data.iter().zip(&files) {
         for n in &needed {
             if !run.has_column(n) {
@@ -333,7 +333,7 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
                 );
             }
         }
-        crate::dataset::check_scalable_columns(run)?;
+        crate::data::dataset::check_scalable_columns(run)?;
     }
     Ok((files, inputs))
 }
@@ -342,9 +342,9 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
 pub fn run(a: &SelectArgs) -> Result<()> {
     let out = select_files(a)?;
     if a.json {
-        crate::fsio::print_line(&out.json.to_string())?;
+        crate::data::fsio::print_line(&out.json.to_string())?;
     } else {
-        crate::fsio::print(&out.text)?;
+        crate::data::fsio::print(&out.text)?;
     }
     Ok(())
 }
@@ -363,7 +363,7 @@ pub fn select_files(a: &SelectArgs) -> Result<Output> {
     if let Value::Object(o) = &mut out.json {
         o.insert(
             "skipped_rows".into(),
-            json!(crate::source::skipped_rows(&files)),
+            json!(crate::data::source::skipped_rows(&files)),
         );
     }
     Ok(out)
@@ -1071,15 +1071,15 @@ mod tests {
     #[test]
     fn temperature_names() {
         assert!(
-            crate::runfile::is_temperature_column("T1")
-                && crate::runfile::is_temperature_column("T16")
+            crate::data::runfile::is_temperature_column("T1")
+                && crate::data::runfile::is_temperature_column("T16")
         );
         assert!(
-            !crate::runfile::is_temperature_column("T")
-                && !crate::runfile::is_temperature_column("Tx")
-                && !crate::runfile::is_temperature_column("t1")
+            !crate::data::runfile::is_temperature_column("T")
+                && !crate::data::runfile::is_temperature_column("Tx")
+                && !crate::data::runfile::is_temperature_column("t1")
         );
-        assert!(!crate::runfile::is_temperature_column("T1_c"));
+        assert!(!crate::data::runfile::is_temperature_column("T1_c"));
     }
 
     #[test]

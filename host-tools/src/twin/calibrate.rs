@@ -53,8 +53,8 @@ use super::lm::{self, LmOptions};
 use super::machine::{DisplacementOutput, Machine, Node, SensorSite, Site, N_NODES};
 use super::network::Network;
 use super::profile::{self, Profile, Schedule};
-use crate::diagnose::lsq;
-use crate::runfile::{is_temperature_column, ReadOptions, RunFile};
+use crate::data::runfile::{is_temperature_column, ReadOptions, RunFile};
+use crate::num::lsq;
 use anyhow::{anyhow, bail, Context, Result};
 use serde_json::{json, Value};
 use std::path::Path;
@@ -751,7 +751,7 @@ fn optimise(ctx: &Ctx, theta: Vec<f64>, opts: &CalibrateOptions) -> Result<Round
     };
     let pb = opts
         .progress
-        .then(|| crate::fit::arx::progress(MAX_ROUNDS * opts.lm.max_iter, "calibrate"));
+        .then(|| crate::num::progress::progress(MAX_ROUNDS * opts.lm.max_iter, "calibrate"));
     let mut settled = false;
     while out.rounds < MAX_ROUNDS && !settled {
         out.rounds += 1;

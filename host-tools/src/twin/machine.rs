@@ -2,12 +2,12 @@
 //! unit in its name (`c_j_per_k`, `g_w_per_k`, `tau_s`, ...).
 //!
 //! Unknown fields and syntax errors name the file, line and column, as
-//! model specs do ([`crate::spec`]); a value out of range names the field.
+//! model specs do ([`crate::data::spec`]); a value out of range names the field.
 //! [`Machine::default_machine`] is the built-in machine, parsed from the
 //! commented TOML that `thermcomp simulate --print-machine` prints, so the
 //! printed file and the built-in machine cannot disagree.
 
-use crate::spec::{from_toml, line_col};
+use crate::data::spec::{from_toml, line_col};
 use anyhow::{anyhow, bail, Result};
 use serde::Deserialize;
 use std::path::Path;
@@ -449,7 +449,7 @@ impl Machine {
 
     /// Reads and validates a machine file.
     pub fn load(path: &Path) -> Result<Machine> {
-        let text = crate::fsio::read_text_capped(path)?;
+        let text = crate::data::fsio::read_text_capped(path)?;
         parse(&path.display().to_string(), &text)
     }
 }

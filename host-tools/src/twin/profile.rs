@@ -9,7 +9,7 @@
 //! | `file:PATH` | the `speed_rpm` (and, if present, `power_kw`, `tool_mm`) columns of a run file, on its own time grid |
 
 use super::rng::{Rng, Stream};
-use crate::runfile::{ReadOptions, RunFile};
+use crate::data::runfile::{ReadOptions, RunFile};
 use anyhow::{anyhow, bail, Result};
 use std::path::{Path, PathBuf};
 
@@ -103,7 +103,7 @@ pub fn schedule(
     if !(hours.is_finite() && hours > 0.0) {
         bail!("--hours must be finite and > 0 (got {hours})");
     }
-    crate::spec::check_dt_s(dt_s).map_err(|e| anyhow!("--dt-s: {e}"))?;
+    crate::data::spec::check_dt_s(dt_s).map_err(|e| anyhow!("--dt-s: {e}"))?;
     let total_s = hours * 3600.0;
     let steps = (total_s / dt_s + 1e-9).floor();
     if steps > 50e6 {

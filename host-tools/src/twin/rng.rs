@@ -1,4 +1,4 @@
-//! The twin's seeded streams: the crate's SplitMix64 ([`crate::rng`]) with
+//! The twin's seeded streams: the crate's SplitMix64 ([`crate::num::rng`]) with
 //! Gaussian (Box–Muller) and exponential draws, so runs are reproducible
 //! from `--seed` with no extra dependency and no change between library
 //! versions.
@@ -20,7 +20,7 @@ pub enum Stream {
     Doors = 4,
 }
 
-use crate::rng::SplitMix64;
+use crate::num::rng::SplitMix64;
 
 /// One stream's generator.
 #[derive(Debug, Clone)]

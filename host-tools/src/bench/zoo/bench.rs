@@ -243,9 +243,9 @@ pub fn run(plan: &ZooPlan, opts: &RunOptions) -> Result<()> {
         report::write(out, &outs, &summary)?;
     }
     if opts.json {
-        crate::fsio::print_line(&serde_json::to_string(&summary)?)?;
+        crate::data::fsio::print_line(&serde_json::to_string(&summary)?)?;
     } else {
-        crate::fsio::print(&report::text(&summary))?;
+        crate::data::fsio::print(&report::text(&summary))?;
     }
     Ok(())
 }

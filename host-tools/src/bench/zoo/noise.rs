@@ -1,7 +1,7 @@
 //! Random numbers for the zoo: Gaussian draws and slow Ornstein-Uhlenbeck
 //! wanders (sensor drift, weather), on the crate's SplitMix64.
 
-use crate::rng::SplitMix64;
+use crate::num::rng::SplitMix64;
 
 /// A seeded source of uniform and Gaussian numbers.
 #[derive(Debug, Clone)]

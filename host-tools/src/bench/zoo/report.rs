@@ -160,7 +160,7 @@ pub fn cases_csv(z: &ZooSummary) -> String {
 pub fn write(dir: &Path, outs: &[Outcome<ZooCase>], z: &ZooSummary) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let put = |name: &str, text: String| {
-        crate::fsio::write_bytes_atomic(&dir.join(name), text.as_bytes())
+        crate::data::fsio::write_bytes_atomic(&dir.join(name), text.as_bytes())
     };
     put("cases.csv", cases_csv(z))?;
     put("zoo.md", markdown(outs, z))?;

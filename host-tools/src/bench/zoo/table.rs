@@ -78,6 +78,6 @@ impl RunTable {
 
     /// Writes the run to `path` (atomically).
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::fsio::write_bytes_atomic(path, self.to_csv()?.as_bytes())
+        crate::data::fsio::write_bytes_atomic(path, self.to_csv()?.as_bytes())
     }
 }

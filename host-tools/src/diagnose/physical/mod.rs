@@ -21,8 +21,9 @@ pub mod effects;
 
 use super::align::Aligned;
 use super::candidates::round;
-use super::{lsq, regime, report, spectrum};
-use crate::runfile::{resample_linear, ReadOptions, RunFile};
+use super::{regime, report, spectrum};
+use crate::data::runfile::{resample_linear, ReadOptions, RunFile};
+use crate::num::lsq;
 use crate::twin::calibrate::{self, CalibrateOptions, Calibration, Measured, Setup};
 use crate::twin::drive::{P_AMBIENT, P_COOLANT};
 use crate::twin::machine::{Machine, Site};

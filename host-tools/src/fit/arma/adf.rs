@@ -121,7 +121,7 @@ mod tests {
     #[test]
     fn white_noise_rejects_trend_does_not() {
         // A deterministic pseudo-random sequence: strongly stationary.
-        let mut r = crate::rng::SplitMix64::new(12345);
+        let mut r = crate::num::rng::SplitMix64::new(12345);
         let noise: Vec<f64> = (0..300).map(|_| r.uniform() - 0.5).collect();
         assert!(adfuller(&noise, None).unwrap().pvalue < 0.01);
         let walk: Vec<f64> = noise

@@ -31,7 +31,7 @@ pub mod transform;
 pub mod yule_walker;
 
 use super::{channels, outputs, Fitted};
-use crate::dataset::Dataset;
+use crate::data::dataset::Dataset;
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use estimate::Estimate;

@@ -43,7 +43,7 @@ pub fn search(w: &[f64], max_p: usize, max_q: usize, progress: bool) -> (Vec<Cel
     let grid: Vec<(usize, usize)> = (0..=max_p)
         .flat_map(|p| (0..=max_q).map(move |q| (p, q)))
         .collect();
-    let bar = progress.then(|| crate::fit::arx::progress(grid.len(), "arma: AIC over (p, q)"));
+    let bar = progress.then(|| crate::num::progress::progress(grid.len(), "arma: AIC over (p, q)"));
     let cells: Vec<Cell> = grid
         .par_iter()
         .map(|&(p, q)| {

@@ -26,7 +26,7 @@ use super::folds::Folds;
 use super::ridge::{standard_error, CvScore};
 use super::search::{cv_columns, CvRow, Form};
 use super::{cv_extrapolation, Band};
-use crate::dataset::{Dataset, GridRun, InputForm, RunData};
+use crate::data::dataset::{Dataset, GridRun, InputForm, RunData};
 use crate::fit::arx::{ArxArgs, OrderRange};
 use crate::fit::bp::BpArgs;
 use crate::fit::pcr::PcrArgs;

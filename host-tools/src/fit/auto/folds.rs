@@ -13,7 +13,7 @@
 //!   the models it chose depended strongly on `k` (A' mean reduction 25 to
 //!   80 % for k = 3..12) where the rolling origin stayed within 78-84 %.
 
-use crate::dataset::GridRun;
+use crate::data::dataset::GridRun;
 use serde::Serialize;
 
 /// Which folds train the model that scores a fold.

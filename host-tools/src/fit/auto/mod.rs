@@ -30,7 +30,7 @@ pub mod ridge;
 pub mod search;
 
 use super::{outputs, Fitted};
-use crate::dataset::{Dataset, GridRun};
+use crate::data::dataset::{Dataset, GridRun};
 use anyhow::{anyhow, bail, Result};
 use family::{Bench, Comparison, Family, FamilyChoice, Residuals, Trainers};
 use features::Role;
@@ -420,7 +420,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
     let bench = Bench::new(&grid, &folds, ds, &params.trainers);
     let per_target = s.temp_sets.len() * s.heat_sets.len() * forms.len() + s.eliminate;
     let family_jobs = (params.families.len() - 1) * Form::ALL.len() * bench.scored_folds();
-    let pb = super::arx::progress(
+    let pb = crate::num::progress::progress(
         per_target * ds.targets.len() + family_jobs,
         "auto: candidates",
     );

@@ -298,7 +298,7 @@ fn sse_on(s: &Sums, idx: &[usize], b0: f64, beta: &DVector<f64>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::SplitMix64;
+    use crate::num::rng::SplitMix64;
 
     fn leave_out(of: Vec<Option<usize>>, n: usize) -> Folds {
         Folds {

@@ -22,7 +22,7 @@
 
 use super::init::nguyen_widrow;
 use super::net::{self, Data, Shape};
-use crate::rng::SplitMix64;
+use crate::num::rng::SplitMix64;
 use indicatif::ProgressBar;
 use model_core::bp::Activation;
 use rayon::prelude::*;

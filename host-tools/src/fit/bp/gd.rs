@@ -104,7 +104,7 @@ mod tests {
     use super::*;
     use crate::fit::bp::init::nguyen_widrow;
     use crate::fit::bp::net::tests::toy;
-    use crate::rng::SplitMix64;
+    use crate::num::rng::SplitMix64;
 
     #[test]
     fn gradient_descent_lowers_the_error() {

@@ -11,7 +11,7 @@
 //! `rands` (uniform on [-1, 1]) there, and so does this.
 
 use super::net::Shape;
-use crate::rng::SplitMix64;
+use crate::num::rng::SplitMix64;
 use model_core::bp::Activation;
 
 /// The active input region of a transfer function (MATLAB's `active`).

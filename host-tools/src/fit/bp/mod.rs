@@ -24,10 +24,11 @@ pub mod init;
 pub mod lm;
 pub mod net;
 
-use super::arx::progress;
-use super::{channels, linalg, outputs, Fitted};
-use crate::dataset::Dataset;
-use crate::rng::SplitMix64;
+use super::{channels, outputs, Fitted};
+use crate::data::dataset::Dataset;
+use crate::num::linalg;
+use crate::num::progress::progress;
+use crate::num::rng::SplitMix64;
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use model_core::bp::{Activation, BpNet, MAX_HIDDEN, MAX_W1};

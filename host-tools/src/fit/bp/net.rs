@@ -323,7 +323,7 @@ pub fn predict_rows(net: &BpNet, rows: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::rng::SplitMix64;
+    use crate::num::rng::SplitMix64;
 
     /// A small random problem: `rows` x 3 inputs in [-1, 1], 2 targets.
     pub(crate) fn toy(rows: usize, seed: u64) -> Data {

@@ -7,7 +7,7 @@
 //! with `--validate` are held out whole. Fits only ever see calibration
 //! rows; every figure reported as held-out comes from rows no fit touched.
 
-use crate::runfile::{resample_linear, uniform_grid, RunFile};
+use crate::data::runfile::{resample_linear, uniform_grid, RunFile};
 use anyhow::{anyhow, bail, Result};
 use model_core::Reference;
 
@@ -245,10 +245,10 @@ impl Dataset {
 }
 
 /// Refuses a column too large to centre and scale, naming file and column
-/// (see [`crate::fit::linalg::check_scalable`]).
+/// (see [`crate::num::linalg::check_scalable`]).
 fn check_column(run: &RunFile, name: &str, values: &[Option<f64>]) -> Result<()> {
     let label = format!("{}: column {name}", run.path.display());
-    crate::fit::linalg::check_scalable(&label, values.iter().flatten().copied())
+    crate::num::linalg::check_scalable(&label, values.iter().flatten().copied())
 }
 
 /// Refuses any column read from `run` that is too large to centre and

@@ -1,8 +1,8 @@
 //! The arguments that name a model and the runs to apply it to, shared by
 //! every subcommand that runs a model (`predict`, `eval`, and later `replay`).
 
-use crate::fsio::{named, Named};
-use crate::runfile::{ReadOptions, RunFile};
+use crate::data::fsio::{named, Named};
+use crate::data::runfile::{ReadOptions, RunFile};
 use crate::runner::ColumnMap;
 use anyhow::Result;
 use clap::Args;
@@ -23,10 +23,10 @@ pub struct ModelSource {
 impl ModelSource {
     /// The validated model.
     pub fn load(&self) -> Result<ValidModel> {
-        crate::blobfile::load(self.model.as_deref(), self.spec.as_deref())
+        crate::data::blobfile::load(self.model.as_deref(), self.spec.as_deref())
     }
 
-    /// The files read, with their flags, for [`crate::fsio::check_distinct`].
+    /// The files read, with their flags, for [`crate::data::fsio::check_distinct`].
     pub fn paths(&self) -> Vec<Named<'_>> {
         let model = self.model.iter().map(|p| named("--model", p));
         model
@@ -52,7 +52,7 @@ pub struct RunSource {
 }
 
 impl RunSource {
-    /// The files read, with their flags, for [`crate::fsio::check_distinct`].
+    /// The files read, with their flags, for [`crate::data::fsio::check_distinct`].
     pub fn paths(&self) -> Vec<Named<'_>> {
         self.data.iter().map(|p| named("--data", p)).collect()
     }

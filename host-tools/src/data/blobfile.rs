@@ -6,7 +6,7 @@ use std::path::Path;
 
 /// Reads and validates a blob; returns the model and the raw bytes.
 pub fn read(path: &Path) -> Result<(ValidModel, Vec<u8>)> {
-    let bytes = crate::fsio::read_capped(path, model_core::blob::MAX_BLOB_LEN as u64)?;
+    let bytes = crate::data::fsio::read_capped(path, model_core::blob::MAX_BLOB_LEN as u64)?;
     let model = model_core::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     Ok((model, bytes))
 }
@@ -15,7 +15,7 @@ pub fn read(path: &Path) -> Result<(ValidModel, Vec<u8>)> {
 pub fn write(model: &ValidModel, path: &Path) -> Result<Vec<u8>> {
     let bytes = model_core::blob::encode_to_vec(model)
         .map_err(|e| anyhow!("cannot encode the model: {e}"))?;
-    crate::fsio::write_bytes_atomic(path, &bytes)?;
+    crate::data::fsio::write_bytes_atomic(path, &bytes)?;
     Ok(bytes)
 }
 
@@ -26,7 +26,7 @@ pub fn load(model: Option<&Path>, spec: Option<&Path>) -> Result<ValidModel> {
     match (model, spec) {
         (Some(path), None) => Ok(read(path)?.0),
         (None, Some(path)) => {
-            let built = crate::spec::load(path)?;
+            let built = crate::data::spec::load(path)?;
             let bytes = model_core::blob::encode_to_vec(&built)
                 .map_err(|e| anyhow!("{}: cannot encode the model: {e}", path.display()))?;
             model_core::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))

@@ -106,7 +106,7 @@ pub fn fit_rows_penalised(
     let k = live.len();
     let r = qr.r();
     let qtb = b.rows(0, k).into_owned();
-    let svd = crate::fit::linalg::svd(r).ok()?;
+    let svd = crate::num::linalg::svd(r).ok()?;
     let smax = svd.singular_values.max();
     let x = svd.solve(&qtb, smax * 1e-10).ok()?;
     let mut coef = vec![0.0; cols.len()];
@@ -224,7 +224,7 @@ mod tests {
     #[test]
     fn noise_sigma_of_white_noise() {
         // Deterministic uniform pseudo-noise, sigma 1/sqrt(12).
-        let mut r = crate::rng::SplitMix64::new(12345);
+        let mut r = crate::num::rng::SplitMix64::new(12345);
         let x: Vec<f64> = (0..20_000).map(|_| r.uniform() - 0.5).collect();
         let sd = noise_sigma(&x);
         // Uniform, not Gaussian: the MAD rule is within ~10 %.

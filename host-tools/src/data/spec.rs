@@ -435,7 +435,7 @@ fn once_per_output<'s>(
 
 /// Reads and validates a spec file.
 pub fn load(path: &Path) -> Result<ValidModel> {
-    let text = crate::fsio::read_text_capped(path)?;
+    let text = crate::data::fsio::read_text_capped(path)?;
     parse(&path.display().to_string(), &text)
 }
 

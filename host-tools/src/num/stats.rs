@@ -34,7 +34,7 @@
 //! - `F = (SSR / p) / (SSE / (n - p - 1))` with `SSR = SST - SSE`, and its
 //!   p-value `P(F(p, n-p-1) > F) = I_x(d2/2, d1/2)`, `x = d2 / (d2 + d1 F)`
 //!   (Abramowitz & Stegun 26.6.2 with 26.5.2's symmetry), where `I` is the
-//!   regularized incomplete beta function (`crate::distributions::betai`).
+//!   regularized incomplete beta function (`crate::num::distributions::betai`).
 //! - VIF of regressor j = `1 / (1 - R_j^2)`, `R_j^2` from regressing it on the
 //!   other regressors of the set; `1/VIF` is SPSS's "tolerance".
 //! - condition number = `sigma_max / sigma_min` of the centred, unit-length
@@ -42,7 +42,7 @@
 //!   their correlation matrix); 1 for one regressor, large when they are
 //!   collinear (Belsley, Kuh & Welsch 1980 call 30 and above strong).
 
-use crate::distributions::f_sf;
+use crate::num::distributions::f_sf;
 use nalgebra::DMatrix;
 
 /// A regressor counts as dependent on the earlier ones when its remaining

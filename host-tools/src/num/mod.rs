@@ -1,0 +1,10 @@
+//! Shared numerics: least squares, statistics and distributions, the seeded
+//! random numbers. Every job that needs one of these takes it from here,
+//! never from a sibling job.
+
+pub mod distributions;
+pub mod linalg;
+pub mod lsq;
+pub mod progress;
+pub mod rng;
+pub mod stats;
