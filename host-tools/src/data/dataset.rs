@@ -82,6 +82,17 @@ pub struct Dataset {
     pub runs: Vec<RunData>,
 }
 
+/// `out[i] = cols[i][r]`; false when a cell is missing.
+fn fill(out: &mut [f64], cols: &[Vec<Option<f64>>], r: usize) -> bool {
+    for (o, c) in out.iter_mut().zip(cols) {
+        match c[r] {
+            Some(v) => *o = v,
+            None => return false,
+        }
+    }
+    true
+}
+
 fn column<'a>(run: &'a RunFile, name: &str) -> Result<&'a [Option<f64>]> {
     run.column(name).ok_or_else(|| {
         anyhow!(
@@ -181,6 +192,21 @@ impl Dataset {
             }
         }
         (xs, ys)
+    }
+
+    /// Calls `f(x, y)` for every calibration row with every input and
+    /// target, in the order of [`Dataset::calibration_rows`], from one
+    /// reused buffer: the rows are never copied out.
+    pub fn visit_calibration_rows(&self, f: &mut dyn FnMut(&[f64], &[f64])) {
+        let mut x = vec![0.0; self.inputs.len()];
+        let mut y = vec![0.0; self.targets.len()];
+        for run in &self.runs {
+            for r in 0..run.calib_end {
+                if fill(&mut x, &run.x, r) && fill(&mut y, &run.y, r) {
+                    f(&x, &y);
+                }
+            }
+        }
     }
 
     /// How many calibration rows have every input and target (what

@@ -11,12 +11,13 @@ use serde_json::{json, Map, Value};
 
 /// Fits `y_k = a0 + sum a_i x_i` for every target.
 pub fn fit(ds: &Dataset) -> Result<Fitted> {
-    let (x, y) = ds.calibration_rows();
+    let m = ds.inputs.len();
     let mut equations = heapless::Vec::new();
     let mut details = Map::new();
     for (k, target) in ds.targets.iter().enumerate() {
-        let yk: Vec<f64> = y.iter().map(|r| r[k]).collect();
-        let (b0, b) = linalg::least_squares(&x, &yk)?;
+        let (b0, b) = linalg::least_squares_visit(m, &mut |f| {
+            ds.visit_calibration_rows(&mut |x, y| f(x, y[k]));
+        })?;
         let mut coef = heapless::Vec::new();
         for (i, value) in b.iter().enumerate() {
             coef.push(Coef {
@@ -52,6 +53,6 @@ pub fn fit(ds: &Dataset) -> Result<Fitted> {
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;
     Ok(Fitted {
         model,
-        details: json!({"solver": "SVD of centred, scaled columns", "equations": details}),
+        details: json!({"solver": "blocked QR of centred, scaled columns, SVD of R", "equations": details}),
     })
 }

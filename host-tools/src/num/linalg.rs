@@ -2,8 +2,9 @@
 //! by SVD (never the normal equations, whose condition number is the square
 //! of the data's: correlated temperature sensors make that fatal).
 
+use super::tsqr::Tsqr;
 use anyhow::{anyhow, bail, Result};
-use nalgebra::{DMatrix, DVector, Dyn, SymmetricEigen, SVD};
+use nalgebra::{DMatrix, Dyn, SymmetricEigen, SVD};
 
 /// Refuses a column whose values cannot be centred and scaled in f64: their
 /// sum, or the sum of squares of the centred values, overflows (values near
@@ -65,25 +66,40 @@ pub fn svd(a: DMatrix<f64>) -> Result<SVD<f64, Dyn, Dyn>> {
 
 /// Column means and standard deviations (sample, n - 1) of row vectors.
 pub fn moments(rows: &[Vec<f64>], m: usize) -> (Vec<f64>, Vec<f64>) {
-    let n = rows.len() as f64;
+    moments_of(m, &mut |f| rows.iter().for_each(|r| f(r, 0.0))).0
+}
+
+/// Rows given by a visitor: `visit(f)` calls `f(x, y)` once per row, the
+/// same rows in the same order each time it is called. Lets a tall problem
+/// stream from its columns twice instead of being copied into row vectors.
+pub type RowVisitor<'a> = dyn FnMut(&mut dyn FnMut(&[f64], f64)) + 'a;
+
+/// Column means and sample standard deviations of the visited `x` (length
+/// `m`), and the mean of `y` and the row count.
+fn moments_of(m: usize, visit: &mut RowVisitor) -> ((Vec<f64>, Vec<f64>), f64, usize) {
+    let mut n = 0usize;
     let mut mean = vec![0.0; m];
-    for r in rows {
-        for (acc, v) in mean.iter_mut().zip(r) {
+    let mut y_sum = 0.0;
+    visit(&mut |x, y| {
+        n += 1;
+        y_sum += y;
+        for (acc, v) in mean.iter_mut().zip(x) {
             *acc += v;
         }
-    }
-    mean.iter_mut().for_each(|v| *v /= n);
+    });
+    let nf = n as f64;
+    mean.iter_mut().for_each(|v| *v /= nf);
     let mut var = vec![0.0; m];
-    for r in rows {
-        for ((acc, v), mu) in var.iter_mut().zip(r).zip(&mean) {
+    visit(&mut |x, _| {
+        for ((acc, v), mu) in var.iter_mut().zip(x).zip(&mean) {
             *acc += (v - mu) * (v - mu);
         }
-    }
+    });
     let std = var
         .iter()
-        .map(|v| (v / (n - 1.0).max(1.0)).sqrt())
+        .map(|v| (v / (nf - 1.0).max(1.0)).sqrt())
         .collect();
-    (mean, std)
+    ((mean, std), y_sum / nf, n)
 }
 
 /// Standardised design matrix: `(x - mean) / std` per column (a constant
@@ -91,9 +107,16 @@ pub fn moments(rows: &[Vec<f64>], m: usize) -> (Vec<f64>, Vec<f64>) {
 pub fn standardised(rows: &[Vec<f64>], mean: &[f64], std: &[f64]) -> DMatrix<f64> {
     let m = mean.len();
     DMatrix::from_fn(rows.len(), m, |i, j| {
-        let s = if std[j] > 0.0 { std[j] } else { 1.0 };
-        (rows[i][j] - mean[j]) / s
+        (rows[i][j] - mean[j]) / unit_if_zero(std[j])
     })
+}
+
+fn unit_if_zero(s: f64) -> f64 {
+    if s > 0.0 {
+        s
+    } else {
+        1.0
+    }
 }
 
 /// Least squares `y ~ b0 + sum b_j x_j` on row vectors `x`. Columns are
@@ -101,24 +124,36 @@ pub fn standardised(rows: &[Vec<f64>], mean: &[f64], std: &[f64]) -> DMatrix<f64
 /// largest treated as zero (the minimum-norm answer for collinear sensors),
 /// and mapped back to raw units. Returns `(b0, b)`.
 pub fn least_squares(x: &[Vec<f64>], y: &[f64]) -> Result<(f64, Vec<f64>)> {
-    let n = x.len();
-    let m = x.first().map_or(0, Vec::len);
-    if n != y.len() {
-        bail!("least squares: {n} rows of inputs but {} targets", y.len());
+    if x.len() != y.len() {
+        bail!(
+            "least squares: {} rows of inputs but {} targets",
+            x.len(),
+            y.len()
+        );
     }
+    let m = x.first().map_or(0, Vec::len);
+    least_squares_visit(m, &mut |f| x.iter().zip(y).for_each(|(r, &v)| f(r, v)))
+}
+
+/// [`least_squares`] over rows streamed by a visitor (two passes: the
+/// moments, then a blocked QR of the centred, scaled rows), so a tall
+/// problem never holds its rows: the SVD is of the small triangle `R`,
+/// which has the design's singular values (`Z = QR`), so the same ones are
+/// dropped and the same minimum-norm answer comes out.
+pub fn least_squares_visit(m: usize, visit: &mut RowVisitor) -> Result<(f64, Vec<f64>)> {
+    let ((mean, std), y_mean, n) = moments_of(m, visit);
     if n <= m {
         bail!("least squares: {n} rows for {m} inputs and an intercept: not enough data");
     }
-    let (mean, std) = moments(x, m);
-    let z = standardised(x, &mean, &std);
-    let y_mean = y.iter().sum::<f64>() / n as f64;
-    let yc = DVector::from_iterator(n, y.iter().map(|v| v - y_mean));
-    let svd = svd(z)?;
-    let tol = 1e-10 * svd.singular_values.max();
-    let beta = match svd.solve(&yc, tol) {
-        Ok(b) => b,
-        Err(e) => bail!("least squares: SVD failed: {e}"),
-    };
+    let mut qr = Tsqr::new(m);
+    let mut z = vec![0.0; m];
+    visit(&mut |x, y| {
+        for (((zj, v), mu), s) in z.iter_mut().zip(x).zip(&mean).zip(&std) {
+            *zj = (v - mu) / unit_if_zero(*s);
+        }
+        qr.push(&z, y - y_mean);
+    });
+    let (beta, _) = qr.solve()?;
     let b: Vec<f64> = beta
         .iter()
         .zip(&std)

@@ -1,4 +1,4 @@
-//! Shared numerics: least squares, statistics and distributions, the seeded
+//! Shared numerics: least squares (dense and blocked QR), statistics and distributions, the seeded
 //! random numbers. Every job that needs one of these takes it from here,
 //! never from a sibling job.
 
@@ -8,3 +8,4 @@ pub mod lsq;
 pub mod progress;
 pub mod rng;
 pub mod stats;
+pub mod tsqr;

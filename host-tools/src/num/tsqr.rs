@@ -1,0 +1,200 @@
+//! Least squares by blocked QR (TSQR): rows stream through in blocks, so
+//! a tall problem costs one pass and memory for one block, and the small
+//! triangle left can be solved again for other penalties without the rows.
+//! Shared by the ARX/TF trainers and `mlr` on tall runs.
+
+use anyhow::{anyhow, bail, Result};
+use nalgebra::{DMatrix, DVector};
+
+/// Least squares by blocked QR of `[X | y]`: rows are pushed one at a time;
+/// every `BLOCK` rows the block is stacked under the current `R` and
+/// re-triangularised, so memory stays at `BLOCK x (p + 1)`.
+pub struct Tsqr {
+    p: usize,
+    r: Option<DMatrix<f64>>,
+    buf: Vec<f64>,
+    rows: usize,
+    total: usize,
+}
+
+/// Rows per QR block: large enough to amortise the re-triangularisation of
+/// the stacked `R`, small enough to stay in cache (2048 x 52 f64 = 850 kB).
+const BLOCK: usize = 2048;
+
+impl Tsqr {
+    /// For `p` regressors (the target is the extra last column).
+    pub fn new(p: usize) -> Self {
+        Self {
+            p,
+            r: None,
+            buf: Vec::with_capacity(BLOCK * (p + 1)),
+            rows: 0,
+            total: 0,
+        }
+    }
+
+    /// Adds one row: `x` (length p) and target `y`.
+    pub fn push(&mut self, x: &[f64], y: f64) {
+        self.buf.extend_from_slice(x);
+        self.buf.push(y);
+        self.rows += 1;
+        self.total += 1;
+        if self.rows == BLOCK {
+            self.flush();
+        }
+    }
+
+    pub(crate) fn flush(&mut self) {
+        if self.rows == 0 {
+            return;
+        }
+        let c = self.p + 1;
+        let block = DMatrix::from_row_slice(self.rows, c, &self.buf);
+        let stacked = match self.r.take() {
+            None => block,
+            Some(r) => {
+                let mut s = DMatrix::zeros(r.nrows() + self.rows, c);
+                s.rows_mut(0, r.nrows()).copy_from(&r);
+                s.rows_mut(r.nrows(), self.rows).copy_from(&block);
+                s
+            }
+        };
+        self.r = Some(stacked.qr().r());
+        self.buf.clear();
+        self.rows = 0;
+    }
+
+    /// Adds every row `other` has seen, through its `R` (the same
+    /// least-squares problem): combines row sets without another pass.
+    pub fn absorb(&mut self, other: &Tsqr) {
+        let mut rows = other
+            .buf
+            .chunks_exact(other.p + 1)
+            .map(<[f64]>::to_vec)
+            .collect::<Vec<_>>();
+        if let Some(r) = &other.r {
+            rows.extend(r.row_iter().map(|row| row.iter().copied().collect()));
+        }
+        for row in rows {
+            self.buf.extend_from_slice(&row);
+            self.rows += 1;
+            if self.rows == BLOCK {
+                self.flush();
+            }
+        }
+        self.total += other.total;
+    }
+
+    /// Rows pushed so far.
+    pub fn len(&self) -> usize {
+        self.total
+    }
+
+    /// Whether no row was pushed.
+    pub fn is_empty(&self) -> bool {
+        self.total == 0
+    }
+
+    /// The triangle `R` (at most p x p) of the regressors and `Q^T y`, for
+    /// solvers that add rows of their own (Levenberg-Marquardt); `None`
+    /// when no row was pushed.
+    pub fn triangle(mut self) -> Option<(DMatrix<f64>, DVector<f64>)> {
+        self.flush();
+        let p = self.p;
+        let r = self.r?;
+        let k = r.nrows().min(p);
+        let r11 = r.view((0, 0), (k, p)).into_owned();
+        let z = DVector::from_iterator(k, (0..k).map(|i| r[(i, p)]));
+        Some((r11, z))
+    }
+
+    /// The least-squares solution (minimum norm where columns are
+    /// collinear: SVD of the column-scaled `R`, singular values below 1e-10
+    /// of the largest dropped) and the residual sum of squares.
+    pub fn solve(self) -> Result<(Vec<f64>, f64)> {
+        self.solve_ridge(0.0)
+    }
+
+    /// As [`Tsqr::solve`], minimising `|X theta - y|^2 + lambda |S theta|^2`
+    /// with `S` the column norms of `X` (ridge on the column-scaled
+    /// coefficients; `lambda = 0` is plain least squares). The residual
+    /// sum of squares returned excludes the penalty.
+    pub fn solve_ridge(self, lambda: f64) -> Result<(Vec<f64>, f64)> {
+        self.finish()?.solve(lambda)
+    }
+
+    /// The reduced problem, to be solved for several penalties.
+    pub fn finish(mut self) -> Result<Triangle> {
+        self.flush();
+        let p = self.p;
+        if self.total <= p {
+            bail!(
+                "{} samples for {p} coefficients: not enough data",
+                self.total
+            );
+        }
+        let r = self.r.ok_or_else(|| anyhow!("no rows"))?;
+        let k = r.nrows().min(p);
+        let r11 = r.view((0, 0), (k, p)).into_owned();
+        let z = DVector::from_iterator(k, (0..k).map(|i| r[(i, p)]));
+        let rss_tail = if r.nrows() > p {
+            r[(p, p)].powi(2)
+        } else {
+            0.0
+        };
+        Ok(Triangle { r11, z, rss_tail })
+    }
+}
+
+/// A least-squares problem reduced by QR: `R` of the regressors, `Q^T y`
+/// and the residual outside the column space. Solving it again for another
+/// ridge penalty costs `O(p^3)`, not another pass over the rows.
+pub struct Triangle {
+    r11: DMatrix<f64>,
+    z: DVector<f64>,
+    rss_tail: f64,
+}
+
+impl Triangle {
+    /// See [`Tsqr::solve_ridge`].
+    pub fn solve(&self, lambda: f64) -> Result<(Vec<f64>, f64)> {
+        let (r11, z) = (&self.r11, &self.z);
+        let (k, p) = r11.shape();
+        let scale: Vec<f64> = (0..p)
+            .map(|j| {
+                let n = r11.column(j).norm();
+                if n > 0.0 {
+                    n
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let sl = lambda.sqrt();
+        let (rows, zz) = if lambda > 0.0 {
+            (k + p, z.clone().resize_vertically(k + p, 0.0))
+        } else {
+            (k, z.clone())
+        };
+        let scaled = DMatrix::from_fn(rows, p, |i, j| {
+            if i < k {
+                r11[(i, j)] / scale[j]
+            } else if i - k == j {
+                sl
+            } else {
+                0.0
+            }
+        });
+        let svd = crate::num::linalg::svd(scaled)?;
+        let tol = 1e-10 * svd.singular_values.max();
+        let beta = svd
+            .solve(&zz, tol)
+            .map_err(|e| anyhow!("least squares: SVD failed: {e}"))?;
+        let theta: Vec<f64> = beta.iter().zip(&scale).map(|(b, s)| b / s).collect();
+        // Residual: the part of y outside the column space (R's last
+        // diagonal) plus what dropped singular values leave of z.
+        let fitted = r11 * DVector::from_column_slice(&theta);
+        let rss = self.rss_tail + (z - fitted).norm_squared();
+        Ok((theta, rss))
+    }
+}
