@@ -179,6 +179,7 @@ fn gabp_starts_lm_from_a_better_point_and_reports_what_it_flashed() {
         "2..8",
         "--gd-epochs",
         "200",
+        "--report-convergence",
         "--holdout-from-s",
         "28800",
         "--out",

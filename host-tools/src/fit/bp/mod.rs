@@ -105,6 +105,12 @@ pub struct BpArgs {
     /// gabp: epochs of gradient-descent BP (traingdx) for the convergence comparison (0: skip).
     #[arg(long, default_value_t = 1000, value_name = "N")]
     pub gd_epochs: usize,
+    /// gabp: also train the nets it is compared with (BP at the default size and
+    /// at the GA's size, LM, and the three gradient-descent runs) and report how
+    /// each converged; off, only the GA-BP net is trained (the same blob, about a
+    /// third of the time).
+    #[arg(long)]
+    pub report_convergence: bool,
 }
 
 /// Splits row indices `0..rows` into training and validation blocks.
@@ -203,12 +209,14 @@ fn run_lm(
     r
 }
 
-/// Fits `--model bp` (`genetic = false`) or `--model gabp`.
-pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
-    let kind = if genetic { "gabp" } else { "bp" };
-    let inputs = channels(ds)?;
-    let outs = outputs(ds)?;
-    let (m, q) = (ds.inputs.len(), ds.targets.len());
+/// Hidden sizes a fit may use: `(bp's, the GA's range)`, after checking
+/// every option against the data's input count.
+fn checked_sizes(
+    args: &BpArgs,
+    m: usize,
+    genetic: bool,
+    kind: &str,
+) -> Result<(usize, (usize, usize))> {
     let max_hidden = MAX_HIDDEN.min(MAX_W1 / m.max(1));
     if max_hidden == 0 {
         bail!("{kind}: {m} inputs exceed the blob's {MAX_W1} input weights (MAX_W1) even with one hidden neuron");
@@ -254,6 +262,23 @@ pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
             bail!("--ga-population must be at least 2");
         }
     }
+    Ok((hidden, ga_hidden))
+}
+
+/// The scaled training and validation rows, the goal and the LM settings.
+struct Prepared {
+    scaling: Scaling,
+    tr: Data,
+    val: Option<Data>,
+    goal: f64,
+    act: Activation,
+    lm_opts: lm::LmOptions,
+    /// The details every bp/gabp fit reports.
+    common: Value,
+}
+
+fn prepare(ds: &Dataset, args: &BpArgs, kind: &str) -> Result<Prepared> {
+    let (m, q) = (ds.inputs.len(), ds.targets.len());
     let (x, y) = ds.calibration_rows();
     let rows = x.len();
     if rows < 10 {
@@ -277,29 +302,6 @@ pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
         ),
     };
     let act: Activation = args.activation.into();
-    let lm_opts = lm::LmOptions {
-        epochs: args.epochs,
-        max_fail: args.max_fail,
-        goal_mse: goal,
-    };
-    let mut rng = SplitMix64::new(args.seed);
-    // BP alone: Nguyen-Widrow start, LM. This is `--model bp`, and gabp's baseline.
-    let bp_shape = Shape { m, n: hidden, q };
-    let bp_w0 = init::nguyen_widrow(bp_shape, act, &mut rng);
-    let bp = run_lm(
-        bp_shape,
-        act,
-        &bp_w0,
-        &tr,
-        val.as_ref(),
-        &lm_opts,
-        "bp epochs (LM)",
-    );
-    let division_json = json!({
-        "rule": "contiguous blocks; every K-th validates",
-        "blocks": args.val_blocks, "every": args.val_every,
-        "train_rows": tr_idx.len(), "validation_rows": val_idx.len(),
-    });
     let common = json!({
         "activation": act.name(),
         "output_activation": "purelin",
@@ -307,12 +309,74 @@ pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
         "init": "Nguyen-Widrow (initnw)",
         "training": "Levenberg-Marquardt (trainlm: mu 1e-3, x0.1/x10, mu_max 1e10)",
         "seed": args.seed,
-        "division": division_json,
+        "division": json!({
+            "rule": "contiguous blocks; every K-th validates",
+            "blocks": args.val_blocks, "every": args.val_every,
+            "train_rows": tr_idx.len(), "validation_rows": val_idx.len(),
+        }),
         "goal_mse": goal,
         "goal_rule": goal_rule,
     });
-    let (shape, w, details) = if !genetic {
-        let mut d = common;
+    Ok(Prepared {
+        scaling,
+        tr,
+        val,
+        goal,
+        act,
+        lm_opts: lm::LmOptions {
+            epochs: args.epochs,
+            max_fail: args.max_fail,
+            goal_mse: goal,
+        },
+        common,
+    })
+}
+
+impl Prepared {
+    fn lm(&self, shape: Shape, w0: &[f64], what: &str) -> lm::LmReport {
+        run_lm(
+            shape,
+            self.act,
+            w0,
+            &self.tr,
+            self.val.as_ref(),
+            &self.lm_opts,
+            what,
+        )
+    }
+}
+
+/// An LM run's convergence figures (`init`: its start).
+fn convergence_json(hidden: usize, init: &str, r: &lm::LmReport, extra_s: f64) -> Value {
+    json!({"hidden": hidden, "init": init, "train_mse_start": r.train_mse.first(),
+           "goal_reached_epoch": r.goal_epoch, "goal_reached_s": r.goal_seconds.map(|s| s + extra_s),
+           "epochs_run": r.epochs, "stop": r.stop, "train_mse_end": r.train_mse.last(),
+           "seconds": r.seconds + extra_s})
+}
+
+/// Fits `--model bp` (`genetic = false`) or `--model gabp`.
+pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
+    let kind = if genetic { "gabp" } else { "bp" };
+    let inputs = channels(ds)?;
+    let outs = outputs(ds)?;
+    let (m, q) = (ds.inputs.len(), ds.targets.len());
+    let (hidden, ga_hidden) = checked_sizes(args, m, genetic, kind)?;
+    let p = prepare(ds, args, kind)?;
+    let mut rng = SplitMix64::new(args.seed);
+    // BP alone: Nguyen-Widrow start, LM. This is `--model bp`, and gabp's
+    // baseline. Its start is drawn in both cases, so the GA's draws follow
+    // the same stream whether the baseline is trained or not.
+    let bp_shape = Shape { m, n: hidden, q };
+    let bp_w0 = init::nguyen_widrow(bp_shape, p.act, &mut rng);
+    let (shape, w, details) = if genetic {
+        let base = Baseline {
+            shape: bp_shape,
+            w0: &bp_w0,
+        };
+        fit_genetic(ds, args, &p, base, ga_hidden, &mut rng)?
+    } else {
+        let bp = p.lm(bp_shape, &bp_w0, "bp epochs (LM)");
+        let mut d = p.common.clone();
         d["hidden"] = json!(hidden);
         d["hidden_rule"] = json!(if args.hidden.is_some() {
             "--hidden".to_string()
@@ -322,93 +386,8 @@ pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
         d["parameters"] = json!(bp_shape.params());
         d["lm"] = lm_json(&bp);
         (bp_shape, bp.w, d)
-    } else {
-        let ga_opts = ga::GaOptions {
-            population: args.ga_population,
-            generations: args.ga_generations,
-            crossover: args.ga_crossover,
-            mutation: args.ga_mutation,
-            hidden: ga_hidden,
-        };
-        let pb = progress(args.ga_generations, "gabp generations");
-        let g = ga::evolve(m, q, act, &tr, &ga_opts, &mut rng, Some(&pb));
-        pb.finish_and_clear();
-        let ga_shape = Shape { m, n: g.hidden, q };
-        let gabp = run_lm(
-            ga_shape,
-            act,
-            &g.w,
-            &tr,
-            val.as_ref(),
-            &lm_opts,
-            "gabp epochs (LM)",
-        );
-        // BP alone at the GA's hidden size: isolates what the GA's initial
-        // weights buy from what its choice of size does.
-        let same_w0 = init::nguyen_widrow(ga_shape, act, &mut SplitMix64::new(args.seed));
-        let same = run_lm(
-            ga_shape,
-            act,
-            &same_w0,
-            &tr,
-            val.as_ref(),
-            &lm_opts,
-            "bp epochs at the GA's size (LM)",
-        );
-        let gd_json = if args.gd_epochs > 0 {
-            let run = |shape: Shape, w0: &[f64], what: &str| {
-                let pb = progress(args.gd_epochs, what);
-                let r = gd::train(shape, act, w0, &tr, args.gd_epochs, goal, Some(&pb));
-                pb.finish_and_clear();
-                json!({"goal_reached_epoch": r.goal_epoch, "goal_reached_s": r.goal_seconds,
-                       "epochs_run": r.epochs, "train_mse_end": r.final_mse, "seconds": r.seconds})
-            };
-            json!({
-                "algorithm": "traingdx (lr 0.01, x1.05/x0.7, momentum 0.9), no early stop",
-                "epoch_cap": args.gd_epochs,
-                "bp": run(bp_shape, &bp_w0, "bp epochs (gradient descent)"),
-                "bp_same_hidden": run(ga_shape, &same_w0, "bp epochs at the GA's size (gradient descent)"),
-                "gabp": run(ga_shape, &g.w, "gabp epochs (gradient descent)"),
-            })
-        } else {
-            Value::Null
-        };
-        let bp_net =
-            net::to_bpnet(bp_shape, act, &bp.w, &scaling).map_err(|e| anyhow!("bp: {e}"))?;
-        let ga_net =
-            net::to_bpnet(ga_shape, act, &gabp.w, &scaling).map_err(|e| anyhow!("gabp: {e}"))?;
-        let mut d = common;
-        d["hidden"] = json!(g.hidden);
-        d["hidden_rule"] = json!(format!(
-            "chosen by the GA in {}..{}",
-            ga_hidden.0, ga_hidden.1
-        ));
-        d["parameters"] = json!(ga_shape.params());
-        d["lm"] = lm_json(&gabp);
-        d["ga"] = json!({
-            "population": args.ga_population, "generations": args.ga_generations,
-            "crossover": args.ga_crossover, "mutation": args.ga_mutation,
-            "hidden_range": [ga_hidden.0, ga_hidden.1],
-            "fitness": "1 / SSE of the scaled training rows (seed 000, Eq. 17)",
-            "best_train_mse": g.best_sse.iter().map(|s| s / tr.errors() as f64).collect::<Vec<_>>(),
-            "seconds": g.seconds,
-        });
-        d["convergence"] = json!({
-            "goal_mse": goal,
-            "lm": {
-                "bp": {"hidden": hidden, "init": "Nguyen-Widrow", "train_mse_start": bp.train_mse.first(), "goal_reached_epoch": bp.goal_epoch, "goal_reached_s": bp.goal_seconds, "epochs_run": bp.epochs, "stop": bp.stop, "train_mse_end": bp.train_mse.last(), "seconds": bp.seconds},
-                "bp_same_hidden": {"hidden": g.hidden, "init": "Nguyen-Widrow", "train_mse_start": same.train_mse.first(), "goal_reached_epoch": same.goal_epoch, "goal_reached_s": same.goal_seconds, "epochs_run": same.epochs, "stop": same.stop, "train_mse_end": same.train_mse.last(), "seconds": same.seconds},
-                "gabp": {"hidden": g.hidden, "init": "GA best individual", "train_mse_start": gabp.train_mse.first(), "goal_reached_epoch": gabp.goal_epoch, "goal_reached_s": gabp.goal_seconds.map(|s| s + g.seconds), "ga_seconds": g.seconds, "epochs_run": gabp.epochs, "stop": gabp.stop, "train_mse_end": gabp.train_mse.last(), "seconds": gabp.seconds + g.seconds},
-            },
-            "gd": gd_json,
-        });
-        d["holdout"] = json!({
-            "bp": holdout_figures(ds, &bp_net)?,
-            "gabp": holdout_figures(ds, &ga_net)?,
-        });
-        (ga_shape, gabp.w, d)
     };
-    let net = net::to_bpnet(shape, act, &w, &scaling).map_err(|e| anyhow!("{kind}: {e}"))?;
+    let net = net::to_bpnet(shape, p.act, &w, &p.scaling).map_err(|e| anyhow!("{kind}: {e}"))?;
     let model = Model {
         inputs,
         outputs: outs,
@@ -419,6 +398,124 @@ pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;
     Ok(Fitted { model, details })
+}
+
+/// BP at the default size from Nguyen-Widrow weights: what GA-BP is
+/// compared with.
+#[derive(Clone, Copy)]
+struct Baseline<'a> {
+    shape: Shape,
+    w0: &'a [f64],
+}
+
+/// GA-BP (seed 000, Eq. 16-17): the GA picks the hidden size and the
+/// initial weights, LM trains from its best individual. With
+/// `--report-convergence`, also the comparison nets.
+fn fit_genetic(
+    ds: &Dataset,
+    args: &BpArgs,
+    p: &Prepared,
+    base: Baseline,
+    ga_hidden: (usize, usize),
+    rng: &mut SplitMix64,
+) -> Result<(Shape, Vec<f64>, Value)> {
+    let (m, q) = (ds.inputs.len(), ds.targets.len());
+    let ga_opts = ga::GaOptions {
+        population: args.ga_population,
+        generations: args.ga_generations,
+        crossover: args.ga_crossover,
+        mutation: args.ga_mutation,
+        hidden: ga_hidden,
+    };
+    let pb = progress(args.ga_generations, "gabp generations");
+    let g = ga::evolve(m, q, p.act, &p.tr, &ga_opts, rng, Some(&pb));
+    pb.finish_and_clear();
+    let ga_shape = Shape { m, n: g.hidden, q };
+    let gabp = p.lm(ga_shape, &g.w, "gabp epochs (LM)");
+    let ga_net =
+        net::to_bpnet(ga_shape, p.act, &gabp.w, &p.scaling).map_err(|e| anyhow!("gabp: {e}"))?;
+    let mut d = p.common.clone();
+    d["hidden"] = json!(g.hidden);
+    d["hidden_rule"] = json!(format!(
+        "chosen by the GA in {}..{}",
+        ga_hidden.0, ga_hidden.1
+    ));
+    d["parameters"] = json!(ga_shape.params());
+    d["lm"] = lm_json(&gabp);
+    d["ga"] = json!({
+        "population": args.ga_population, "generations": args.ga_generations,
+        "crossover": args.ga_crossover, "mutation": args.ga_mutation,
+        "hidden_range": [ga_hidden.0, ga_hidden.1],
+        "fitness": "1 / SSE of the scaled training rows (seed 000, Eq. 17)",
+        "best_train_mse": g.best_sse.iter().map(|s| s / p.tr.errors() as f64).collect::<Vec<_>>(),
+        "seconds": g.seconds,
+    });
+    let mut gabp_conv = convergence_json(g.hidden, "GA best individual", &gabp, g.seconds);
+    gabp_conv["ga_seconds"] = json!(g.seconds);
+    if args.report_convergence {
+        let (conv, bp_holdout) = compare(ds, args, p, base, ga_shape, &g.w, gabp_conv)?;
+        d["convergence"] = conv;
+        d["holdout"] = json!({"bp": bp_holdout, "gabp": holdout_figures(ds, &ga_net)?});
+    } else {
+        d["convergence"] = json!({
+            "goal_mse": p.goal,
+            "lm": {"gabp": gabp_conv},
+            "gd": Value::Null,
+            "compared": "no: --report-convergence also trains BP at the default and the GA's size and the gradient-descent runs",
+        });
+        d["holdout"] = json!({"gabp": holdout_figures(ds, &ga_net)?});
+    }
+    Ok((ga_shape, gabp.w, d))
+}
+
+/// The convergence comparison of `--report-convergence`: BP (default size)
+/// and BP at the GA's size from Nguyen-Widrow weights, trained by LM and,
+/// with `--gd-epochs`, all three starts by gradient descent. Returns the
+/// `convergence` JSON and BP's held-out figures.
+fn compare(
+    ds: &Dataset,
+    args: &BpArgs,
+    p: &Prepared,
+    base: Baseline,
+    ga_shape: Shape,
+    ga_w: &[f64],
+    gabp_conv: Value,
+) -> Result<(Value, Value)> {
+    let bp = p.lm(base.shape, base.w0, "bp epochs (LM)");
+    // BP alone at the GA's hidden size: isolates what the GA's initial
+    // weights buy from what its choice of size does.
+    let same_w0 = init::nguyen_widrow(ga_shape, p.act, &mut SplitMix64::new(args.seed));
+    let same = p.lm(ga_shape, &same_w0, "bp epochs at the GA's size (LM)");
+    let gd_json = if args.gd_epochs > 0 {
+        let run = |shape: Shape, w0: &[f64], what: &str| {
+            let pb = progress(args.gd_epochs, what);
+            let r = gd::train(shape, p.act, w0, &p.tr, args.gd_epochs, p.goal, Some(&pb));
+            pb.finish_and_clear();
+            json!({"goal_reached_epoch": r.goal_epoch, "goal_reached_s": r.goal_seconds,
+                   "epochs_run": r.epochs, "train_mse_end": r.final_mse, "seconds": r.seconds})
+        };
+        json!({
+            "algorithm": "traingdx (lr 0.01, x1.05/x0.7, momentum 0.9), no early stop",
+            "epoch_cap": args.gd_epochs,
+            "bp": run(base.shape, base.w0, "bp epochs (gradient descent)"),
+            "bp_same_hidden": run(ga_shape, &same_w0, "bp epochs at the GA's size (gradient descent)"),
+            "gabp": run(ga_shape, ga_w, "gabp epochs (gradient descent)"),
+        })
+    } else {
+        Value::Null
+    };
+    let bp_net =
+        net::to_bpnet(base.shape, p.act, &bp.w, &p.scaling).map_err(|e| anyhow!("bp: {e}"))?;
+    let conv = json!({
+        "goal_mse": p.goal,
+        "lm": {
+            "bp": convergence_json(base.shape.n, "Nguyen-Widrow", &bp, 0.0),
+            "bp_same_hidden": convergence_json(ga_shape.n, "Nguyen-Widrow", &same, 0.0),
+            "gabp": gabp_conv,
+        },
+        "gd": gd_json,
+    });
+    Ok((conv, holdout_figures(ds, &bp_net)?))
 }
 
 #[cfg(test)]
