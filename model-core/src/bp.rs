@@ -8,7 +8,7 @@
 //! written by hand from MATLAB's `net.IW`, `net.b`, `net.LW` and the
 //! `mapminmax` settings (`xmin`, `xmax`).
 
-use crate::model::{MAX_CHANNELS, MAX_OUTPUTS};
+use crate::capacity::{MAX_CHANNELS, MAX_OUTPUTS};
 use serde::{Deserialize, Serialize};
 
 /// Hidden neurons at most.

@@ -34,7 +34,8 @@
 //! f64"). The coefficients are immutable; the filter memories `s_j` live in
 //! the [`ModelState`](crate::model::ModelState), one f64 per feature.
 
-use crate::model::{ModelError, MAX_OUTPUTS};
+use crate::capacity::MAX_OUTPUTS;
+use crate::error::ModelError;
 use serde::{Deserialize, Serialize};
 
 /// Most features in one filter bank (e.g. 32 inputs x 4 filters).

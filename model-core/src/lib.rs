@@ -20,6 +20,8 @@ extern crate alloc;
 pub mod arma;
 pub mod blob;
 pub mod bp;
+pub mod capacity;
+pub mod error;
 pub mod fbank;
 pub mod geometry;
 pub mod linear;

@@ -5,7 +5,7 @@
 //! prints it. With a [`PositionTerm`] the regression predicts the slope `k` of
 //! a feed axis' positioning error instead (seed 003, Eq. 18).
 
-use crate::model::MAX_CHANNELS;
+use crate::capacity::MAX_CHANNELS;
 use crate::position::PositionTerm;
 use serde::{Deserialize, Serialize};
 
@@ -62,5 +62,5 @@ impl LinearOutput {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Linear {
     /// The equations.
-    pub outputs: heapless::Vec<LinearOutput, { crate::model::MAX_OUTPUTS }>,
+    pub outputs: heapless::Vec<LinearOutput, { crate::capacity::MAX_OUTPUTS }>,
 }

@@ -8,7 +8,7 @@
 //! `y = beta_0 + sum_j beta_j C_j` (Eq. 13). Optionally `y` is the slope of a
 //! positioning error, `poly(P) + (y - k0) P` (Eq. 16).
 
-use crate::model::{MAX_CHANNELS, MAX_OUTPUTS};
+use crate::capacity::{MAX_CHANNELS, MAX_OUTPUTS};
 use crate::position::PositionTerm;
 use serde::{Deserialize, Serialize};
 
