@@ -104,9 +104,9 @@ pub type Stepped = (Vec<Vec<Option<f64>>>, Vec<Vec<Option<f64>>>);
 /// Steps the model over aligned input samples (`inputs[channel][sample]`,
 /// raw values in channel order) from a fresh state; `None` where an input
 /// is missing or the step was refused. With bounds, also each output's band.
-pub fn step_all(
+pub fn step_all<C: AsRef<[Option<f64>]>>(
     model: &ValidModel,
-    inputs: &[Vec<Option<f64>>],
+    inputs: &[C],
     len: usize,
     notes: &mut Vec<String>,
 ) -> Stepped {
@@ -125,7 +125,7 @@ pub fn step_all(
     for i in 0..len {
         let mut complete = true;
         for (xi, col) in x.iter_mut().zip(inputs) {
-            match col.get(i).copied().flatten() {
+            match col.as_ref().get(i).copied().flatten() {
                 Some(v) => *xi = v,
                 None => complete = false,
             }
@@ -175,8 +175,7 @@ pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Pre
     let n = run.len();
     let dt = model.model().dt_s;
     if !model.kind().is_dynamic() {
-        let inputs: Vec<Vec<Option<f64>>> = columns.iter().map(|c| c.to_vec()).collect();
-        let (values, bands) = step_all(model, &inputs, n, &mut notes);
+        let (values, bands) = step_all(model, &columns, n, &mut notes);
         return Ok(Prediction {
             values,
             bands,

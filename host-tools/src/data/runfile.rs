@@ -191,7 +191,10 @@ impl RunFile {
     pub fn read(path: &Path, opts: &ReadOptions) -> Result<RunFile, RunFileError> {
         let file = path.display().to_string();
         match File::open(path) {
-            Ok(reader) => Self::parse(file, path.to_path_buf(), reader, opts),
+            Ok(reader) => {
+                let size = reader.metadata().ok().map(|m| m.len());
+                Self::parse(file, path.to_path_buf(), reader, opts, size)
+            }
             Err(source) => Err(RunFileError::Io { file, source }),
         }
     }
@@ -204,7 +207,7 @@ impl RunFile {
         r: R,
         opts: &ReadOptions,
     ) -> Result<RunFile, RunFileError> {
-        Self::parse(name.to_owned(), PathBuf::from(name), r, opts)
+        Self::parse(name.to_owned(), PathBuf::from(name), r, opts, None)
     }
 
     /// Number of samples (data rows kept).
@@ -257,6 +260,7 @@ impl RunFile {
         path: PathBuf,
         reader: R,
         opts: &ReadOptions,
+        size_hint: Option<u64>,
     ) -> Result<RunFile, RunFileError> {
         // No header handling, no field-count check and no trimming by csv:
         // all three are done here so that they give this module's messages
@@ -306,8 +310,19 @@ impl RunFile {
             match header.parse_row(&record, t_s.last().copied(), &read, &mut row) {
                 Ok(t) => {
                     t_s.push(t);
-                    for (column, value) in values.iter_mut().zip(&row) {
+                    for ((column, value), _) in
+                        values.iter_mut().zip(&row).zip(&read).filter(|(_, r)| **r)
+                    {
                         column.push(*value);
+                    }
+                    if t_s.len() == SIZE_SAMPLE_ROWS {
+                        reserve_for(
+                            size_hint,
+                            rdr.get_ref().offset,
+                            &mut t_s,
+                            &mut values,
+                            &read,
+                        );
                     }
                 }
                 Err(kind) => {
@@ -343,6 +358,32 @@ impl RunFile {
             skipped,
             read,
         })
+    }
+}
+
+/// Rows read before the columns are sized for the whole file from its
+/// length and the bytes those rows took (so a 1 M-row file is not grown by
+/// doubling, which peaks at twice its size).
+const SIZE_SAMPLE_ROWS: usize = 256;
+
+/// Reserves room for the rows a file of `size` bytes holds if its rows are
+/// as long as the first ones (`consumed` bytes so far, header included; 2 %
+/// spare); only the columns that are read. A wrong guess only costs a
+/// regrowth, never a row.
+fn reserve_for(
+    size: Option<u64>,
+    consumed: u64,
+    t_s: &mut Vec<f64>,
+    values: &mut [Vec<Option<f64>>],
+    read: &[bool],
+) {
+    let Some(size) = size else { return };
+    let per_row = consumed as f64 / t_s.len() as f64;
+    let rows = (size as f64 / per_row.max(1.0) * 1.02).min(MAX_ROWS as f64) as usize;
+    let more = rows.saturating_sub(t_s.len());
+    t_s.reserve_exact(more);
+    for (v, _) in values.iter_mut().zip(read).filter(|(_, r)| **r) {
+        v.reserve_exact(more);
     }
 }
 
