@@ -213,22 +213,9 @@ fn structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Structure>> {
                             bail!("refit does not update positional (slope) regressions");
                         }
                         // The components stay; the regression on them is updated.
-                        let comps: Vec<_> =
-                            pcr.components.iter().take(eq.beta.len()).cloned().collect();
-                        let inputs: Vec<usize> =
-                            pcr.inputs.iter().map(|c| usize::from(*c)).collect();
+                        let (pcr, used) = (pcr.clone(), eq.beta.len());
                         (
-                            Box::new(move |x: &[f64]| {
-                                comps
-                                    .iter()
-                                    .map(|c| {
-                                        c.weights
-                                            .iter()
-                                            .zip(&inputs)
-                                            .fold(c.intercept, |acc, (w, ch)| acc + w * x[*ch])
-                                    })
-                                    .collect()
-                            }),
+                            Box::new(move |x: &[f64]| pcr.scores(x)[..used].to_vec()),
                             (eq.intercept, eq.beta.to_vec()),
                         )
                     } else {

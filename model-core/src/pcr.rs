@@ -68,8 +68,9 @@ pub struct Pcr {
 }
 
 impl Pcr {
-    /// `C_j(x)` for every component.
-    fn scores(&self, x: &[f64]) -> [f64; MAX_COMPONENTS] {
+    /// `C_j(x) = c_j + sum_i w_ji x_i` for every component (seed 003,
+    /// Eq. 13); entries past the model's components are 0.
+    pub fn scores(&self, x: &[f64]) -> [f64; MAX_COMPONENTS] {
         let mut c = [0.0; MAX_COMPONENTS];
         for (cj, comp) in c.iter_mut().zip(&self.components) {
             *cj = comp
