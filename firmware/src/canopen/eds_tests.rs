@@ -31,7 +31,7 @@ fn entry_text(out: &mut String, section: &str, o: &Object) {
     let _ = write!(
         out,
         "[{section}]\nParameterName={}\nObjectType=0x7\nDataType=0x{:04X}\nAccessType={}\nDefaultValue={}\nPDOMapping={}\n",
-        o.name,
+        o.name.as_str(),
         o.ty.code(),
         o.access.eds(),
         default_text(o),
@@ -193,7 +193,7 @@ fn eds_matches_the_dictionary_both_ways() {
         let pos = od::find(index, sub).unwrap_or_else(|e| panic!("[{name}] not in od: {e}"));
         let o = &OBJECTS[pos];
         let get = |k: &str| keys.get(k).unwrap_or_else(|| panic!("[{name}] lacks {k}"));
-        assert_eq!(get("parametername"), o.name, "[{name}]");
+        assert_eq!(get("parametername"), o.name.as_str(), "[{name}]");
         assert_eq!(
             number(get("datatype")),
             Some(i64::from(o.ty.code())),

@@ -131,8 +131,8 @@ pub struct Object {
     pub index: u16,
     /// Subindex (0 for a VAR).
     pub sub: u8,
-    /// Parameter name (the EDS `ParameterName`).
-    pub name: &'static str,
+    /// Parameter name (the EDS `ParameterName`; host builds only).
+    pub name: Name,
     /// Data type.
     pub ty: DataType,
     /// Access.
@@ -143,6 +143,33 @@ pub struct Object {
     pub default: Default,
     /// Values a download may write.
     pub limit: Limit,
+}
+
+/// An entry's name, for the EDS and host tools. On the board it is empty
+/// (zero bytes): the names are about 2.5 KiB of text the firmware never
+/// reads, and the EDS test runs on the host.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Name {
+    #[cfg(not(target_os = "none"))]
+    text: &'static str,
+}
+
+impl Name {
+    /// A name (dropped at compile time on the board).
+    pub const fn new(text: &'static str) -> Self {
+        #[cfg(target_os = "none")]
+        let _ = text;
+        Self {
+            #[cfg(not(target_os = "none"))]
+            text,
+        }
+    }
+
+    /// The name.
+    #[cfg(not(target_os = "none"))]
+    pub const fn as_str(&self) -> &'static str {
+        self.text
+    }
 }
 
 /// An object with subindices (ARRAY or RECORD, CiA 301 §7.4.3): its name
@@ -171,7 +198,7 @@ const fn var(
     Object {
         index,
         sub,
-        name,
+        name: Name::new(name),
         ty,
         access,
         pdo: matches!(access, Access::Ro | Access::Rww),
@@ -918,7 +945,7 @@ mod tests {
     #[test]
     fn lookups_and_aborts() {
         assert_eq!(
-            OBJECTS[find(0x1017, 0).unwrap()].name,
+            OBJECTS[find(0x1017, 0).unwrap()].name.as_str(),
             "Producer heartbeat time"
         );
         assert_eq!(find(0x1017, 1), Err(SdoAbort::NoSubindex));
