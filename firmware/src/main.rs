@@ -878,6 +878,11 @@ mod app {
         node: Node,
         /// Model uploads (`command`) and settings saves (`store`) share the flash.
         uploader: Upload,
+        /// A settings save is queued or running (`store`); an NMT reset
+        /// node that arrives meanwhile waits for it (`reset_after_save`).
+        saving: bool,
+        /// NMT reset node arrived during a save: `store` resets when done.
+        reset_after_save: bool,
     }
 
     #[local]
@@ -1010,6 +1015,8 @@ mod app {
                 cnc: glue::new_cnc(settings.cnc_timeout_ms),
                 node,
                 uploader,
+                saving: false,
+                reset_after_save: false,
             },
             Local {
                 rtd_hw,
@@ -1213,7 +1220,7 @@ mod app {
     /// `canopen::Node`; the CNC's values stored with their arrival time for
     /// `sample`, SDO responses sent at once. Same priority as `usart2`;
     /// both are short.
-    #[task(binds = CAN1_RX0, priority = 3, shared = [can, cnc, node])]
+    #[task(binds = CAN1_RX0, priority = 3, shared = [can, cnc, node, saving, reset_after_save])]
     fn can_rx(mut cx: can_rx::Context) {
         let now_ms = Mono::now().as_ticks();
         loop {
@@ -1236,9 +1243,21 @@ mod app {
                         Some(Event::Input(msg)) => {
                             cx.shared.cnc.lock(|cnc| glue::receive(cnc, &msg, now_ms))
                         }
-                        Some(Event::ResetNode) => cortex_m::peripheral::SCB::sys_reset(),
-                        Some(Event::Store(s)) if store::spawn(s).is_err() => {
-                            defmt::warn!("CANopen: a save is still running, this one dropped")
+                        // A PLC sends "save" and then at once "reset node":
+                        // the reset waits for the save to reach the flash.
+                        Some(Event::ResetNode) => {
+                            if cx.shared.saving.lock(|s| *s) {
+                                cx.shared.reset_after_save.lock(|r| *r = true);
+                            } else {
+                                cortex_m::peripheral::SCB::sys_reset();
+                            }
+                        }
+                        Some(Event::Store(s)) => {
+                            if store::spawn(s).is_ok() {
+                                cx.shared.saving.lock(|s| *s = true);
+                            } else {
+                                defmt::warn!("CANopen: a save is still running, this one dropped");
+                            }
                         }
                         _ => {}
                     }
@@ -1277,7 +1296,7 @@ mod app {
     /// Settings saved by SDO 0x1010 (or restored by 0x1011) into the
     /// settings sector; they apply at the next reset. Priority 1: a full
     /// sector is erased first (1-2 s CPU stall, once every 1024 saves).
-    #[task(priority = 1, shared = [watchdog, uploader])]
+    #[task(priority = 1, shared = [watchdog, uploader, saving, reset_after_save])]
     async fn store(mut cx: store::Context, settings: Settings) {
         #[cfg(feature = "model")]
         {
@@ -1299,8 +1318,12 @@ mod app {
         }
         #[cfg(not(feature = "model"))]
         {
-            let _ = (&mut cx, settings);
+            let _ = settings;
             defmt::warn!("CANopen settings not saved: built without the model path");
+        }
+        cx.shared.saving.lock(|s| *s = false);
+        if cx.shared.reset_after_save.lock(|r| *r) {
+            cortex_m::peripheral::SCB::sys_reset();
         }
     }
 
