@@ -80,6 +80,15 @@ HAND_VECTORS = [
     (0x201, "9CFFFFFFFF7F0000", {"SpindleSpeed": -1.0, "SpindlePower": 327.67}),
     # tool 100 mm (100,000 x 0.001 mm), position not available (0x7FFFFFFF)
     (0x301, "A0860100FFFFFF7F", {"ToolLength": 100.0, "AxisPosition": 2147483.647}),
+    # CANopen (CiA 301): NMT start node 1; boot-up; EMCY 0x5000 sensor fault,
+    # error register 0x81, STATUS flags 0x0001, input 2 faulty; SDO upload of
+    # 0x1017:00 and the expedited 2-byte response 1000 ms (0x4B = scs 2, n 2, e, s).
+    (0x000, "0101", {"NmtCommand": 1, "NmtNodeId": 1}),
+    (0x701, "00", {"NmtState": 0}),
+    (0x081, "0050810100040000",
+     {"ErrorCode": 0x5000, "ErrorRegister": 0x81, "EmcyStatusFlags": 1, "EmcyFaultyChannels": 4}),
+    (0x601, "4017100000000000", {"Command": 0x40, "Index": 0x1017, "SubIndex": 0, "Data": 0}),
+    (0x581, "4B171000E8030000", {"Command": 0x4B, "Index": 0x1017, "SubIndex": 0, "Data": 1000}),
 ]
 
 

@@ -37,8 +37,8 @@ TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
 case "$TARGET_DIR" in /*) ;; *) TARGET_DIR="$ROOT/$TARGET_DIR" ;; esac
 ELF="$TARGET_DIR/$TARGET/$PROFILE/firmware"
 BASE_ELF="$ELF-baseline"
-# Region sizes from memory.x (FLASH = sectors 0-5, RAM = SRAM1+SRAM2).
-FLASH_REGION=$((256 * 1024))
+# Region sizes from memory.x (FLASH = sectors 0-4, RAM = SRAM1+SRAM2).
+FLASH_REGION=$((128 * 1024))
 RAM_REGION=$((128 * 1024))
 
 cd "$ROOT"

@@ -73,12 +73,21 @@ pub const fn sector_start(n: usize) -> u32 {
     addr
 }
 
-/// Firmware image: sectors 0-5.
+/// Firmware image: sectors 0-4 (128 KiB; the firmware is about 80 KiB).
 pub const FLASH: Region = Region {
     name: "FLASH",
     origin: FLASH_BASE,
-    len: 256 * KIB,
-    purpose: "sectors 0-5: vector table, code, rodata",
+    len: 128 * KIB,
+    purpose: "sectors 0-4: vector table, code, rodata",
+};
+
+/// CANopen settings (`canopen::store`): sector 5, so saving them never
+/// erases code or a model.
+pub const SETTINGS: Region = Region {
+    name: "SETTINGS",
+    origin: 0x0802_0000,
+    len: 128 * KIB,
+    purpose: "sector 5: CANopen settings log (SDO 0x1010 save)",
 };
 
 /// Model slot A: sector 6.
@@ -106,12 +115,13 @@ pub const RAM: Region = Region {
 };
 
 /// All regions of `memory.x`, in address order.
-pub const REGIONS: [Region; 4] = [FLASH, MODEL_A, MODEL_B, RAM];
+pub const REGIONS: [Region; 5] = [FLASH, SETTINGS, MODEL_A, MODEL_B, RAM];
 
 // Compile-time checks: a wrong edit fails the build on host and target alike.
 const _: () = {
     assert!(sector_start(8) == FLASH_BASE + FLASH_TOTAL);
-    assert!(FLASH.origin == sector_start(0) && FLASH.end() == sector_start(6));
+    assert!(FLASH.origin == sector_start(0) && FLASH.end() == sector_start(5));
+    assert!(SETTINGS.origin == sector_start(5) && SETTINGS.end() == sector_start(6));
     assert!(MODEL_A.origin == sector_start(6) && MODEL_A.end() == sector_start(7));
     assert!(MODEL_B.origin == sector_start(7) && MODEL_B.end() == sector_start(8));
     assert!(MODEL_A.len == MODEL_B.len);

@@ -27,6 +27,8 @@
 //!   `thermcomp.dbc`).
 //! * [`can_rx`]: the CAN frames the hub receives from the CNC (spindle
 //!   speed and power, tool length, axis position).
+//! * [`canopen`]: the hub as a CANopen device (CiA 301): object dictionary,
+//!   SDO server, NMT, heartbeat, PDOs (the frames above), EMCY, settings.
 //! * `cnc_inputs` (feature `model`): which model input each received value
 //!   feeds, its timeout, the tool length's latch.
 //! * [`protocol`]: the serial link's COBS/postcard messages.
@@ -38,6 +40,7 @@
 pub mod board;
 pub mod can_frames;
 pub mod can_rx;
+pub mod canopen;
 pub mod layout;
 pub mod offsets;
 pub mod protocol;

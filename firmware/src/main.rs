@@ -27,11 +27,16 @@
 //!     read through `cnc_inputs::gather` (stale after
 //!     `board::CNC_INPUT_TIMEOUT_MS`); a tool length received since the
 //!     last sample goes into the pipeline's tool-length latch first.
-//!   - `emit` (priority 1): COBS telemetry on USART2, OFFSETS/STATUS
-//!     (/OFFSETS_EXT) and the heartbeat on CAN1 (`can_frames`).
-//!   - `can_rx` (interrupt CAN1_RX0, priority 3): the CNC's frames
-//!     (`can_rx`; CAN1's filter passes only 0x201 and 0x301 into FIFO 0),
-//!     stored with their arrival time in a small shared `CncInputs`.
+//!   - `emit` (priority 1): COBS telemetry on USART2; on CAN1 the CANopen
+//!     node's boot-up (once the bus is up), its EMCYs, TPDOs (the frames of
+//!     `can_frames`) and heartbeat (`canopen::Node`).
+//!   - `can_rx` (interrupt CAN1_RX0, priority 3): every frame for the node
+//!     (CAN1's filter passes only NMT 0x000, SDO 0x600 + node, RPDO1/2)
+//!     into `canopen::Node::on_frame`; SDO responses go straight out, the
+//!     CNC's values are stored with their arrival time in a small shared
+//!     `CncInputs`, NMT reset node resets the MCU.
+//!   - `store` (priority 1): settings saved by SDO 0x1010 into the settings
+//!     sector (`canopen::store`), through the uploader's flash.
 //!   - `usart2` (interrupt, priority 3): bytes into a `protocol::FrameReader`,
 //!     decoded commands through an `rtic_sync` channel to `command`.
 //!   - `command` (priority 1): ping, tool length, and model uploads through
@@ -219,6 +224,14 @@ mod host {
         println!(
             "  CNC input timeout {} ms: speed, power, position stale after it (hold, ramp); tool length never times out",
             board::CNC_INPUT_TIMEOUT_MS
+        );
+        println!(
+            "  CANopen (CiA 301, firmware/thermcomp.eds): NMT 0x000, EMCY 0x{:03X}, SDO 0x{:03X}/0x{:03X}, boot-up/heartbeat 0x{:03X}; {} dictionary entries",
+            0x80 + board::CAN_NODE_ID,
+            0x600 + board::CAN_NODE_ID,
+            0x580 + board::CAN_NODE_ID,
+            0x700 + board::CAN_NODE_ID,
+            firmware::canopen::od::LEN
         );
         println!();
 
@@ -543,19 +556,15 @@ mod glue {
         /// The values received from the CNC, shared by `can_rx` and `sample`.
         pub type Cnc = CncInputs;
 
-        /// Nothing received yet.
-        pub const fn new_cnc() -> Cnc {
-            CncInputs::new(board::CNC_INPUT_TIMEOUT_MS)
+        /// Nothing received yet; values valid for `timeout_ms` (object 0x2007).
+        pub const fn new_cnc(timeout_ms: u32) -> Cnc {
+            CncInputs::new(timeout_ms)
         }
 
-        /// One frame from the CNC into the store (`can_rx` task).
-        pub fn receive(cnc: &mut Cnc, frame: &bxcan::Frame, now_ms: u32) {
-            // Only a wrong DLC fails (the filter passes only the CNC's
-            // ids); logged at debug level, which costs no flash in the
-            // default (info) build.
-            if cnc.on_frame(frame, now_ms).is_err() {
-                defmt::debug!("CAN1: frame from the CNC with a wrong DLC ignored");
-            }
+        /// The CNC's values from an RPDO (or an SDO write) into the store
+        /// (`can_rx` task).
+        pub fn receive(cnc: &mut Cnc, msg: &firmware::can_rx::RxMessage, now_ms: u32) {
+            cnc.receive(msg, now_ms);
         }
 
         /// What `sample` takes from the store under its lock: a copy (old
@@ -761,9 +770,9 @@ mod glue {
         /// Nothing from the CNC is used without a model.
         pub type Cnc = ();
 
-        pub const fn new_cnc() -> Cnc {}
+        pub const fn new_cnc(_timeout_ms: u32) -> Cnc {}
 
-        pub fn receive(_cnc: &mut Cnc, _frame: &bxcan::Frame, _now_ms: u32) {}
+        pub fn receive(_cnc: &mut Cnc, _msg: &firmware::can_rx::RxMessage, _now_ms: u32) {}
 
         pub fn take_cnc(_cnc: &mut Cnc, _now_ms: u32) -> (Cnc, Option<f64>) {
             ((), None)
@@ -820,8 +829,7 @@ mod app {
     use bxcan::filter::ListEntry16;
     use bxcan::{Frame, Mailbox};
     use core::mem::MaybeUninit;
-    use firmware::can_frames::{encode_report, Heartbeat, NmtState, DEFAULT_HEARTBEAT_MS};
-    use firmware::can_rx::{SPINDLE_ID, TOOL_POSITION_ID};
+    use firmware::canopen::{Event, Node, Settings};
     use firmware::protocol::{
         self, Command, CommandKind, ErrorCode, FrameError, FrameReader, HubMessage, Telemetry,
         COMMAND_FRAME_MAX, HUB_FRAME_MAX,
@@ -866,6 +874,15 @@ mod app {
         can: bxcan::Can<Can<pac::CAN1>>,
         /// The CNC's values as received (`can_rx`), read by `sample`.
         cnc: Cnc,
+        /// The CANopen node: `can_rx` hands it frames, `emit` samples.
+        node: Node,
+        /// Model uploads (`command`) and settings saves (`store`) share the flash.
+        uploader: Upload,
+        /// A settings save is queued or running (`store`); an NMT reset
+        /// node that arrives meanwhile waits for it (`reset_after_save`).
+        saving: bool,
+        /// NMT reset node arrived during a save: `store` resets when done.
+        reset_after_save: bool,
     }
 
     #[local]
@@ -877,7 +894,6 @@ mod app {
         cmd_rx: Receiver<'static, Incoming, COMMAND_QUEUE>,
         sampled_tx: Sender<'static, Sampled, EMIT_QUEUE>,
         sampled_rx: Receiver<'static, Sampled, EMIT_QUEUE>,
-        uploader: Upload,
     }
 
     // `core_slot` starts uninitialised (.bss, not flash); `MaybeUninit::write`
@@ -912,7 +928,13 @@ mod app {
             ]
         );
 
-        let (core, uploader) = boot(dp.FLASH, cx.local.core_slot);
+        let (core, uploader, settings) = boot(dp.FLASH, cx.local.core_slot);
+        let node = match Node::new(settings) {
+            Ok(n) => n,
+            // `store::latest` checked stored settings as the node does;
+            // the defaults are checked by the library's tests.
+            Err(_) => defmt::panic!("settings refused by the dictionary"),
+        };
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
@@ -956,15 +978,14 @@ mod app {
         let mut can = bxcan::Can::builder(dp.CAN1.can((gpioa.pa12, gpioa.pa11), &mut rcc))
             .set_bit_timing(board::CAN_TIMING.btr())
             .leave_disabled();
-        // Only the CNC's two frames reach FIFO 0 (list mode: exact ids,
-        // data frames); its interrupt wakes `can_rx`.
+        // Only the node's frames reach FIFO 0 (list mode: exact ids, data
+        // frames: NMT, SDO request, RPDO1, RPDO2); its interrupt wakes `can_rx`.
         let entry = |id: u16| match bxcan::StandardId::new(id) {
             Some(id) => ListEntry16::data_frames_with_id(id),
             None => defmt::panic!("CAN id beyond 11 bits"),
         };
-        let (spindle, tool) = (entry(SPINDLE_ID), entry(TOOL_POSITION_ID));
         can.modify_filters()
-            .enable_bank(0, bxcan::Fifo::Fifo0, [spindle, tool, spindle, tool]);
+            .enable_bank(0, bxcan::Fifo::Fifo0, node.rx_ids().map(entry));
         can.enable_interrupt(bxcan::Interrupt::Fifo0MessagePending);
 
         let (cmd_tx, cmd_rx) = rtic_sync::make_channel!(Incoming, COMMAND_QUEUE);
@@ -991,7 +1012,11 @@ mod app {
                 watchdog,
                 tx,
                 can,
-                cnc: glue::new_cnc(),
+                cnc: glue::new_cnc(settings.cnc_timeout_ms),
+                node,
+                uploader,
+                saving: false,
+                reset_after_save: false,
             },
             Local {
                 rtd_hw,
@@ -1000,7 +1025,6 @@ mod app {
                 cmd_rx,
                 sampled_tx,
                 sampled_rx,
-                uploader,
             },
         )
     }
@@ -1011,7 +1035,7 @@ mod app {
     fn boot(
         flash: pac::FLASH,
         slot: &'static mut MaybeUninit<Core>,
-    ) -> (&'static mut Core, Upload) {
+    ) -> (&'static mut Core, Upload, Settings) {
         use firmware::hub::Hub;
         use firmware::pipeline::{Pipeline, PipelineConfig};
         use firmware::upload::{select_boot_slot, Slot, SlotMap, Uploader};
@@ -1030,25 +1054,39 @@ mod app {
         defmt::info!("boot slot: {=str}", active.map_or("none", Slot::name));
         // No bootable slot: load A anyway, so the log says why it failed.
         let hub = Hub::load(if active == Some(Slot::B) { b } else { a });
+        // The settings last saved over CANopen (0x1010), else the defaults.
+        let settings = match firmware::canopen::store::latest(region(layout::SETTINGS)) {
+            Some((seq, s)) => {
+                defmt::info!("CANopen settings: record {=u32}", seq);
+                s
+            }
+            None => Settings::DEFAULT,
+        };
+        let config = settings.pipeline_config(PipelineConfig::DEFAULT);
         // Hub (11.4 KiB) and Pipeline (~13 KiB) pass through init's stack once
         // each before landing in the static: the library builds them by value.
-        let pipeline = match Pipeline::new(hub, PipelineConfig::DEFAULT) {
+        let pipeline = match Pipeline::new(hub, config) {
             Ok(p) => slot.write(p),
-            // The default config is checked by the library's tests.
-            Err(_) => defmt::panic!("default pipeline config refused"),
+            // The settings passed the dictionary's checks, which include the
+            // pipeline's cross-checks; the defaults are checked by tests.
+            Err(_) => defmt::panic!("pipeline config refused"),
         };
         glue::log_model(pipeline.hub());
         let flash = glue::BoardFlash(stm32f4xx_hal::flash::LockedFlash::new(flash));
-        (pipeline, Uploader::new(flash, SlotMap::BOARD, active))
+        (
+            pipeline,
+            Uploader::new(flash, SlotMap::BOARD, active),
+            settings,
+        )
     }
 
     #[cfg(not(feature = "model"))]
     fn boot(
         _flash: pac::FLASH,
         slot: &'static mut MaybeUninit<Core>,
-    ) -> (&'static mut Core, Upload) {
+    ) -> (&'static mut Core, Upload, Settings) {
         defmt::info!("model support not built in: offsets stay zero");
-        (slot.write(0), ())
+        (slot.write(0), (), Settings::DEFAULT)
     }
 
     #[cfg(feature = "model")]
@@ -1178,15 +1216,52 @@ mod app {
         }
     }
 
-    /// The CNC's frames (`can_rx`): decoded and stored with their arrival
-    /// time for `sample`. Same priority as `usart2`; both are short.
-    #[task(binds = CAN1_RX0, priority = 3, shared = [can, cnc])]
+    /// The node's frames (`can_rx`): NMT, SDO, RPDOs through
+    /// `canopen::Node`; the CNC's values stored with their arrival time for
+    /// `sample`, SDO responses sent at once. Same priority as `usart2`;
+    /// both are short.
+    #[task(binds = CAN1_RX0, priority = 3, shared = [can, cnc, node, saving, reset_after_save])]
     fn can_rx(mut cx: can_rx::Context) {
         let now_ms = Mono::now().as_ticks();
         loop {
             // FIFO 0 only: the filter routes nothing to FIFO 1.
             match cx.shared.can.lock(|can| can.rx0().receive()) {
-                Ok(frame) => cx.shared.cnc.lock(|cnc| glue::receive(cnc, &frame, now_ms)),
+                Ok(frame) => {
+                    let reaction = cx.shared.node.lock(|n| n.on_frame(&frame, now_ms));
+                    for f in &reaction.frames {
+                        // No waiting in an interrupt: with all three
+                        // mailboxes busy the response is lost and the SDO
+                        // client times out and retries.
+                        // bxcan may dequeue a pending frame of lower priority
+                        // (a higher id) to make room: that frame is lost.
+                        match cx.shared.can.lock(|can| can.transmit(f)) {
+                            Ok(st) if st.dequeued_frame().is_none() => {}
+                            _ => defmt::debug!("CAN1: response not queued, or displaced a frame"),
+                        }
+                    }
+                    match reaction.event {
+                        Some(Event::Input(msg)) => {
+                            cx.shared.cnc.lock(|cnc| glue::receive(cnc, &msg, now_ms))
+                        }
+                        // A PLC sends "save" and then at once "reset node":
+                        // the reset waits for the save to reach the flash.
+                        Some(Event::ResetNode) => {
+                            if cx.shared.saving.lock(|s| *s) {
+                                cx.shared.reset_after_save.lock(|r| *r = true);
+                            } else {
+                                cortex_m::peripheral::SCB::sys_reset();
+                            }
+                        }
+                        Some(Event::Store(s)) => {
+                            if store::spawn(s).is_ok() {
+                                cx.shared.saving.lock(|s| *s = true);
+                            } else {
+                                defmt::warn!("CANopen: a save is still running, this one dropped");
+                            }
+                        }
+                        _ => {}
+                    }
+                }
                 Err(stm32f4xx_hal::nb::Error::WouldBlock) => break,
                 // The flag is cleared by the read; the frames still queued follow.
                 Err(stm32f4xx_hal::nb::Error::Other(_)) => {
@@ -1198,18 +1273,16 @@ mod app {
 
     /// Serial commands, lowest priority: uploads (the erase stalls the CPU),
     /// tool length, ping. One reply per command.
-    #[task(priority = 1, shared = [core, watchdog, tx], local = [cmd_rx, uploader])]
+    #[task(priority = 1, shared = [core, watchdog, tx, uploader], local = [cmd_rx])]
     async fn command(mut cx: command::Context) {
         while let Ok(incoming) = cx.local.cmd_rx.recv().await {
             let reply = match incoming {
                 Ok(cmd) => {
                     let watchdog = &mut cx.shared.watchdog;
-                    glue::command(
-                        &mut cx.shared.core,
-                        cx.local.uploader,
-                        || watchdog.lock(|w| w.feed()),
-                        &cmd,
-                    )
+                    let core = &mut cx.shared.core;
+                    cx.shared.uploader.lock(|uploader| {
+                        glue::command(core, uploader, || watchdog.lock(|w| w.feed()), &cmd)
+                    })
                 }
                 Err(_) => HubMessage::Nack {
                     command: CommandKind::Unknown,
@@ -1217,6 +1290,40 @@ mod app {
                 },
             };
             send(&mut cx.shared.tx, &reply);
+        }
+    }
+
+    /// Settings saved by SDO 0x1010 (or restored by 0x1011) into the
+    /// settings sector; they apply at the next reset. Priority 1: a full
+    /// sector is erased first (1-2 s CPU stall, once every 1024 saves).
+    #[task(priority = 1, shared = [watchdog, uploader, saving, reset_after_save])]
+    async fn store(mut cx: store::Context, settings: Settings) {
+        #[cfg(feature = "model")]
+        {
+            let region = layout::SETTINGS;
+            cx.shared.watchdog.lock(|w| w.feed());
+            let saved = cx.shared.uploader.lock(|u| {
+                firmware::canopen::store::save(
+                    u.flash_mut(),
+                    region.origin - layout::FLASH_BASE,
+                    region.len,
+                    &settings,
+                )
+            });
+            cx.shared.watchdog.lock(|w| w.feed());
+            match saved {
+                Ok(seq) => defmt::info!("CANopen settings saved (record {=u32})", seq),
+                Err(_) => defmt::error!("CANopen settings not saved: flash failed"),
+            }
+        }
+        #[cfg(not(feature = "model"))]
+        {
+            let _ = settings;
+            defmt::warn!("CANopen settings not saved: built without the model path");
+        }
+        cx.shared.saving.lock(|s| *s = false);
+        if cx.shared.reset_after_save.lock(|r| *r) {
+            cortex_m::peripheral::SCB::sys_reset();
         }
     }
 
@@ -1238,14 +1345,14 @@ mod app {
     /// Report one sample: telemetry on USART2; OFFSETS/STATUS(/OFFSETS_EXT)
     /// and the heartbeat on CAN1. Lower priority than `sample`, so a slow
     /// UART or a busy bus never delays sampling.
-    #[task(priority = 1, shared = [tx, can], local = [sampled_rx, can_up: bool = false, heartbeat: Heartbeat = Heartbeat::new(DEFAULT_HEARTBEAT_MS)])]
+    #[task(priority = 1, shared = [tx, can, node], local = [sampled_rx, can_up: bool = false])]
     async fn emit(mut cx: emit::Context) {
         while let Ok(s) = cx.local.sampled_rx.recv().await {
             report(
                 &mut cx.shared.tx,
                 &mut cx.shared.can,
+                &mut cx.shared.node,
                 cx.local.can_up,
-                cx.local.heartbeat,
                 &s,
             )
             .await;
@@ -1256,8 +1363,8 @@ mod app {
     async fn report(
         tx: &mut impl rtic::Mutex<T = Tx<pac::USART2>>,
         can: &mut impl rtic::Mutex<T = bxcan::Can<Can<pac::CAN1>>>,
+        node: &mut impl rtic::Mutex<T = Node>,
         can_up: &mut bool,
-        heartbeat: &mut Heartbeat,
         s: &Sampled,
     ) {
         let n = (s.info.n_inputs).min(s.temps_c.len());
@@ -1271,6 +1378,11 @@ mod app {
                 return;
             }
             defmt::info!("CAN1 on bus");
+            // CANopen boot-up (CiA 301 §7.2.8.3.2.1), once the bus is there.
+            let now_ms = Mono::now().as_ticks();
+            if let Some(up) = node.lock(|n| n.boot::<Frame>(now_ms)) {
+                transmit(can, &up).await;
+            }
         }
         // Frames still pending from the last sample are a period old (no
         // ACK on the bus): drop them so fresh ones go out when it recovers.
@@ -1281,8 +1393,9 @@ mod app {
         });
         // Ascending ids, so a later frame never displaces an earlier one.
         let mut sent = 0u32;
-        let frames = encode_report::<Frame>(&s.report, &s.info);
-        let heartbeat = heartbeat.poll::<Frame>(Mono::now().as_ticks(), NmtState::Operational);
+        let frames = node.lock(|n| n.on_sample::<Frame>(&s.report, &s.info));
+        let now_ms = Mono::now().as_ticks();
+        let heartbeat = node.lock(|n| n.poll_heartbeat::<Frame>(now_ms));
         for frame in frames.iter().chain(heartbeat.as_ref()) {
             if transmit(can, frame).await {
                 sent += 1;

@@ -367,6 +367,12 @@ impl<F: MappedFlash> Uploader<F> {
         self.state != State::Idle
     }
 
+    /// The flash, for the other writer of its own sector (the CANopen
+    /// settings, `canopen::store`), between uploads' steps.
+    pub fn flash_mut(&mut self) -> &mut F {
+        &mut self.flash
+    }
+
     /// Gives the flash back.
     pub fn into_inner(self) -> F {
         self.flash

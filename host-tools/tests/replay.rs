@@ -71,8 +71,9 @@ fn replay_agrees_with_predict_within_the_frame_resolution() {
     let run = &j["runs"][0];
     // 1340 rows 60 s apart, replayed at the hub's 1 s period.
     assert_eq!(run["samples"], 80281);
-    // OFFSETS + STATUS every sample, HEARTBEAT every 1 s.
-    assert_eq!(run["frames"], 3 * 80281);
+    // OFFSETS + STATUS (TPDO1/2) every sample, HEARTBEAT every 1 s from one
+    // period after the boot-up (CiA 301; the boot-up itself is not counted).
+    assert_eq!(run["frames"], 3 * 80281 - 1);
     // Rows are held until the next one (the hub never sees a later row),
     // so a change of more than the spike filter's 1 K between two rows
     // 60 s apart reaches the hub as one step: rejected for two samples
@@ -320,8 +321,9 @@ fn positional_model_replays_as_slopes_that_reproduce_predict() {
     ]);
     let r = &j["runs"][0];
     assert_eq!(r["samples"], 7200);
-    // OFFSETS + STATUS + SLOPE every sample, HEARTBEAT every 1 s.
-    assert_eq!(r["frames"], 4 * 7200);
+    // OFFSETS + STATUS + SLOPE every sample, HEARTBEAT every 1 s from one
+    // period after the boot-up.
+    assert_eq!(r["frames"], 4 * 7200 - 1);
     assert_eq!(r["states"]["running"], 7200);
     let t = read_csv(p(&trace));
     let slope = &t["ey_um_slope_um_per_m"];
@@ -433,7 +435,9 @@ fn speed_from_can_frames_follows_then_times_out_holds_and_ramps() {
     // 100 mm = 100000 = 0x0186A0, position not available.
     assert_eq!(*tools[0], "(0.000000) can0 301#A0860100FFFFFF7F");
     assert!(tools[1].starts_with("(150.000000) "));
-    assert!(lines[0].contains(" 201#") && lines[2].contains(" 181#"));
+    // The node's boot-up first, then the CNC's RPDOs before the TPDOs.
+    assert_eq!(lines[0], "(0.000000) can0 701#00");
+    assert!(lines[1].contains(" 201#") && lines[3].contains(" 181#"));
 
     let t = read_csv(p(&trace));
     let (state, sent, speed) = (&t["state"], &t["dz_um_sent"], &t["speed_rpm"]);

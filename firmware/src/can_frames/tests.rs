@@ -437,6 +437,58 @@ fn vectors() -> std::string::String {
             ],
         ));
     }
+    // CANopen (`canopen::Node`): boot-up, an NMT command it obeys, an EMCY,
+    // an SDO request and the node's response.
+    use crate::canopen::{Node, Settings};
+    use embedded_can::StandardId;
+    let mut node = Node::new(Settings::DEFAULT).unwrap();
+    let f: RawFrame = node.boot(0).unwrap();
+    out.push(vector("canopen_boot_up", &f, &[("NmtState", 0.0)]));
+    let nmt = RawFrame::new(StandardId::new(0x000).unwrap(), &[0x01, 0x01]).unwrap();
+    assert!(node.on_frame(&nmt, 0).frames.is_empty());
+    out.push(vector(
+        "canopen_nmt_start_node_1",
+        &nmt,
+        &[("NmtCommand", 1.0), ("NmtNodeId", 1.0)],
+    ));
+    let mut faulty = report(9, [0.0; 4], 1, HubState::Holding);
+    faulty.flags = StatusFlags(StatusFlags::SENSOR_FAULT);
+    faulty.faulty_channels = 0x80_0004;
+    let frames: heapless::Vec<RawFrame, { crate::canopen::node::SAMPLE_FRAMES_MAX }> =
+        node.on_sample(&faulty, &StatusInfo::default());
+    out.push(vector(
+        "canopen_emcy_sensor_fault",
+        &frames[0],
+        &[
+            ("ErrorCode", 20480.0),
+            ("ErrorRegister", 129.0),
+            ("EmcyStatusFlags", 1.0),
+            ("EmcyFaultyChannels", f64::from(0x80_0004)),
+        ],
+    ));
+    let req = RawFrame::new(
+        StandardId::new(0x601).unwrap(),
+        &[0x40, 0x17, 0x10, 0x00, 0, 0, 0, 0],
+    )
+    .unwrap();
+    let resp = node.on_frame(&req, 0).frames[0].clone();
+    let sdo = |d: &[u8]| {
+        [
+            ("Command", f64::from(d[0])),
+            ("Index", f64::from(u16::from_le_bytes([d[1], d[2]]))),
+            ("SubIndex", f64::from(d[3])),
+            (
+                "Data",
+                f64::from(u32::from_le_bytes([d[4], d[5], d[6], d[7]])),
+            ),
+        ]
+    };
+    out.push(vector("canopen_sdo_upload_request", &req, &sdo(req.data())));
+    out.push(vector(
+        "canopen_sdo_upload_response",
+        &resp,
+        &sdo(resp.data()),
+    ));
     format!("{{\n  \"vectors\": [\n{}\n  ]\n}}\n", out.join(",\n"))
 }
 

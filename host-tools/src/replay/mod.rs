@@ -7,7 +7,8 @@
 //! PT100 at that temperature ([`virtual_rtd`]) and read back through the
 //! `max31865` driver; `firmware::pipeline::Pipeline` spike-filters, steps
 //! the model, supervises faults, slew-limits and clamps; and
-//! `firmware::can_frames` encodes the frames, written in candump's log
+//! `firmware::canopen::Node` sends the frames (boot-up, TPDOs, EMCYs,
+//! heartbeat; the TPDOs are `firmware::can_frames`' layouts), written in candump's log
 //! format. The sample period is the hub's: the model's `dt_s` for a dynamic
 //! model, the board's default for a static one. Inputs reach that grid
 //! causally, as the hub would read them ([`causal_values`]): at each sample
@@ -43,14 +44,14 @@ use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use embedded_can::Frame as _;
 use firmware::board::CNC_INPUT_TIMEOUT_MS;
-use firmware::can_frames::{self, Heartbeat, Message, NmtState, RawFrame, StatusInfo};
+use firmware::can_frames::{self, Message, RawFrame, StatusInfo};
 use firmware::can_rx::{encode_spindle, encode_tool_position, Spindle, ToolPosition};
+use firmware::canopen::{Event, Node, Settings};
 use firmware::cnc_inputs::{CncInput, CncInputs};
 use firmware::hub::Hub;
 use firmware::pipeline::{
     ChannelFault, Pipeline, PipelineConfig, Reading, POSITION_REFERENCE_MM, TOOL_INPUT,
 };
-use firmware::report::HubState;
 use max31865::{Config, Filter, Max31865, Mode, Wires};
 use model_core::rtd::{Rtd, RtdChannel, RtdCode};
 use serde_json::json;
@@ -420,7 +421,13 @@ fn replay_run(
         })
         .collect::<Result<_>>()?;
     let channel = RtdChannel::MAX31865_PT100;
-    let mut heartbeat = Heartbeat::new(can_frames::DEFAULT_HEARTBEAT_MS);
+    // The hub as a CANopen node with its default settings: boot-up first,
+    // then (operational without an NMT master) RPDOs in, EMCYs, TPDOs and
+    // the heartbeat out, as on the board.
+    let mut node = Node::new(Settings::DEFAULT).map_err(|e| anyhow!("CANopen node: {e}"))?;
+    if let Some(boot_up) = node.boot::<RawFrame>(0) {
+        writeln!(log, "({t0:.6}) {} {boot_up}", a.interface)?;
+    }
     let mut tally = Tally {
         max_abs_um: vec![0.0; n_outputs],
         ..Tally::default()
@@ -465,8 +472,11 @@ fn replay_run(
         }
         for f in &rx {
             writeln!(log, "({t:.6}) {} {f}", a.interface)?;
-            cnc.on_frame(f, now_ms)
-                .map_err(|e| anyhow!("CNC frame {f}: {e}"))?;
+            // RPDO1/RPDO2 through the node, which hands their values on.
+            match node.on_frame(f, now_ms).event {
+                Some(Event::Input(msg)) => cnc.receive(&msg, now_ms),
+                other => bail!("CNC frame {f}: not taken as an RPDO ({other:?})"),
+            }
         }
         tally.rx_frames += rx.len();
         // The sampling task: the tool length received goes into the latch.
@@ -530,15 +540,11 @@ fn replay_run(
             n_inputs: pipeline.hub().input_count(),
             consecutive_faults: pipeline.hub().faults().consecutive,
         };
-        let mut frames: Vec<RawFrame> = can_frames::encode_report(&report, &info)
+        let mut frames: Vec<RawFrame> = node
+            .on_sample::<RawFrame>(&report, &info)
             .into_iter()
             .collect();
-        let nmt = if report.state == HubState::NoModel {
-            NmtState::PreOperational
-        } else {
-            NmtState::Operational
-        };
-        frames.extend(heartbeat.poll::<RawFrame>(now_ms, nmt));
+        frames.extend(node.poll_heartbeat::<RawFrame>(now_ms));
         let mut sent = [0.0f64; 4];
         let mut slopes = [0.0f64; 4];
         for f in &frames {
