@@ -12,7 +12,7 @@
 //! | 0x281 | STATUS       | 8   | every sample: flags, faulty channels, shape, faults |
 //! | 0x381 | OFFSETS_EXT  | 8   | every sample when the model has a 4th output |
 //! | 0x481 | SLOPE        | 8   | every sample, once per positional model output |
-//! | 0x701 | HEARTBEAT    | 1   | every [`Heartbeat`] period (NMT state)   |
+//! | 0x701 | HEARTBEAT    | 1   | every heartbeat period (NMT state; canopen::nmt)   |
 //!
 //! The frames the hub receives from the CNC (0x201, 0x301) are in
 //! `can_rx`.
@@ -327,50 +327,6 @@ pub fn encode_report<F: Frame>(
         }
     }
     out
-}
-
-/// Sends the heartbeat every `period_ms` (0 disables it, as in CiA 301).
-/// The caller passes a millisecond clock; wrap-around is handled.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Heartbeat {
-    period_ms: u16,
-    next_ms: Option<u32>,
-}
-
-impl Heartbeat {
-    /// A heartbeat due at the first poll, then every `period_ms`.
-    pub const fn new(period_ms: u16) -> Self {
-        Self {
-            period_ms,
-            next_ms: None,
-        }
-    }
-
-    /// The period in ms (0: disabled).
-    pub const fn period_ms(&self) -> u16 {
-        self.period_ms
-    }
-
-    /// The heartbeat frame if one is due at `now_ms`.
-    pub fn poll<F: Frame>(&mut self, now_ms: u32, state: NmtState) -> Option<F> {
-        if self.period_ms == 0 {
-            return None;
-        }
-        if let Some(next) = self.next_ms {
-            // Due when now is at or past `next`, modulo 2^32.
-            if (now_ms.wrapping_sub(next) as i32) < 0 {
-                return None;
-            }
-        }
-        self.next_ms = Some(now_ms.wrapping_add(u32::from(self.period_ms)));
-        encode_heartbeat(state)
-    }
-}
-
-impl Default for Heartbeat {
-    fn default() -> Self {
-        Self::new(DEFAULT_HEARTBEAT_MS)
-    }
 }
 
 /// Why a frame does not decode as one of the hub's.
