@@ -805,6 +805,7 @@ mod tests {
                 }]),
             }),
             bounds: None,
+            five_point: None,
         }
         .validate()
         .unwrap()
@@ -987,6 +988,7 @@ mod tests {
                 }]),
             }),
             bounds: None,
+            five_point: None,
         }
         .validate()
         .unwrap()

@@ -8,6 +8,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod eval;
 pub mod fit;
+pub mod fivepoint;
 pub mod hub;
 pub mod num;
 pub mod predict;

@@ -17,6 +17,7 @@
 use crate::arma::{Arma, ArmaState};
 use crate::bp::BpNet;
 use crate::fbank::{FilterBank, MAX_FB_FEATURES};
+use crate::fivepoint::{FivePoint, TipMap};
 use crate::linear::Linear;
 use crate::pcr::Pcr;
 use crate::tf::{RealisedTf, TfEntry, TfError, TfHistory, MAX_TF_ENTRIES};
@@ -167,6 +168,10 @@ pub struct Model {
     /// What calibration saw: the input envelope and the error band
     /// (optional; blob format 2 and later).
     pub bounds: Option<Bounds>,
+    /// The tip geometry of a five-point model (outputs `e_um`,
+    /// `theta_x_urad`, `theta_y_urad`; [`crate::fivepoint`]); blob format 3
+    /// and later.
+    pub five_point: Option<FivePoint>,
 }
 
 /// A closed range of values, in the quantity's unit.
@@ -300,6 +305,10 @@ pub enum ModelError {
     /// A calibration span has `min > max` (or a width beyond f64), or an
     /// error half-width is negative.
     BadBounds,
+    /// Five-point geometry on a model whose outputs are not exactly
+    /// `e_um`, `theta_x_urad`, `theta_y_urad`, or with `l_defl_mm` outside
+    /// `0..=MAX_L_DEFL_MM`, or together with a positional output.
+    BadFivePoint,
 }
 
 impl core::fmt::Display for ModelError {
@@ -327,6 +336,11 @@ impl core::fmt::Display for ModelError {
             Self::BadBounds => write!(
                 f,
                 "bounds: a span has min > max, or an error half-width is negative"
+            ),
+            Self::BadFivePoint => write!(
+                f,
+                "five-point geometry needs exactly the outputs e_um, theta_x_urad, theta_y_urad, no positional output, and 0 <= l_defl_mm <= {}",
+                crate::fivepoint::MAX_L_DEFL_MM
             ),
         }
     }
@@ -517,10 +531,19 @@ impl Model {
                 output: u8::try_from(o).unwrap_or(u8::MAX),
             });
         }
-        Ok(ValidModel {
+        let tip = match &self.five_point {
+            Some(fp) => Some(fp.map(&self.outputs)?),
+            None => None,
+        };
+        let valid = ValidModel {
             model: self,
             derived,
-        })
+            tip,
+        };
+        if valid.tip.is_some() && valid.positional_outputs() != 0 {
+            return Err(ModelError::BadFivePoint);
+        }
+        Ok(valid)
     }
 }
 
@@ -543,6 +566,7 @@ enum Derived {
 pub struct ValidModel {
     model: Model,
     derived: Derived,
+    tip: Option<TipMap>,
 }
 
 /// Why one step produced no outputs (the state is left as it was).
@@ -640,6 +664,11 @@ fn to_u8(n: usize) -> u8 {
 }
 
 impl ValidModel {
+    /// A five-point model's tip geometry (`None` for other models).
+    pub fn five_point(&self) -> Option<&TipMap> {
+        self.tip.as_ref()
+    }
+
     /// The validated model data.
     pub fn model(&self) -> &Model {
         &self.model
@@ -1097,6 +1126,7 @@ mod tests {
                 theta: heapless::Vec::from_slice(theta).unwrap(),
             }),
             bounds: None,
+            five_point: None,
         }
     }
 

@@ -62,6 +62,7 @@ fn hand_model() -> ValidModel {
             }]),
         }),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .expect("valid")
@@ -125,6 +126,7 @@ fn one_filtered_feature_equals_a_first_order_tf() {
                 }]),
             }),
             bounds: None,
+            five_point: None,
         }
         .validate()
         .unwrap();

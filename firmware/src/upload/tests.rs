@@ -63,6 +63,7 @@ fn raw_model(intercept: f64) -> Model {
             }]),
         }),
         bounds: None,
+        five_point: None,
     }
 }
 
