@@ -372,6 +372,7 @@ pub fn fbank_3x2(bounds: bool) -> Model {
             half_width: hv(&[1.8, 0.9]),
             growth: hv(&[1.0, 3.0]),
         }),
+        five_point: None,
     }
 }
 
