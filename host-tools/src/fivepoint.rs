@@ -17,7 +17,9 @@
 //! a tool length. No row is ever dropped.
 
 use anyhow::{anyhow, bail, Result};
+use model_core::fivepoint::{is_five_point, FivePoint, DEFAULT_L_DEFL_MM};
 use model_core::geometry::{spindle_drift, ProbeReadings, SpindleDrift};
+use model_core::ValidModel;
 use serde::Serialize;
 
 /// Probe columns, S1..S5 (CONTRACT section 2).
@@ -222,6 +224,31 @@ pub fn compute(
         max_abs,
     };
     Ok((FivePointColumns { columns }, outcome))
+}
+
+/// `model` with its five-point geometry: `l_defl_mm` (default
+/// [`DEFAULT_L_DEFL_MM`]) when its outputs are `e_um`, `theta_x_urad`,
+/// `theta_y_urad`; unchanged otherwise, where a given `l_defl_mm` is an
+/// error (it would be silently unused).
+pub fn with_geometry(model: ValidModel, l_defl_mm: Option<f64>) -> Result<ValidModel> {
+    if !is_five_point(model.outputs()) {
+        return match l_defl_mm {
+            Some(_) => {
+                bail!("--l-defl-mm is for five-point targets only (e_um,theta_x_urad,theta_y_urad)")
+            }
+            None => Ok(model),
+        };
+    }
+    let mut m = model.model().clone();
+    m.five_point = Some(FivePoint {
+        l_defl_mm: l_defl_mm.unwrap_or(DEFAULT_L_DEFL_MM),
+    });
+    m.validate().map_err(|e| {
+        anyhow!(
+            "--l-defl-mm {}: {e}",
+            l_defl_mm.unwrap_or(DEFAULT_L_DEFL_MM)
+        )
+    })
 }
 
 #[cfg(test)]
