@@ -281,7 +281,7 @@ mod tests {
         assert_eq!(c.columns[0], vec![Some(0.0), Some(10.0), Some(20.0)]);
         assert_eq!(c.columns[1][1], None, "theta_x needs S3");
         assert_eq!(c.columns[3][1], None, "the tip needs every probe");
-        // θx = atan(12 / 120000) rad = 99.99999967 urad (1e-6 covers rounding).
+        // θx = atan(12 / 120000) rad = 99.99999967 urad (1e-9 covers rounding).
         let tx = c.columns[1][2].unwrap_or(f64::NAN);
         assert!((tx - 1e6 * (1e-4f64).atan()).abs() < 1e-9, "{tx}");
         assert_eq!(o.tip_rows, 2);
