@@ -23,7 +23,7 @@
 //! (+Y); the tip drift in µm in the machine frame (Z+ away from the
 //! workpiece), the same sign as a run file's `dx_um`, `dy_um`, `dz_um`.
 
-use crate::geometry::{GeometryError, SpindleDrift, ToolTipDrift};
+use crate::geometry::{tip_from_tangents, GeometryError, SpindleDrift, ToolTipDrift};
 use crate::model::{ModelError, Name};
 use serde::{Deserialize, Serialize};
 
@@ -45,6 +45,18 @@ pub const DEFAULT_L_DEFL_MM: f64 = 300.0;
 pub const MAX_L_DEFL_MM: f64 = 5000.0;
 /// µrad per rad.
 const URAD_PER_RAD: f64 = 1e6;
+/// Largest tilt [`TipMap::tool_tip`] accepts, rad: 10 mrad (10 mm per metre),
+/// a thousand times the tilts the seeds measure (tens of µrad). Within it
+/// the tangent's series to θ⁹ is exact in f64 (the next term is below
+/// 1e-19 relative), which spares the hub `libm::tan` (~4.7 KiB of flash).
+pub const MAX_TILT_RAD: f64 = 0.01;
+
+/// tan θ for |θ| <= [`MAX_TILT_RAD`]: θ + θ³/3 + 2θ⁵/15 + 17θ⁷/315 + 62θ⁹/2835.
+fn tan_small(theta: f64) -> f64 {
+    let t2 = theta * theta;
+    theta
+        * (1.0 + t2 * (1.0 / 3.0 + t2 * (2.0 / 15.0 + t2 * (17.0 / 315.0 + t2 * (62.0 / 2835.0)))))
+}
 
 /// The geometry a five-point model carries in its blob (format 3).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -112,11 +124,23 @@ impl TipMap {
 
     /// Tool-tip drift `[dx, dy, dz]`, µm, for model outputs `values` and a
     /// tool sticking out `tool_mm` below the nose (exact geometry, seed 001
-    /// Eq. 1–4). Fails only on non-finite outputs, a negative or non-finite
-    /// tool length, or angles beyond ±90°.
+    /// Eq. 1–4; the same formula as [`SpindleDrift::tool_tip_drift`]).
+    /// Fails only on non-finite outputs, a negative or non-finite tool
+    /// length, or a tilt beyond [`MAX_TILT_RAD`] (`AngleOutOfRange`).
     pub fn tool_tip(&self, values: &[f64], tool_mm: f64) -> Result<[f64; 3], GeometryError> {
+        let d = self.drift(values);
+        if !(d.elongation_um.is_finite() && d.yaw_rad.is_finite() && d.pitch_rad.is_finite()) {
+            return Err(GeometryError::NonFiniteReading);
+        }
+        if libm::fabs(d.yaw_rad) > MAX_TILT_RAD || libm::fabs(d.pitch_rad) > MAX_TILT_RAD {
+            return Err(GeometryError::AngleOutOfRange);
+        }
+        if !(tool_mm.is_finite() && tool_mm >= 0.0) {
+            return Err(GeometryError::InvalidLength);
+        }
+        let (tan_x, tan_y) = (tan_small(d.yaw_rad), tan_small(d.pitch_rad));
         let ToolTipDrift { x_um, y_um, z_um } =
-            self.drift(values).tool_tip_drift(self.l_defl_mm, tool_mm)?;
+            tip_from_tangents(d.elongation_um, tan_x, tan_y, self.l_defl_mm + tool_mm)?;
         Ok([x_um, y_um, z_um])
     }
 }
@@ -151,6 +175,37 @@ mod tests {
             let fp = FivePoint { l_defl_mm: l };
             assert_eq!(fp.map(&ok), Err(ModelError::BadFivePoint), "{l}");
         }
+    }
+
+    #[test]
+    fn small_tangent_agrees_with_libm_and_the_geometry() {
+        // Two implementations agree: the series against libm::tan within
+        // 2 ulp over the accepted range, and the tip against
+        // SpindleDrift::tool_tip_drift within 1e-12 relative.
+        for k in -100..=100 {
+            let theta = MAX_TILT_RAD * f64::from(k) / 100.0;
+            let (a, b) = (tan_small(theta), libm::tan(theta));
+            assert!(
+                (a - b).abs() <= 2.0 * f64::EPSILON * b.abs(),
+                "{theta}: {a} vs {b}"
+            );
+        }
+        let out = names(&["e_um", "theta_x_urad", "theta_y_urad"]);
+        let map = FivePoint { l_defl_mm: 250.0 }.map(&out);
+        let values = [31.5, 8000.0, -2500.0];
+        let tip = map.map(|m| m.tool_tip(&values, 120.0));
+        let want = map.map(|m| m.drift(&values).tool_tip_drift(250.0, 120.0));
+        match (tip, want) {
+            (Ok(Ok(t)), Ok(Ok(w))) => {
+                for (a, b) in t.iter().zip([w.x_um, w.y_um, w.z_um]) {
+                    assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{a} vs {b}");
+                }
+            }
+            other => panic!("{other:?}"),
+        }
+        // Beyond 10 mrad: refused, not extrapolated.
+        let far = map.map(|m| m.tool_tip(&[0.0, 10_001.0, 0.0], 100.0));
+        assert_eq!(far, Ok(Err(GeometryError::AngleOutOfRange)));
     }
 
     #[test]

@@ -9,6 +9,7 @@
 //! each chosen so that the exact answer has a short closed form.
 
 use host_tools::fivepoint::{compute, FivePointParams, ProbeRun};
+use model_core::geometry::{GeometryError, SpindleDrift};
 use model_core::ValidModel;
 use thermcomp_tests::isclose;
 
@@ -18,45 +19,64 @@ fn through_blob(spec: &str) -> ValidModel {
     model_core::decode(&blob).expect("decodes")
 }
 
-/// A constant five-point model: E = 10 um, theta_x = atan(3/4), theta_y = 0
-/// (a 3-4-5 triangle: tan = 3/4, cos = 4/5), l_defl = 300 mm. With a
-/// 100 mm tool, L = 400 000 um and by hand
-///   dx = (L + E) tan / q = 400 010 x 3/5 = 240 006 um
-///   dz = L - (L + E) cos = 400 000 - 320 008 = 79 992 um.
-/// Not a thermal angle: it exercises the exact geometry, where the
-/// small-angle rule would be off by 80 mm. The spec writes theta_x in urad
-/// as atan(0.75) x 1e6 to 17 digits, so 1e-9 relative covers the rounding.
+/// A constant five-point model at seed 001's magnitudes, written as a spec
+/// and read back from its blob: E = 39.6 um, theta_x = 100 urad,
+/// theta_y = -50 urad, l_defl = 300 mm, a 50 mm tool (L = 350 000 um). By
+/// hand, with tan t = t (1 + t^2/3) and q = 1 + 6.25e-9:
+///   dx = (L + E) tan(1e-4) / q  = 35.003 96 (1 + 3.33e-9 - 6.25e-9)  = 35.003 959 90 um
+///   dy = -(L + E) tan(5e-5) / q = -17.501 98 (1 + 0.83e-9 - 6.25e-9) = -17.501 979 91 um
+///   dz = L t^2 / (q (q + 1)) - E / q = 2.1875e-3 - 39.599 999 75     = -39.597 812 25 um
+/// 1e-7 um covers the 8-digit hand rounding.
 #[test]
-fn exact_geometry_of_a_3_4_5_tilt_through_spec_and_blob() {
-    let theta_x_urad = 0.75f64.atan() * 1e6;
+fn five_point_spec_through_the_blob_at_seed_001_magnitudes() {
+    let eq = |o: &str, v: f64| {
+        format!("[[linear]]\noutput = \"{o}\"\nintercept = {v:?}\ncoef = {{ T1 = 0.0 }}\n")
+    };
     let spec = format!(
-        r#"
-kind = "linear"
-l_defl_mm = 300.0
-
-[[linear]]
-output = "e_um"
-intercept = 10.0
-coef = {{ T1 = 0.0 }}
-
-[[linear]]
-output = "theta_x_urad"
-intercept = {theta_x_urad:.17e}
-coef = {{ T1 = 0.0 }}
-
-[[linear]]
-output = "theta_y_urad"
-intercept = 0.0
-coef = {{ T1 = 0.0 }}
-"#
+        "kind = \"linear\"\nl_defl_mm = 300.0\n{}{}{}",
+        eq("e_um", 39.6),
+        eq("theta_x_urad", 100.0),
+        eq("theta_y_urad", -50.0)
     );
     let model = through_blob(&spec);
     let tip = model.five_point().expect("a five-point model");
     assert_eq!(tip.l_defl_mm(), 300.0);
-    let [dx, dy, dz] = tip.tool_tip(&[10.0, theta_x_urad, 0.0], 100.0).unwrap();
-    assert!(isclose(dx, 240_006.0, 1e-9, 0.0), "{dx}");
-    assert_eq!(dy, 0.0);
-    assert!(isclose(dz, 79_992.0, 1e-9, 0.0), "{dz}");
+    let [dx, dy, dz] = tip.tool_tip(&[39.6, 100.0, -50.0], 50.0).unwrap();
+    assert!(isclose(dx, 35.003_959_90, 0.0, 1e-7), "{dx}");
+    assert!(isclose(dy, -17.501_979_91, 0.0, 1e-7), "{dy}");
+    assert!(isclose(dz, -39.597_812_25, 0.0, 1e-7), "{dz}");
+}
+
+/// A 3-4-5 tilt (tan = 3/4, cos = 4/5), E = 10 um, l_defl = 300 mm, a
+/// 100 mm tool (L = 400 000 um). By hand:
+///   dx = (L + E) tan / q = 400 010 x 3/5 = 240 006 um
+///   dz = L - (L + E) cos = 400 000 - 320 008 = 79 992 um.
+/// Not a thermal angle: it checks the exact geometry, where the small-angle
+/// rule would be off by 80 mm (1e-9 relative covers atan/tan rounding).
+/// The hub's path refuses it: tilts beyond 10 mrad are a model fault there.
+#[test]
+fn exact_geometry_of_a_3_4_5_tilt() {
+    let d = SpindleDrift {
+        elongation_um: 10.0,
+        yaw_rad: 0.75f64.atan(),
+        pitch_rad: 0.0,
+    };
+    let t = d.tool_tip_drift(300.0, 100.0).unwrap();
+    assert!(isclose(t.x_um, 240_006.0, 1e-9, 0.0), "{}", t.x_um);
+    assert_eq!(t.y_um, 0.0);
+    assert!(isclose(t.z_um, 79_992.0, 1e-9, 0.0), "{}", t.z_um);
+    let spec = "kind = \"linear\"\nl_defl_mm = 300.0\n".to_string()
+        + &["e_um", "theta_x_urad", "theta_y_urad"]
+            .map(|o| {
+                format!("[[linear]]\noutput = \"{o}\"\nintercept = 0.0\ncoef = {{ T1 = 1.0 }}\n")
+            })
+            .concat();
+    let hub = through_blob(&spec);
+    let tip = hub.five_point().unwrap();
+    assert_eq!(
+        tip.tool_tip(&[10.0, 0.75f64.atan() * 1e6, 0.0], 100.0),
+        Err(GeometryError::AngleOutOfRange)
+    );
 }
 
 /// Probe changes at seed 001's magnitudes, a = 120 mm: S1 - S3 = 12 um
