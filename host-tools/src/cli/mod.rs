@@ -75,10 +75,10 @@ enum Command {
     /// tilts theta_x_urad, theta_y_urad, and the tool-tip drift dx_um,
     /// dy_um, dz_um, beside the run's other columns (docs/fivepoint.md).
     ///
-    /// Changes are taken from each probe's first reading; theta = atan((dS_near
-    /// - dS_far) / a); the tip drift is the exact geometry about the
-    /// deflection centre l_defl above the nose, ~ (l_defl + tool) theta for
-    /// X/Y and -E for Z (seeds 000/001).
+    /// Changes are taken from each probe's first reading; theta =
+    /// atan((dS_near minus dS_far) / a); the tip drift is the exact geometry
+    /// about the deflection centre l_defl above the nose, about
+    /// (l_defl + tool) theta for X/Y and -E for Z (seeds 000/001).
     #[command(name = "fivepoint")]
     FivePoint(fivepoint::FivePointArgs),
     /// Rank and pick temperature sensors (grey: seed 000; wgrey: seed 002; maxtree: seed 003).
