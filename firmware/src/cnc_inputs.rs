@@ -343,6 +343,7 @@ mod tests {
                 }]),
             }),
             bounds: None,
+            five_point: None,
         }
         .validate()
         .unwrap()

@@ -267,6 +267,7 @@ mod tests {
                 ]),
             }),
             bounds: None,
+            five_point: None,
         }
         .validate()
         .unwrap()

@@ -34,6 +34,8 @@
 //! * [`protocol`]: the serial link's COBS/postcard messages.
 //! * `upload` (feature `model`): model upload into the inactive A/B slot.
 //! * `commands` (feature `model`): what each serial command does to the hub.
+//! * `tip` (feature `model`): a five-point model's outputs turned into
+//!   tool-tip offsets with the current tool length.
 //! * `ram_flash` (tests and feature `test-support`): NOR flash in RAM.
 #![cfg_attr(not(test), no_std)]
 
@@ -68,6 +70,9 @@ pub mod pipeline;
 
 #[cfg(feature = "model")]
 pub mod rtd;
+
+#[cfg(feature = "model")]
+pub mod tip;
 
 #[cfg(feature = "model")]
 pub mod cnc_inputs;

@@ -65,6 +65,14 @@
 //! at [`PipelineConfig::slope_stroke_mm`] of travel obeys the output's
 //! offset limits.
 //!
+//! # Five-point models
+//!
+//! A model with five-point geometry (outputs `e_um`, `theta_x_urad`,
+//! `theta_y_urad`) reports the tool-tip offsets dx, dy, dz instead of its
+//! outputs, computed every sample with the tool length last set by
+//! [`Pipeline::set_tool_length_mm`]; until one is set dx and dy are held
+//! and ramped like outputs with a stale input (`tip`).
+//!
 //! Without a model the pipeline reports zero offsets, [`HubState::NoModel`]
 //! and [`StatusFlags::NO_MODEL`], and ignores the readings.
 
@@ -81,6 +89,8 @@ use crate::plausible::{PlausibilityConfig, PlausibleSamples, PlausibleState};
 use crate::report::{HubState, Report, StatusFlags};
 use crate::spike::{SpikeConfig, SpikeState};
 use crate::supervisor::{ramp_toward_zero, Phase, Supervisor, SupervisorConfig, SupervisorSamples};
+use crate::tip::{lane_deps, lane_name, to_tool_tip, TOOL_LANES};
+use model_core::fivepoint::TipMap;
 
 // One bit per input in `Report::faulty_channels`.
 const _: () = assert!(MAX_INPUTS <= 32);
@@ -311,7 +321,8 @@ fn tool_mask(hub: &Hub) -> u32 {
     })
 }
 
-/// Per output, the inputs it reads (`ValidModel::output_inputs`).
+/// Per output lane, the inputs it reads (`ValidModel::output_inputs`;
+/// for a five-point model, per tip axis: `tip::lane_deps`).
 fn output_deps(hub: &Hub) -> [u32; MAX_OUTPUTS] {
     let mut deps = [0; MAX_OUTPUTS];
     if let Some(m) = hub.model() {
@@ -319,7 +330,12 @@ fn output_deps(hub: &Hub) -> [u32; MAX_OUTPUTS] {
             *d = m.output_inputs(k);
         }
     }
-    deps
+    lane_deps(tip_map(hub).as_ref(), deps)
+}
+
+/// The five-point geometry of `hub`'s model, if it has one.
+fn tip_map(hub: &Hub) -> Option<TipMap> {
+    hub.model().and_then(|m| m.five_point().copied())
 }
 
 /// Bit `j` set: model input `j` is a positional output's position.
@@ -403,6 +419,8 @@ pub struct Pipeline {
     /// Inputs filled from `tool_mm` rather than from a reading.
     tool_mask: u32,
     tool_mm: Option<f64>,
+    /// A five-point model's geometry: its outputs become tip offsets.
+    tip: Option<TipMap>,
     /// Inputs fed [`POSITION_REFERENCE_MM`].
     position_mask: u32,
     /// The slopes last reported, um/m (zero for other outputs).
@@ -426,6 +444,7 @@ impl Pipeline {
         let timing = Timing::new(&config, config.sample_period_s(&hub));
         Ok(Self {
             tool_mask: tool_mask(&hub),
+            tip: tip_map(&hub),
             position_mask: position_mask(&hub),
             deps: output_deps(&hub),
             slopes_um_per_m: [0.0; MAX_OUTPUTS],
@@ -516,8 +535,9 @@ impl Pipeline {
         let mut plausible = [PlausibleState::NEW; MAX_INPUTS];
         let positional = hub.positional();
         if let Some(old) = self.hub.model() {
-            for (j, name) in new.outputs().iter().enumerate() {
-                if let Some(k) = old.outputs().iter().position(|n| n == name) {
+            let lanes = |m| (0..MAX_OUTPUTS).map_while(move |j| lane_name(m, j));
+            for (j, name) in lanes(new).enumerate() {
+                if let Some(k) = lanes(old).position(|n| n == name) {
                     let carry = |v: &[f64; MAX_OUTPUTS]| v.get(k).copied().unwrap_or(0.0);
                     if let (Some(new), Some(old)) =
                         (supervisors.get_mut(j), self.supervisors.get(k))
@@ -551,6 +571,7 @@ impl Pipeline {
         }
         self.timing = Timing::new(&self.config, self.config.sample_period_s(&hub));
         self.tool_mask = tool_mask(&hub);
+        self.tip = tip_map(&hub);
         self.position_mask = position_mask(&hub);
         self.deps = output_deps(&hub);
         self.supervisors = supervisors;
@@ -692,7 +713,10 @@ impl Pipeline {
             && self.fill_last_good(&mut inputs, faulty);
         let mut model_out = None;
         if faulty == 0 || stand_in {
-            let out = self.hub.on_sample(inputs.get(..n_in).unwrap_or(&[]));
+            let mut out = self.hub.on_sample(inputs.get(..n_in).unwrap_or(&[]));
+            if let Some(tip) = &self.tip {
+                out.fresh &= to_tool_tip(tip, &mut out.values, self.tool_mm);
+            }
             if out.fresh {
                 model_out = Some((out.values, out.slopes));
                 if self.hub.extrapolating() {
@@ -702,6 +726,15 @@ impl Pipeline {
                 flags.set(StatusFlags::MODEL_FAULT);
             }
         }
+
+        // A five-point model's dx and dy need a tool length: without one
+        // they are as if an input were stale (the model still stepped).
+        let affected = if self.tip.is_some() && self.tool_mm.is_none() {
+            flags.set(StatusFlags::STALE);
+            affected | TOOL_LANES
+        } else {
+            affected
+        };
 
         // 3. Per output: follow, hold or ramp (a failed input proving
         //    itself ramps). An output is good when the model ran and it
@@ -805,6 +838,7 @@ mod tests {
                 }]),
             }),
             bounds: None,
+            five_point: None,
         }
         .validate()
         .unwrap()
@@ -987,6 +1021,7 @@ mod tests {
                 }]),
             }),
             bounds: None,
+            five_point: None,
         }
         .validate()
         .unwrap()

@@ -42,6 +42,7 @@ pub fn first_order_tf(input: &str, dt_s: f64) -> ValidModel {
             b: vec(&[0.5, -0.4]),
         }])),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .unwrap()

@@ -60,6 +60,7 @@ fn linear(inputs: &[&str], outputs: &[(&str, u8, f64)]) -> ValidModel {
             outputs: vec(&regressions),
         }),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .unwrap()
@@ -92,6 +93,7 @@ fn tf_model() -> ValidModel {
             b: vec(&[0.5, -0.4]),
         }])),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .unwrap()

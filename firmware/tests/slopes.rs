@@ -58,6 +58,7 @@ fn pipeline() -> Pipeline {
             ]),
         }),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .unwrap();

@@ -601,6 +601,7 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
     let t = p.end(&figures);
     merge(&mut diagnose_json, json!({"elapsed_s": t}));
 
+    let fivepoint_json = crate::fivepoint_demo::step(&val)?;
     // Everything written.
     // What this run wrote (not whatever else the folder holds): the known
     // files, and whatever diagnose put in its report folder.
@@ -633,6 +634,7 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
         "fit": fit_json,
         "export": export_json,
         "replay": replay_json,
+        "fivepoint": fivepoint_json,
         "diagnose": diagnose_json,
         "files": files,
         "elapsed_s": elapsed_s,

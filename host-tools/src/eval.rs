@@ -51,7 +51,10 @@ pub fn run(a: &EvalArgs) -> Result<()> {
     let map = a.runs.column_map()?;
     let runs = a.runs.read(map.model_columns(&model, true))?;
     let skipped_rows = crate::data::source::skipped_rows(&runs);
-    let n_out = model.outputs().len();
+    // A five-point model's tip drift is scored too, where the run has it.
+    let names = runner::prediction_names(&model);
+    let n_model = model.outputs().len();
+    let n_out = names.len();
     let mut all = vec![MetricsAccumulator::new(); n_out];
     let mut per_run: Vec<Vec<Value>> = vec![Vec::new(); n_out];
     let mut unscored = vec![0usize; n_out];
@@ -60,8 +63,15 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         for note in &p.notes {
             eprintln!("note: {}: {note}", run.path.display());
         }
-        for (k, name) in model.outputs().iter().enumerate() {
+        for (k, name) in names.iter().enumerate() {
             let col = map.column(name);
+            if k >= n_model && run.column(col).is_none() {
+                eprintln!(
+                    "note: {}: no measured {col}: the tool-tip {name} is not scored",
+                    run.path.display()
+                );
+                continue;
+            }
             let y = run.column(col).ok_or_else(|| {
                 anyhow!(
                     "{}: no measured column \"{col}\" to compare output \"{name}\" with (use --map {name}=COLUMN)",
@@ -101,7 +111,10 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         }
     }
     let mut out = Map::new();
-    for (k, name) in model.outputs().iter().enumerate() {
+    for (k, name) in names.iter().enumerate() {
+        if k >= n_model && per_run[k].is_empty() {
+            continue;
+        }
         let m = all[k].clone().finish().map_err(|e| {
             anyhow!("output \"{name}\": nothing to score ({e}): no row has both a prediction and a measurement")
         })?;

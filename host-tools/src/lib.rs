@@ -8,6 +8,8 @@ pub mod demo;
 pub mod diagnose;
 pub mod eval;
 pub mod fit;
+pub mod fivepoint;
+pub mod fivepoint_demo;
 pub mod hub;
 pub mod num;
 pub mod predict;

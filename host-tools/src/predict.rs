@@ -56,7 +56,7 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     if a.json {
         crate::data::fsio::print_line(
             &serde_json::json!({"out": a.out.display().to_string(), "runs": runs.len(), "rows": rows,
-                "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
+                "outputs": runner::prediction_names(&model),
                 "missing_cells": missing, "skipped_rows": crate::data::source::skipped_rows(&runs)})
             .to_string(),
         )?;
@@ -84,7 +84,8 @@ fn write_predictions(
         header.push("run".into());
     }
     header.push("t_s".into());
-    header.extend(model.outputs().iter().map(|o| format!("{o}_pred")));
+    let names = runner::prediction_names(model);
+    header.extend(names.iter().map(|o| format!("{o}_pred")));
     if a.interval {
         for o in model.outputs() {
             header.push(format!("{o}_lo95"));
@@ -109,7 +110,12 @@ fn write_predictions(
             } else {
                 String::new()
             };
-            let cols = model.outputs().len() * if a.interval { 3 } else { 1 };
+            let cols = names.len()
+                + if a.interval {
+                    2 * model.outputs().len()
+                } else {
+                    0
+                };
             writeln!(w, "{lead}{}", ",".repeat(cols)).with_context(write_err)
         };
         let mut skipped = run.skipped.iter().peekable();
@@ -117,7 +123,7 @@ fn write_predictions(
             while skipped.next_if(|s| s.before <= i).is_some() {
                 blank_row(w)?;
                 rows += 1;
-                missing += model.outputs().len();
+                missing += names.len();
             }
             let mut line = String::new();
             if several {
@@ -147,7 +153,7 @@ fn write_predictions(
         for _ in skipped {
             blank_row(w)?;
             rows += 1;
-            missing += model.outputs().len();
+            missing += names.len();
         }
     }
     Ok((rows, missing))

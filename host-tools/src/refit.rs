@@ -256,6 +256,7 @@ fn structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Structure>> {
                     dt_s: model.dt_s,
                     params: Params::Tf(ents),
                     bounds: None,
+                    five_point: None,
                 }
                 .validate()
                 .map_err(|e| anyhow!("tf entry: {e}"))?;

@@ -7,9 +7,14 @@
 //! grid by linear interpolation, the model runs on the grid, and its outputs
 //! are interpolated back to the run's rows. Whatever was done is reported as
 //! a note, never silently.
+//!
+//! A five-point model's predictions also carry the tool-tip drift from its
+//! outputs and each row's `tool_mm`, as the hub computes it.
 
 use crate::data::runfile::{resample_linear, uniform_grid, RunFile};
+use crate::fivepoint::TOOL_COLUMN;
 use anyhow::{bail, Result};
+use model_core::fivepoint::{TipMap, TIP_OUTPUTS};
 use model_core::model::{ModelState, StepError, MAX_OUTPUTS};
 use model_core::ValidModel;
 use std::collections::HashMap;
@@ -39,13 +44,13 @@ impl ColumnMap {
     /// its outputs are compared with).
     pub fn model_columns(&self, model: &ValidModel, outputs: bool) -> Vec<String> {
         let inputs = model.inputs().iter().map(|c| c.name.as_str());
-        let outs = model
-            .outputs()
-            .iter()
-            .map(|o| o.as_str())
-            .filter(|_| outputs);
+        let names = prediction_names(model);
+        let outs = names.iter().map(String::as_str).filter(|_| outputs);
+        // A five-point model's tip needs each row's tool length.
+        let tool = model.five_point().map(|_| TOOL_COLUMN);
         inputs
             .chain(outs)
+            .chain(tool)
             .map(|n| self.column(n).to_string())
             .collect()
     }
@@ -168,8 +173,62 @@ pub fn step_all<C: AsRef<[Option<f64>]>>(
     (values, bands)
 }
 
-/// Runs `model` over one run file.
+/// The columns [`predict`] fills, in [`Prediction::values`] order: the
+/// model's outputs, then, for a five-point model, the tool-tip drift
+/// `dx_um`, `dy_um`, `dz_um` (docs/fivepoint.md).
+pub fn prediction_names(model: &ValidModel) -> Vec<String> {
+    let tip = model.five_point().map_or(&[][..], |_| &TIP_OUTPUTS[..]);
+    model
+        .outputs()
+        .iter()
+        .map(|o| o.to_string())
+        .chain(tip.iter().map(|t| (*t).to_string()))
+        .collect()
+}
+
+/// Runs `model` over one run file: one value per [`prediction_names`] and row.
 pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Prediction> {
+    let mut p = predict_outputs(model, run, map)?;
+    if let Some(tip) = model.five_point() {
+        let tool = run.column(map.column(TOOL_COLUMN));
+        if tool.is_none() {
+            p.notes.push(format!(
+                "no {TOOL_COLUMN} column: the tool-tip dx_um, dy_um, dz_um are left empty"
+            ));
+        }
+        let tip_values = tool_tip_columns(tip, &p.values, tool, run.len());
+        p.values.extend(tip_values);
+    }
+    Ok(p)
+}
+
+/// The tip drift per row from a five-point model's outputs and the row's
+/// tool length (empty where either is missing), as the hub computes it.
+fn tool_tip_columns(
+    tip: &TipMap,
+    outputs: &[Vec<Option<f64>>],
+    tool: Option<&[Option<f64>]>,
+    len: usize,
+) -> [Vec<Option<f64>>; 3] {
+    let mut cols: [Vec<Option<f64>>; 3] = Default::default();
+    for row in 0..len {
+        let values: Option<Vec<f64>> = outputs
+            .iter()
+            .map(|c| c.get(row).copied().flatten())
+            .collect();
+        let tool_mm = tool.and_then(|t| t.get(row).copied().flatten());
+        let drift = values
+            .zip(tool_mm)
+            .and_then(|(v, t)| tip.tool_tip(&v, t).ok());
+        for (k, col) in cols.iter_mut().enumerate() {
+            col.push(drift.map(|d| d[k]));
+        }
+    }
+    cols
+}
+
+/// Runs `model` over one run file: its own outputs only.
+fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Prediction> {
     let columns = input_columns(model, run, map)?;
     let mut notes = Vec::new();
     let n = run.len();

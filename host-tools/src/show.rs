@@ -226,6 +226,8 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
         "outputs": model.outputs().iter().map(|o| o.as_str()).collect::<Vec<_>>(),
         "coefficients": coefficients,
         "bounds": bounds_json(model),
+        "five_point": model.five_point().map(|t| json!({
+            "l_defl_mm": t.l_defl_mm(), "lanes": model_core::fivepoint::TIP_OUTPUTS})),
     })
 }
 
@@ -422,6 +424,13 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                 let _ = writeln!(s, "  {} = {line}", name_of(model.outputs(), eq.output));
             }
         }
+    }
+    if let Some(t) = model.five_point() {
+        let _ = writeln!(
+            s,
+            "  five-point: deflection centre {} mm above the nose; the hub sends dx_um, dy_um, dz_um at the tool tip (docs/fivepoint.md)",
+            t.l_defl_mm()
+        );
     }
     match model.bounds() {
         None => {

@@ -42,7 +42,7 @@ fn build_show_predict_eval_seed004() {
     );
     let v = ok_json(&["model", "show", "--model", p(&blob), "--json"]);
     assert_eq!(v["kind"], "tf");
-    assert_eq!(v["format_version"], 2);
+    assert_eq!(v["format_version"], 3);
     assert_eq!(v["outputs"][0], "dz_um");
     assert_eq!(v["inputs"][1]["reference"], "first");
     // SP2's gain (16.0005 - 15.9975) / (1 - 0.99983) to f64 rounding.
@@ -122,7 +122,7 @@ fn fbank_spec_builds_shows_and_predicts() {
     let (text, _) = ok(&["model", "show", "--model", p(&blob)]);
     for needle in [
         "kind fbank",
-        "blob format version 2",
+        "blob format version 3",
         "s1 = T1 (unfiltered)",
         "s2 = low-pass(T1), tau 10.0000 min, pole 0.99833472",
         "s3 = ambient_c^2 (unfiltered)",
@@ -134,7 +134,7 @@ fn fbank_spec_builds_shows_and_predicts() {
     }
     let v = ok_json(&["model", "show", "--model", p(&blob), "--json"]);
     assert_eq!(v["kind"], "fbank");
-    assert_eq!(v["format_version"], 2);
+    assert_eq!(v["format_version"], 3);
     let f = &v["coefficients"]["features"];
     assert_eq!(f[2]["input"], "ambient_c");
     assert_eq!(f[2]["power"], 2);

@@ -19,16 +19,19 @@
 //!
 //! Version 2 added the optional calibration [`Bounds`](crate::model::Bounds)
 //! as the body's last field; a version-1 body (the same fields without it)
-//! still decodes, with no bounds.
+//! still decodes, with no bounds. Version 3 added the optional five-point
+//! geometry ([`FivePoint`](crate::fivepoint::FivePoint)) after the bounds;
+//! a version-2 body still decodes, with none.
 
+use crate::model::{Bounds, Model, ModelError, ModelKind, Params, ValidModel};
 use crate::model::{Channel, Name, MAX_CHANNELS, MAX_OUTPUTS};
-use crate::model::{Model, ModelError, ModelKind, Params, ValidModel};
 use serde::Deserialize;
 
 /// Magic bytes at offset 0.
 pub const MAGIC: [u8; 4] = *b"TCMB";
-/// Blob format written by this code (2: a model may carry bounds).
-pub const FORMAT_VERSION: u16 = 2;
+/// Blob format written by this code (2: a model may carry bounds; 3: a
+/// five-point model carries its tip geometry).
+pub const FORMAT_VERSION: u16 = 3;
 /// Oldest blob format this code reads (1: no bounds field).
 pub const OLDEST_READ_VERSION: u16 = 1;
 /// Bytes before the body.
@@ -281,13 +284,12 @@ pub fn decode_split(head: &[u8], tail: &[u8]) -> Result<ValidModel, BlobError> {
     let kind = ModelKind::from_code(header.kind_code).ok_or(BlobError::BadKind {
         code: header.kind_code,
     })?;
-    let (model, rest): (Model, &[u8]) = if header.version == 1 {
-        postcard::take_from_bytes::<ModelV1>(body)
-            .map(|(m, rest)| (m.into(), rest))
-            .map_err(|_| BlobError::Malformed)?
-    } else {
-        postcard::take_from_bytes(body).map_err(|_| BlobError::Malformed)?
-    };
+    let (model, rest): (Model, &[u8]) = match header.version {
+        1 => postcard::take_from_bytes::<ModelV1>(body).map(|(m, rest)| (m.into(), rest)),
+        2 => postcard::take_from_bytes::<ModelV2>(body).map(|(m, rest)| (m.into(), rest)),
+        _ => postcard::take_from_bytes(body),
+    }
+    .map_err(|_| BlobError::Malformed)?;
     if !rest.is_empty() {
         return Err(BlobError::Malformed);
     }
@@ -318,6 +320,30 @@ impl From<ModelV1> for Model {
             dt_s: m.dt_s,
             params: m.params,
             bounds: None,
+            five_point: None,
+        }
+    }
+}
+
+/// The body of a version-2 blob: [`Model`] without the five-point geometry.
+#[derive(Deserialize)]
+struct ModelV2 {
+    inputs: heapless::Vec<Channel, MAX_CHANNELS>,
+    outputs: heapless::Vec<Name, MAX_OUTPUTS>,
+    dt_s: f64,
+    params: Params,
+    bounds: Option<Bounds>,
+}
+
+impl From<ModelV2> for Model {
+    fn from(m: ModelV2) -> Self {
+        Self {
+            inputs: m.inputs,
+            outputs: m.outputs,
+            dt_s: m.dt_s,
+            params: m.params,
+            bounds: m.bounds,
+            five_point: None,
         }
     }
 }

@@ -10,3 +10,10 @@ pub const MAX_CHANNELS: usize = 32;
 pub const MAX_OUTPUTS: usize = 4;
 /// Bytes in a column name (`ambient_c`, `T16`, `dz_um` fit easily).
 pub const NAME_LEN: usize = 24;
+
+/// A run-file column name.
+pub type Name = heapless::String<NAME_LEN>;
+
+/// Largest deflection-centre distance accepted, mm: no spindle is 5 m long,
+/// so a larger value is a unit mistake (µm for mm).
+pub const MAX_L_DEFL_MM: f64 = 5000.0;

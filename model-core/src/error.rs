@@ -54,6 +54,10 @@ pub enum ModelError {
     /// A calibration span has `min > max` (or a width beyond f64), or an
     /// error half-width is negative.
     BadBounds,
+    /// Five-point geometry on a model whose outputs are not exactly
+    /// `e_um`, `theta_x_urad`, `theta_y_urad`, or with `l_defl_mm` outside
+    /// `0..=MAX_L_DEFL_MM`, or together with a positional output.
+    BadFivePoint,
 }
 
 impl core::fmt::Display for ModelError {
@@ -81,6 +85,11 @@ impl core::fmt::Display for ModelError {
             Self::BadBounds => write!(
                 f,
                 "bounds: a span has min > max, or an error half-width is negative"
+            ),
+            Self::BadFivePoint => write!(
+                f,
+                "five-point geometry needs exactly the outputs e_um, theta_x_urad, theta_y_urad, no positional output, and 0 <= l_defl_mm <= {}",
+                crate::capacity::MAX_L_DEFL_MM
             ),
         }
     }

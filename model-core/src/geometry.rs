@@ -200,26 +200,9 @@ impl SpindleDrift {
         if libm::fabs(self.yaw_rad) >= FRAC_PI_2 || libm::fabs(self.pitch_rad) >= FRAC_PI_2 {
             return Err(GeometryError::AngleOutOfRange);
         }
-        let l_um = (l_defl_mm + tool_mm) * UM_PER_MM;
-        if !l_um.is_finite() {
-            return Err(GeometryError::InvalidLength);
-        }
         let tan_x = libm::tan(self.yaw_rad);
         let tan_y = libm::tan(self.pitch_rad);
-        let tan_sq = tan_x * tan_x + tan_y * tan_y;
-        // q = 1/cos of the resultant tilt.
-        let q = libm::sqrt(1.0 + tan_sq);
-        let axis_um = l_um + self.elongation_um;
-        let drift = ToolTipDrift {
-            x_um: axis_um * tan_x / q,
-            y_um: axis_um * tan_y / q,
-            z_um: l_um * tan_sq / (q * (q + 1.0)) - self.elongation_um / q,
-        };
-        if drift.x_um.is_finite() && drift.y_um.is_finite() && drift.z_um.is_finite() {
-            Ok(drift)
-        } else {
-            Err(GeometryError::Overflow)
-        }
+        tip_from_tangents(self.elongation_um, tan_x, tan_y, l_defl_mm + tool_mm)
     }
 
     /// Offsets the CNC must add to cancel this drift, µm: the negated
@@ -231,6 +214,37 @@ impl SpindleDrift {
     ) -> Result<CompensationOffsets, GeometryError> {
         self.tool_tip_drift(l_defl_mm, tool_mm)
             .map(|drift| drift.compensation())
+    }
+}
+
+/// The exact tip drift (module doc) for elongation `e_um`, the tangents of
+/// the two tilts, and `l_mm = l_defl + tool`; the one formula both
+/// [`SpindleDrift::tool_tip_drift`] and the hub's five-point path
+/// (`crate::fivepoint`, which gets the tangents without `libm::tan`) use.
+/// Lengths and finiteness of the inputs are the caller's to check.
+pub(crate) fn tip_from_tangents(
+    e_um: f64,
+    tan_x: f64,
+    tan_y: f64,
+    l_mm: f64,
+) -> Result<ToolTipDrift, GeometryError> {
+    let l_um = l_mm * UM_PER_MM;
+    if !l_um.is_finite() {
+        return Err(GeometryError::InvalidLength);
+    }
+    let tan_sq = tan_x * tan_x + tan_y * tan_y;
+    // q = 1/cos of the resultant tilt.
+    let q = libm::sqrt(1.0 + tan_sq);
+    let axis_um = l_um + e_um;
+    let drift = ToolTipDrift {
+        x_um: axis_um * tan_x / q,
+        y_um: axis_um * tan_y / q,
+        z_um: l_um * tan_sq / (q * (q + 1.0)) - e_um / q,
+    };
+    if drift.x_um.is_finite() && drift.y_um.is_finite() && drift.z_um.is_finite() {
+        Ok(drift)
+    } else {
+        Err(GeometryError::Overflow)
     }
 }
 

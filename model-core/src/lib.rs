@@ -10,7 +10,8 @@
 //!   [`linear`] (seed 002), [`pcr`] and
 //!   [`position`] (seed 003), [`bp`] (seeds 000/003), [`arma`] (seed 001).
 //! - [`rtd`]: PT100/PT1000 conversion; [`geometry`]: five-point spindle
-//!   measurement and 3-axis offsets; [`metrics`]: fit %, dpk, reduction...
+//!   measurement and 3-axis offsets; [`fivepoint`]: models of E and the
+//!   tilts turned into tool-tip offsets; [`metrics`]: fit %, dpk, reduction...
 #![no_std]
 #![warn(missing_docs)]
 
@@ -23,6 +24,7 @@ pub mod bp;
 pub mod capacity;
 pub mod error;
 pub mod fbank;
+pub mod fivepoint;
 pub mod geometry;
 pub mod linear;
 pub mod metrics;

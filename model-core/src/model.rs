@@ -17,12 +17,13 @@
 use crate::arma::{Arma, ArmaState};
 use crate::bp::BpNet;
 use crate::fbank::{FilterBank, MAX_FB_FEATURES};
+use crate::fivepoint::{FivePoint, TipMap};
 use crate::linear::Linear;
 use crate::pcr::Pcr;
 use crate::tf::{RealisedTf, TfEntry, TfError, TfHistory, MAX_TF_ENTRIES};
 use serde::{Deserialize, Serialize};
 
-pub use crate::capacity::{MAX_CHANNELS, MAX_OUTPUTS, NAME_LEN};
+pub use crate::capacity::{Name, MAX_CHANNELS, MAX_OUTPUTS, NAME_LEN};
 pub use crate::error::ModelError;
 
 /// Largest input magnitude `step` accepts. No quantity the hub reads
@@ -32,9 +33,6 @@ pub use crate::error::ModelError;
 /// otherwise overflow the next step's arithmetic for as long as it stays in
 /// the history).
 pub const MAX_INPUT_MAGNITUDE: f64 = 1e9;
-
-/// A run-file column name.
-pub type Name = heapless::String<NAME_LEN>;
 
 /// What an input is measured against before it enters the model.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -161,6 +159,10 @@ pub struct Model {
     /// What calibration saw: the input envelope and the error band
     /// (optional; blob format 2 and later).
     pub bounds: Option<Bounds>,
+    /// The tip geometry of a five-point model (outputs `e_um`,
+    /// `theta_x_urad`, `theta_y_urad`; [`crate::fivepoint`]); blob format 3
+    /// and later.
+    pub five_point: Option<FivePoint>,
 }
 
 /// A closed range of values, in the quantity's unit.
@@ -428,10 +430,19 @@ impl Model {
                 output: u8::try_from(o).unwrap_or(u8::MAX),
             });
         }
-        Ok(ValidModel {
+        let tip = match &self.five_point {
+            Some(fp) => Some(fp.map(&self.outputs)?),
+            None => None,
+        };
+        let valid = ValidModel {
             model: self,
             derived,
-        })
+            tip,
+        };
+        if valid.tip.is_some() && valid.positional_outputs() != 0 {
+            return Err(ModelError::BadFivePoint);
+        }
+        Ok(valid)
     }
 }
 
@@ -454,6 +465,7 @@ enum Derived {
 pub struct ValidModel {
     model: Model,
     derived: Derived,
+    tip: Option<TipMap>,
 }
 
 /// Why one step produced no outputs (the state is left as it was).
@@ -551,6 +563,11 @@ fn to_u8(n: usize) -> u8 {
 }
 
 impl ValidModel {
+    /// A five-point model's tip geometry (`None` for other models).
+    pub fn five_point(&self) -> Option<&TipMap> {
+        self.tip.as_ref()
+    }
+
     /// The validated model data.
     pub fn model(&self) -> &Model {
         &self.model
@@ -1008,6 +1025,7 @@ mod tests {
                 theta: heapless::Vec::from_slice(theta).unwrap(),
             }),
             bounds: None,
+            five_point: None,
         }
     }
 

@@ -220,7 +220,7 @@ fn every_single_byte_change_is_caught_by_framing_or_crc() {
                     0..4 => BlobError::BadMagic,
                     // A flip to the other readable version passes the
                     // version check and is caught by the CRC.
-                    4..6 if matches!(u16::from_le_bytes([bad[4], bad[5]]), 1..=2) => {
+                    4..6 if matches!(u16::from_le_bytes([bad[4], bad[5]]), 1..=3) => {
                         BlobError::BadCrc {
                             stored: crc,
                             computed: crc32(&bad[..n - 4]),
@@ -367,7 +367,7 @@ fn header_fields_are_checked() {
             assert_eq!(decode(&bad).unwrap_err(), BlobError::BadMagic, "{label}");
         }
 
-        for version in [0u16, 3, 0x0100, u16::MAX] {
+        for version in [0u16, 4, 0x0100, u16::MAX] {
             let mut bad = good.clone();
             bad[4..6].copy_from_slice(&version.to_le_bytes());
             fix_crc(&mut bad);
@@ -455,20 +455,20 @@ fn round_trip_is_byte_exact_for_every_kind() {
 /// f64 as 8 bytes LE): inputs 1 + ("T1": 1+2, First: 1) + ("ambient_c":
 /// 1+9, First: 1) = 16; outputs 1 + ("dz_um": 1+5) = 7; dt_s 8; params:
 /// tag 1 + count 1 + SP2 (1+1 + a 1+3*8 + b 1+2*8 = 44) + ambient (1+1 +
-/// 1+3*8 + 1+3*8 = 52) = 98; bounds `None` 1 (format version 2). Total
-/// 130 = 0x82.
+/// 1+3*8 + 1+3*8 = 52) = 98; bounds `None` 1 (format version 2);
+/// five-point geometry `None` 1 (format version 3). Total 131 = 0x83.
 #[test]
 fn sp2_ambient_header_bytes_are_frozen() {
     let blob = blob_of(&valid(tf_sp2_ambient()));
     assert_eq!(
         blob[..HEADER_LEN],
-        [b'T', b'C', b'M', b'B', 2, 0, 1, 0, 0x82, 0, 0, 0]
+        [b'T', b'C', b'M', b'B', 3, 0, 1, 0, 0x83, 0, 0, 0]
     );
-    assert_eq!(blob.len(), HEADER_LEN + 130 + 4);
+    assert_eq!(blob.len(), HEADER_LEN + 131 + 4);
     assert_eq!(
-        blob[blob.len() - 5],
-        0,
-        "bounds: None is the last body byte"
+        blob[blob.len() - 6..blob.len() - 4],
+        [0, 0],
+        "bounds: None, then five_point: None, end the body"
     );
     let crc_at = blob.len() - 4;
     assert_eq!(stored_crc(&blob), crc32(&blob[..crc_at]));

@@ -62,6 +62,7 @@ fn hand_model() -> ValidModel {
             }]),
         }),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .expect("valid")
@@ -125,6 +126,7 @@ fn one_filtered_feature_equals_a_first_order_tf() {
                 }]),
             }),
             bounds: None,
+            five_point: None,
         }
         .validate()
         .unwrap();
@@ -173,7 +175,7 @@ fn one_filtered_feature_equals_a_first_order_tf() {
 fn blob_round_trip_keeps_bounds_and_poles() {
     let vm = fbank_3x2(true).validate().unwrap();
     let bytes = blob_of(&vm);
-    assert_eq!(bytes[4..7], [2, 0, 6], "format 2, kind code 6");
+    assert_eq!(bytes[4..7], [3, 0, 6], "format 3, kind code 6");
     let back = decode(&bytes).unwrap();
     assert_eq!(back.model(), vm.model());
     assert_eq!(back.bounds(), fbank_3x2(true).bounds.as_ref());
@@ -186,28 +188,35 @@ fn blob_round_trip_keeps_bounds_and_poles() {
     assert_eq!(decode(&wide).unwrap().model(), &fbank_wide(32));
 }
 
-/// A version-1 blob (no bounds field) as the old code wrote it: the same
-/// body without its last byte, the bounds' `None` tag. It decodes, with no
-/// bounds; the same body labelled version 2 is one byte short.
+/// Version-1 and version-2 blobs as the old code wrote them: the same body
+/// without its last two bytes (the bounds' and the five-point geometry's
+/// `None` tags) or without the last one. Both decode, with neither; a body
+/// labelled with another version is a byte short or long.
 #[test]
-fn version_1_blobs_still_decode() {
+fn version_1_and_2_blobs_still_decode() {
     for model in [common::tf_sp2_ambient(), fbank_3x2(false)] {
-        let v2 = blob_of(&model.clone().validate().unwrap());
-        let body = &v2[HEADER_LEN..v2.len() - 5];
-        assert_eq!(v2[v2.len() - 5], 0, "bounds None");
-        let v1 = frame(1, model.kind().code(), body);
-        let back = decode(&v1).expect("version 1 decodes");
-        assert_eq!(back.model(), &model);
-        assert!(back.bounds().is_none());
-        assert_eq!(
-            decode(&frame(2, model.kind().code(), body)).unwrap_err(),
-            model_core::BlobError::Malformed
-        );
+        let v3 = blob_of(&model.clone().validate().unwrap());
+        assert_eq!(v3[v3.len() - 6..v3.len() - 4], [0, 0], "two None tags");
+        let body_v1 = &v3[HEADER_LEN..v3.len() - 6];
+        let body_v2 = &v3[HEADER_LEN..v3.len() - 5];
+        for (version, body) in [(1, body_v1), (2, body_v2)] {
+            let old = frame(version, model.kind().code(), body);
+            let back = decode(&old).expect("an older version decodes");
+            assert_eq!(back.model(), &model, "version {version}");
+            assert!(back.bounds().is_none() && back.five_point().is_none());
+        }
+        for (version, body) in [(2, body_v1), (1, body_v2), (3, body_v2)] {
+            assert_eq!(
+                decode(&frame(version, model.kind().code(), body)).unwrap_err(),
+                model_core::BlobError::Malformed,
+                "version {version}"
+            );
+        }
     }
     // The SP2 + ambient blob's version-1 header, frozen before version 2:
     // 129 body bytes.
-    let v2 = blob_of(&common::tf_sp2_ambient().validate().unwrap());
-    let v1 = frame(1, 1, &v2[HEADER_LEN..v2.len() - 5]);
+    let v3 = blob_of(&common::tf_sp2_ambient().validate().unwrap());
+    let v1 = frame(1, 1, &v3[HEADER_LEN..v3.len() - 6]);
     assert_eq!(
         v1[..HEADER_LEN],
         [b'T', b'C', b'M', b'B', 1, 0, 1, 0, 0x81, 0, 0, 0]

@@ -145,6 +145,7 @@ pub fn tf() -> Model {
         dt_s: 1.0,
         params: Params::Tf(entries),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -173,6 +174,7 @@ pub fn bp() -> Model {
         dt_s: 0.0,
         params: Params::Bp(net),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -199,6 +201,7 @@ pub fn linear() -> Model {
         dt_s: 0.0,
         params: Params::Linear(lin),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -227,6 +230,7 @@ pub fn pcr() -> Model {
         dt_s: 0.0,
         params: Params::Pcr(p),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -259,6 +263,7 @@ pub fn arma() -> Model {
         dt_s: 1.0,
         params: Params::Arma(a),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -296,6 +301,7 @@ pub fn fbank() -> Model {
             outputs: out,
         }),
         bounds: None,
+        five_point: None,
     }
 }
 

@@ -42,6 +42,7 @@ fn model(intercept: f64) -> ValidModel {
             }]),
         }),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .unwrap()

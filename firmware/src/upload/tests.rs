@@ -63,6 +63,7 @@ fn raw_model(intercept: f64) -> Model {
             }]),
         }),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -203,11 +204,11 @@ fn corrupted_blobs_are_refused_and_the_old_slot_stays_active() {
 
     // Another format version.
     let mut b = blob(2.0);
-    b[4] = 3;
+    b[4] = 4;
     reseal(&mut b);
     assert_eq!(
         refused(&b),
-        UploadError::Blob(BlobError::UnsupportedVersion { found: 3 })
+        UploadError::Blob(BlobError::UnsupportedVersion { found: 4 })
     );
 
     // Header kind says PCR, body is linear.

@@ -7,6 +7,8 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
+mod fivepoint;
+
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
 use crate::{
@@ -69,6 +71,16 @@ enum Command {
     /// firmware/thermcomp.dbc. The sample period is the hub's (the model's
     /// dt_s, or 1 s for static models).
     Replay(replay::ReplayArgs),
+    /// From five-point probes S1..S5: the spindle's elongation e_um and
+    /// tilts theta_x_urad, theta_y_urad, and the tool-tip drift dx_um,
+    /// dy_um, dz_um, beside the run's other columns (docs/fivepoint.md).
+    ///
+    /// Changes are taken from each probe's first reading; theta =
+    /// atan((dS_near minus dS_far) / a); the tip drift is the exact geometry
+    /// about the deflection centre l_defl above the nose, about
+    /// (l_defl + tool) theta for X/Y and -E for Z (seeds 000/001).
+    #[command(name = "fivepoint")]
+    FivePoint(fivepoint::FivePointArgs),
     /// Rank and pick temperature sensors (grey: seed 000; wgrey: seed 002; maxtree: seed 003).
     ///
     /// grey: grey clustering, grey correlation, best adjusted R^2 of the
@@ -148,6 +160,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Demo(a) => demo::run(&a),
+        Command::FivePoint(a) => fivepoint::run(&a),
         Command::Bench(c) => bench::run(&c),
         Command::Hub(c) => hub::run(&c),
         Command::Predict(a) => predict::run(&a),

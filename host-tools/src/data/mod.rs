@@ -6,6 +6,7 @@
 pub mod blobfile;
 pub mod dataset;
 pub mod fsio;
+pub mod rawcells;
 pub mod runfile;
 pub mod source;
 pub mod spec;

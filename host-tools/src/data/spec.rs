@@ -194,6 +194,30 @@ struct SpecFile {
     arma: Option<Spanned<ArmaSpec>>,
     fbank: Option<Spanned<FbankSpec>>,
     bounds: Option<Spanned<BoundsSpec>>,
+    /// A five-point model's deflection-centre distance, mm (required when
+    /// the outputs are `e_um`, `theta_x_urad`, `theta_y_urad`; docs/fivepoint.md).
+    l_defl_mm: Option<Spanned<f64>>,
+}
+
+/// The five-point geometry of a spec: `l_defl_mm` exactly when the outputs
+/// are the five-point ones (model-core checks its range).
+fn five_point_of(
+    l_defl_mm: Option<&Spanned<f64>>,
+    outputs: &[Name],
+) -> Result<Option<model_core::fivepoint::FivePoint>> {
+    let wanted = model_core::fivepoint::is_five_point(outputs);
+    match (l_defl_mm, wanted) {
+        (Some(l), true) => Ok(Some(model_core::fivepoint::FivePoint {
+            l_defl_mm: *l.get_ref(),
+        })),
+        (None, false) => Ok(None),
+        (None, true) => bail!(
+            "the outputs e_um, theta_x_urad, theta_y_urad make a five-point model: give l_defl_mm (mm, top level)"
+        ),
+        (Some(_), false) => bail!(
+            "l_defl_mm is for five-point models only (outputs e_um, theta_x_urad, theta_y_urad)"
+        ),
+    }
 }
 
 fn number(v: &toml::Value, what: &str) -> Result<f64> {
@@ -851,12 +875,15 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
         ),
         None => None,
     };
+    let five_point = five_point_of(spec.l_defl_mm.as_ref(), &b.outputs)
+        .map_err(|e| anyhow!("{}: {e}", kind_at))?;
     let model = Model {
         inputs: b.inputs,
         outputs: b.outputs,
         dt_s,
         params,
         bounds,
+        five_point,
     };
     model.validate().map_err(|e| match e {
         ModelError::Tf { entry, error } => {

@@ -547,6 +547,7 @@ pub fn bank(ds: &Dataset, dt: f64, entries: Vec<TfEntry>) -> Result<ValidModel> 
         dt_s: dt,
         params: Params::Tf(bank),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .map_err(|e| anyhow!("{e}"))

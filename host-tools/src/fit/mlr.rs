@@ -48,6 +48,7 @@ pub fn fit(ds: &Dataset) -> Result<Fitted> {
         dt_s: 0.0,
         params: Params::Linear(Linear { outputs: equations }),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;

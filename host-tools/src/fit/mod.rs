@@ -87,6 +87,12 @@ pub struct FitArgs {
     /// Print one JSON object with the fit and held-out figures.
     #[arg(long)]
     pub json: bool,
+    /// Five-point targets (e_um,theta_x_urad,theta_y_urad): the spindle's
+    /// deflection centre above the nose, mm, recorded in the blob so that the
+    /// hub turns the outputs into tool-tip offsets (default 300, the twin's
+    /// machine; docs/fivepoint.md).
+    #[arg(long, value_name = "MM")]
+    pub l_defl_mm: Option<f64>,
     /// PCR options.
     #[command(flatten)]
     pub pcr: pcr::PcrArgs,
@@ -283,7 +289,8 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
         FitKind::Gabp => bp::fit(&ds, &a.bp, true)?,
         FitKind::Arma => arma::fit(&ds, &a.arma, a.arx.dt_s)?,
     };
-    let bytes = crate::data::blobfile::write(&fitted.model, &a.out)?;
+    let model = crate::fivepoint::with_geometry(fitted.model.clone(), a.l_defl_mm)?;
+    let bytes = crate::data::blobfile::write(&model, &a.out)?;
     // Score what was written, decoded back: the figures are the blob's.
     let flashed = model_core::decode(&bytes).map_err(|e| anyhow!("written blob: {e}"))?;
     let split: Vec<(&RunFile, usize)> = runs
@@ -309,6 +316,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
         "holdout_rows": ds.holdout_len(),
         "skipped_rows": crate::data::source::skipped_rows(runs.iter().chain(&validate)),
         "targets": targets,
+        "l_defl_mm": flashed.five_point().map(|t| t.l_defl_mm()),
         "details": fitted.details,
     });
     Ok(FitOutcome {

@@ -128,6 +128,7 @@ pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
         dt_s: 0.0,
         params: Params::Pcr(pcr),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;

@@ -75,7 +75,9 @@ pub struct ReplayArgs {
     #[arg(long, default_value = "can0", value_parser = crate::data::source::interface_name)]
     pub interface: String,
     /// Also write a CSV of every sample: the inputs as the hub read them and
-    /// the offsets decoded from the frames sent (`<output>_sent`), the
+    /// the offsets decoded from the frames sent (`<output>_sent`; for a
+    /// five-point model `dx_um_sent`, `dy_um_sent`, `dz_um_sent` and the
+    /// `tool_mm` the hub used), the
     /// slope of each positional output (`<output>_slope_um_per_m`, from the
     /// SLOPE frames), with the hub state and flags.
     #[arg(long, value_name = "FILE.csv")]
@@ -245,7 +247,11 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
         |m| {
             (
                 m.inputs().iter().map(|c| c.name.to_string()).collect(),
-                m.outputs().iter().map(|o| o.to_string()).collect(),
+                // A five-point model's lanes are the tip's dx, dy, dz.
+                (0..m.outputs().len())
+                    .filter_map(|j| firmware::tip::lane_name(m, j))
+                    .map(str::to_string)
+                    .collect(),
             )
         },
     );
@@ -253,7 +259,13 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
     let columns: Vec<String> = inputs.iter().map(|n| map.column(n).to_string()).collect();
     // The CNC's columns are optional (absent: no frames), so every column
     // the model names is read if the file has it.
-    let needed: Vec<String> = columns.clone();
+    // A five-point model turns its outputs into the tool tip with the tool
+    // length the CNC sends: the run's tool_mm column.
+    let tip_tool = probe
+        .model()
+        .and_then(|m| m.five_point())
+        .map(|_| map.column(TOOL_INPUT).to_string());
+    let needed: Vec<String> = columns.iter().cloned().chain(tip_tool.clone()).collect();
     let runs = a.runs.read(needed)?;
     // Both outputs are built in memory and written atomically at the end,
     // so a failed run leaves no half log behind.
@@ -271,6 +283,9 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
                     .filter(|&(j, _)| positional & (1 << j) != 0)
                     .map(|(_, o)| format!("{o}_slope_um_per_m")),
             );
+            if tip_tool.is_some() {
+                header.push(TOOL_INPUT.to_string());
+            }
             header.extend(["state".to_string(), "flags".to_string()]);
             writeln!(w, "{}", header.join(","))?;
             Some(w)
@@ -285,6 +300,7 @@ pub fn replay_files(a: &ReplayArgs) -> Result<serde_json::Value> {
             n_outputs: outputs.len(),
             positional,
             position_inputs,
+            tip_tool: tip_tool.as_deref(),
         };
         let tally = replay_run(&bytes, run, &shape, a, &mut log, trace.as_mut())?;
         per_run.push((run.path.display().to_string(), tally));
@@ -334,6 +350,9 @@ struct Shape<'a> {
     positional: u8,
     /// Bit `i`: input `i` is an axis position (not read by the hub).
     position_inputs: u32,
+    /// A five-point model's tool-length column (sent to the hub in
+    /// TOOL_POSITION frames even though no model input reads it).
+    tip_tool: Option<&'a str>,
 }
 
 /// One run through a fresh hub (a run is a power cycle).
@@ -370,6 +389,7 @@ fn replay_run(
         n_outputs,
         positional,
         position_inputs,
+        tip_tool,
     } = *shape;
     // How long a logged row stands for the hub's reading (`causal_values`).
     let hold_s = sampling.dt_median_s.map_or(dt, |m| m.max(dt));
@@ -441,7 +461,7 @@ fn replay_run(
             .find(|(s, _)| want(s))
             .and_then(|(_, v)| v[k])
     };
-    let cnc_columns: Vec<Vec<Option<f64>>> = [
+    let mut cnc_columns: Vec<Vec<Option<f64>>> = [
         (|s: &Source| matches!(s, Source::Cnc(CncInput::Speed))) as fn(&Source) -> bool,
         |s| matches!(s, Source::Cnc(CncInput::Power)),
         |s| matches!(s, Source::Tool),
@@ -450,6 +470,13 @@ fn replay_run(
     .into_iter()
     .map(|want| (0..grid.len()).map(|k| cnc_value(want, k)).collect())
     .collect();
+    if let Some(col) = tip_tool.and_then(|c| run.column(c)) {
+        if let Some(tool) = cnc_columns.get_mut(2) {
+            if tool.iter().all(Option::is_none) {
+                *tool = cnc_values(&run.t_s, col, &grid);
+            }
+        }
+    }
     let mut readings = vec![Reading::Stale; inputs.len()];
     let mut seen = vec![f64::NAN; inputs.len()];
     for (k, &t) in grid.iter().enumerate() {
@@ -583,6 +610,14 @@ fn replay_run(
                     .filter(|&(j, _)| positional & (1 << j) != 0)
                     .map(|(_, v)| format!("{v:.3}")),
             );
+            if tip_tool.is_some() {
+                // The tool length the hub computed the tip with.
+                row.push(
+                    pipeline
+                        .tool_length_mm()
+                        .map_or(String::new(), |v| format!("{v}")),
+                );
+            }
             row.push(format!("{}", report.state.code()));
             row.push(format!("{}", report.flags.0));
             writeln!(w, "{}", row.join(","))?;

@@ -108,6 +108,7 @@ fn tf_with_ambient(sp: TfEntry) -> Model {
         dt_s: 1.0,
         params: Params::Tf(hv(&[sp, ambient_tf_entry()])),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -159,6 +160,7 @@ pub fn tf_bank_4x4() -> Model {
         dt_s: 1.0,
         params: Params::Tf(hv(&entries)),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -185,6 +187,7 @@ pub fn linear_seed002() -> Model {
             }]),
         }),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -221,6 +224,7 @@ pub fn pcr_seed003(position: bool) -> Model {
             }]),
         }),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -252,6 +256,7 @@ pub fn bp(m: usize, n: usize) -> Model {
             y_max: hv(&[5.0, 20.0, 20.0]),
         }),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -279,6 +284,7 @@ pub fn bp_3_4_2() -> Model {
             y_max: hv(&[5.0, 2.0]),
         }),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -304,6 +310,7 @@ pub fn arma_2_1_d1() -> Model {
             theta: hv(&[0.3]),
         }),
         bounds: None,
+        five_point: None,
     }
 }
 
@@ -365,6 +372,7 @@ pub fn fbank_3x2(bounds: bool) -> Model {
             half_width: hv(&[1.8, 0.9]),
             growth: hv(&[1.0, 3.0]),
         }),
+        five_point: None,
     }
 }
 
@@ -400,5 +408,6 @@ pub fn fbank_wide(n_in: usize) -> Model {
             }]),
         }),
         bounds: None,
+        five_point: None,
     }
 }

@@ -286,6 +286,7 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
         dt_s: dt,
         params: Params::Arma(arma.clone()),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .map_err(|e| {

@@ -601,6 +601,7 @@ fn assemble(
             outputs: fb_outputs,
         }),
         bounds: Some(bounds(&envelope, &bands)?),
+        five_point: None,
     };
     model
         .validate()

@@ -394,6 +394,7 @@ pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
         dt_s: 0.0,
         params: Params::Bp(net),
         bounds: None,
+        five_point: None,
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;

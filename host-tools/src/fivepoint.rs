@@ -1,0 +1,308 @@
+//! The five-point job: from the probe readings S1..S5 of a run to the
+//! spindle's elongation and tilts and the tool-tip drift (docs/fivepoint.md).
+//!
+//! Each probe's change is taken from its first reading in the run (the cold
+//! sample, seed 001 Eq. 25–26), then, with model-core's geometry
+//! ([`model_core::geometry`], seed 001 Eq. 1–4 and 27–28):
+//!
+//! ```text
+//! E  = dS5                       e_um
+//! θx = atan((dS1 − dS3) / a)     theta_x_urad
+//! θy = atan((dS2 − dS4) / a)     theta_y_urad
+//! (dx, dy, dz) = tip drift for l_defl and the row's tool length (exact; ≈ (l+tool)θx, (l+tool)θy, −E)
+//! ```
+//!
+//! A row's value is empty when a reading it needs is empty: `e_um` needs S5,
+//! `theta_x_urad` S1 and S3, `theta_y_urad` S2 and S4, the tip all five and
+//! a tool length. No row is ever dropped.
+
+use anyhow::{anyhow, bail, Result};
+use model_core::fivepoint::{is_five_point, FivePoint, DEFAULT_L_DEFL_MM};
+use model_core::geometry::{spindle_drift, ProbeReadings, SpindleDrift};
+use model_core::ValidModel;
+use serde::Serialize;
+
+/// Probe columns, S1..S5 (CONTRACT section 2).
+pub const PROBE_COLUMNS: [&str; 5] = ["S1", "S2", "S3", "S4", "S5"];
+/// The run column a row's tool length is read from when no fixed one is given.
+pub const TOOL_COLUMN: &str = "tool_mm";
+/// Columns the job writes, after `t_s`, in this order.
+pub const OUTPUT_COLUMNS: [&str; 6] = [
+    "e_um",
+    "theta_x_urad",
+    "theta_y_urad",
+    "dx_um",
+    "dy_um",
+    "dz_um",
+];
+/// Probe spacing of both papers, mm (seed 001: "= 120 mm").
+pub const DEFAULT_A_MM: f64 = 120.0;
+/// µrad per rad.
+const URAD_PER_RAD: f64 = 1e6;
+
+/// What the user asks for (unchecked).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FivePointParams {
+    /// Axial distance between the near and far radial probes, mm.
+    pub a_mm: f64,
+    /// Distance from the spindle nose up to the deflection centre, mm.
+    pub l_defl_mm: f64,
+    /// A fixed tool length, mm; `None`: each row's `tool_mm`.
+    pub tool_mm: Option<f64>,
+}
+
+/// [`FivePointParams`] after [`FivePointParams::check`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValidFivePointParams(FivePointParams);
+
+impl FivePointParams {
+    /// Checks the lengths once: `a_mm` finite and positive, `l_defl_mm` and
+    /// a fixed tool length finite and in `0..=5000` mm.
+    pub fn check(self) -> Result<ValidFivePointParams> {
+        let max = model_core::fivepoint::MAX_L_DEFL_MM;
+        if !(self.a_mm.is_finite() && self.a_mm > 0.0 && self.a_mm <= max) {
+            bail!("--a-mm {}: must be > 0 and <= {max} mm", self.a_mm);
+        }
+        if !(0.0..=max).contains(&self.l_defl_mm) {
+            bail!("--l-defl-mm {}: must be in 0..={max} mm", self.l_defl_mm);
+        }
+        if let Some(t) = self.tool_mm.filter(|t| !(0.0..=max).contains(t)) {
+            bail!("--tool-mm {t}: must be in 0..={max} mm");
+        }
+        Ok(ValidFivePointParams(self))
+    }
+}
+
+impl ValidFivePointParams {
+    /// The checked values.
+    pub fn get(&self) -> &FivePointParams {
+        &self.0
+    }
+}
+
+/// One run's readings, in memory.
+#[derive(Debug, Clone, Copy)]
+pub struct ProbeRun<'a> {
+    /// Sample times, s (for messages).
+    pub t_s: &'a [f64],
+    /// S1..S5, µm, one value per row (`None`: empty cell).
+    pub probes: [&'a [Option<f64>]; 5],
+    /// The run's `tool_mm` column, if it has one.
+    pub tool_mm: Option<&'a [Option<f64>]>,
+}
+
+/// The computed columns, one value per row, in [`OUTPUT_COLUMNS`] order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FivePointColumns {
+    /// `columns[i][row]`.
+    pub columns: [Vec<Option<f64>>; 6],
+}
+
+/// Largest magnitudes and counts over a run (the JSON summary).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FivePointOutcome {
+    /// Rows written.
+    pub rows: usize,
+    /// Rows with a tool-tip drift (all five probes and a tool length).
+    pub tip_rows: usize,
+    /// Where the tool length came from: `"--tool-mm"` or `"tool_mm"`.
+    pub tool_from: &'static str,
+    /// Probe spacing used, mm.
+    pub a_mm: f64,
+    /// Deflection-centre distance used, mm.
+    pub l_defl_mm: f64,
+    /// Largest |value| of each written column, keyed by its name.
+    pub max_abs: std::collections::BTreeMap<&'static str, f64>,
+}
+
+/// Each probe's first reading: the reference its changes are taken from.
+fn references(run: &ProbeRun<'_>) -> [Option<f64>; 5] {
+    run.probes.map(|col| {
+        col.iter()
+            .copied()
+            .find_map(|v| v.filter(|x| x.is_finite()))
+    })
+}
+
+/// Change of probe `i` at `row` from its reference.
+fn change(run: &ProbeRun<'_>, refs: &[Option<f64>; 5], i: usize, row: usize) -> Option<f64> {
+    let v = run.probes.get(i)?.get(row).copied().flatten()?;
+    Some(v - refs.get(i).copied().flatten()?)
+}
+
+/// The tool length of `row`.
+fn tool_at(p: &FivePointParams, run: &ProbeRun<'_>, row: usize) -> Option<f64> {
+    p.tool_mm
+        .or_else(|| run.tool_mm.and_then(|c| c.get(row).copied().flatten()))
+}
+
+/// One row: E, θx, θy (each when its probes have values) and the tip.
+fn row_values(
+    p: &FivePointParams,
+    run: &ProbeRun<'_>,
+    refs: &[Option<f64>; 5],
+    row: usize,
+) -> Result<[Option<f64>; 6]> {
+    let d = |i| change(run, refs, i, row);
+    let angle = |near: Option<f64>, far: Option<f64>| -> Result<Option<f64>> {
+        let (Some(n), Some(f)) = (near, far) else {
+            return Ok(None);
+        };
+        let c = ProbeReadings {
+            s1_um: n,
+            s3_um: f,
+            ..ProbeReadings::default()
+        };
+        Ok(Some(spindle_drift(&c, p.a_mm)?.yaw_rad * URAD_PER_RAD))
+    };
+    let e = d(4);
+    let tx = angle(d(0), d(2))?;
+    let ty = angle(d(1), d(3))?;
+    let tip = match (e, tx, ty, tool_at(p, run, row)) {
+        (Some(e), Some(tx), Some(ty), Some(tool)) => {
+            let drift = SpindleDrift {
+                elongation_um: e,
+                yaw_rad: tx / URAD_PER_RAD,
+                pitch_rad: ty / URAD_PER_RAD,
+            };
+            let t = drift.tool_tip_drift(p.l_defl_mm, tool)?;
+            [Some(t.x_um), Some(t.y_um), Some(t.z_um)]
+        }
+        _ => [None; 3],
+    };
+    Ok([e, tx, ty, tip[0], tip[1], tip[2]])
+}
+
+/// Computes the five-point columns of one run. Fails (naming the row's
+/// time) only on a tool length outside `0..=5000` mm or readings so large
+/// the geometry overflows.
+pub fn compute(
+    params: &ValidFivePointParams,
+    run: &ProbeRun<'_>,
+) -> Result<(FivePointColumns, FivePointOutcome)> {
+    let p = params.get();
+    if p.tool_mm.is_none() && run.tool_mm.is_none() {
+        bail!("the run has no {TOOL_COLUMN} column: give --tool-mm");
+    }
+    let n = run.t_s.len();
+    if run.probes.iter().any(|c| c.len() != n) || run.tool_mm.is_some_and(|c| c.len() != n) {
+        bail!("probe and tool columns must have one value per row");
+    }
+    let refs = references(run);
+    let max = model_core::fivepoint::MAX_L_DEFL_MM;
+    let mut columns: [Vec<Option<f64>>; 6] = Default::default();
+    for row in 0..n {
+        let t = run.t_s.get(row).copied().unwrap_or(f64::NAN);
+        if let Some(tool) = tool_at(p, run, row).filter(|v| !(0.0..=max).contains(v)) {
+            bail!("t_s = {t}: {TOOL_COLUMN} {tool} is outside 0..={max} mm");
+        }
+        let values = row_values(p, run, &refs, row).map_err(|e| anyhow!("t_s = {t}: {e}"))?;
+        for (col, v) in columns.iter_mut().zip(values) {
+            col.push(v);
+        }
+    }
+    let max_abs = OUTPUT_COLUMNS
+        .iter()
+        .zip(&columns)
+        .map(|(name, col)| {
+            (
+                *name,
+                col.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs())),
+            )
+        })
+        .collect();
+    let outcome = FivePointOutcome {
+        rows: n,
+        tip_rows: columns[3].iter().filter(|v| v.is_some()).count(),
+        tool_from: if p.tool_mm.is_some() {
+            "--tool-mm"
+        } else {
+            TOOL_COLUMN
+        },
+        a_mm: p.a_mm,
+        l_defl_mm: p.l_defl_mm,
+        max_abs,
+    };
+    Ok((FivePointColumns { columns }, outcome))
+}
+
+/// `model` with its five-point geometry: `l_defl_mm` (default
+/// [`DEFAULT_L_DEFL_MM`]) when its outputs are `e_um`, `theta_x_urad`,
+/// `theta_y_urad`; unchanged otherwise, where a given `l_defl_mm` is an
+/// error (it would be silently unused).
+pub fn with_geometry(model: ValidModel, l_defl_mm: Option<f64>) -> Result<ValidModel> {
+    if !is_five_point(model.outputs()) {
+        return match l_defl_mm {
+            Some(_) => {
+                bail!("--l-defl-mm is for five-point targets only (e_um,theta_x_urad,theta_y_urad)")
+            }
+            None => Ok(model),
+        };
+    }
+    let mut m = model.model().clone();
+    m.five_point = Some(FivePoint {
+        l_defl_mm: l_defl_mm.unwrap_or(DEFAULT_L_DEFL_MM),
+    });
+    m.validate().map_err(|e| {
+        anyhow!(
+            "--l-defl-mm {}: {e}",
+            l_defl_mm.unwrap_or(DEFAULT_L_DEFL_MM)
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(tool_mm: Option<f64>) -> ValidFivePointParams {
+        FivePointParams {
+            a_mm: 120.0,
+            l_defl_mm: 300.0,
+            tool_mm,
+        }
+        .check()
+        .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn changes_are_from_the_first_reading_and_gaps_stay_empty() {
+        // S1 moves +12 um from 100 (row 2); S5 +20 um; row 1 has no S3.
+        let s1 = [Some(100.0), Some(106.0), Some(112.0)];
+        let s3 = [Some(50.0), None, Some(50.0)];
+        let zero = [Some(7.0); 3];
+        let s5 = [Some(-3.0), Some(7.0), Some(17.0)];
+        let run = ProbeRun {
+            t_s: &[0.0, 1.0, 2.0],
+            probes: [&s1, &zero, &s3, &zero, &s5],
+            tool_mm: None,
+        };
+        let (c, o) = compute(&params(Some(100.0)), &run).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(c.columns[0], vec![Some(0.0), Some(10.0), Some(20.0)]);
+        assert_eq!(c.columns[1][1], None, "theta_x needs S3");
+        assert_eq!(c.columns[3][1], None, "the tip needs every probe");
+        // θx = atan(12 / 120000) rad = 99.99999967 urad (1e-9 covers rounding).
+        let tx = c.columns[1][2].unwrap_or(f64::NAN);
+        assert!((tx - 1e6 * (1e-4f64).atan()).abs() < 1e-9, "{tx}");
+        assert_eq!(o.tip_rows, 2);
+        assert_eq!(o.rows, 3);
+    }
+
+    #[test]
+    fn refuses_bad_settings() {
+        let bad = |a_mm, l_defl_mm, tool_mm| {
+            FivePointParams {
+                a_mm,
+                l_defl_mm,
+                tool_mm,
+            }
+            .check()
+            .is_err()
+        };
+        assert!(bad(0.0, 300.0, None));
+        assert!(bad(f64::NAN, 300.0, None));
+        assert!(bad(120.0, -1.0, None));
+        assert!(bad(120.0, 300.0, Some(f64::INFINITY)));
+        assert!(!bad(120.0, 0.0, Some(0.0)));
+    }
+}
