@@ -57,7 +57,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(v["benchmark"], "zoo");
-    assert_eq!(v["heldout_plant"], "d");
+    assert_eq!(v["heldout_plant"], "f");
     assert_eq!(v["scored_heldout"], false);
     assert_eq!(v["cases"], 12, "one case per cause on each of 2 plants");
     let plants = v["plants"].as_array().unwrap();
@@ -97,7 +97,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
             assert!(!c[k].is_null(), "{k} in {c}");
         }
         assert!(
-            c["plant"] != "d",
+            c["plant"] != "f",
             "the held-out plant never runs in development"
         );
     }
@@ -119,7 +119,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
 #[test]
 fn score_heldout_runs_only_the_heldout_plant() {
     // Plant c designated held out for this test only (the real held-out
-    // plant, d, is scored once by hand at the end of development).
+    // plant, f, is scored once by hand at the end of development).
     let v = ok_json(&[
         "bench",
         "gap",
@@ -152,7 +152,7 @@ fn score_heldout_runs_only_the_heldout_plant() {
 
 #[test]
 fn zoo_flags_fail_with_one_line() {
-    let e = fails_one_line(&["bench", "gap", "--plants", "a,d"]);
+    let e = fails_one_line(&["bench", "gap", "--plants", "a,f"]);
     assert!(
         e.contains("held out") && e.contains("--score-heldout"),
         "{e}"

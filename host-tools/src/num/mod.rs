@@ -4,6 +4,7 @@
 
 pub mod distributions;
 pub mod linalg;
+pub mod lp3;
 pub mod lsq;
 pub mod progress;
 pub mod rng;
