@@ -375,7 +375,8 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
         let started = Instant::now();
         let o = fit::fit_files(&args).with_context(|| format!("demo: fit {name}"))?;
         let elapsed = started.elapsed().as_secs_f64();
-        let target = &o.json["targets"][TARGET];
+        let report = serde_json::to_value(&o.report)?;
+        let target = &report["targets"][TARGET];
         let (cal_m, val_m) = (&target["calibration"], &target["holdout"]);
         if !val_m.is_object() {
             bail!("demo: fit {name}: no held-out figures");

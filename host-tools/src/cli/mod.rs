@@ -7,6 +7,8 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
+pub mod pairs;
+
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
 use crate::{

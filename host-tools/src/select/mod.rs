@@ -33,6 +33,7 @@ use crate::data::runfile::{ReadOptions, RunFile};
 use crate::num::stats;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, ValueEnum};
+use serde::Serialize;
 use serde_json::{json, Map, Value};
 use std::path::PathBuf;
 
@@ -273,31 +274,19 @@ impl Table {
     }
 }
 
-/// Reads the runs and settles the input columns.
-fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
+/// The input columns of a selection on runs with `columns` (`source` names
+/// the first run): `--inputs`, or every `T<number>` but the targets.
+pub fn inputs_for(a: &SelectArgs, columns: &[String], source: &str) -> Result<Vec<String>> {
     let mut inputs: Vec<String> = a.inputs.iter().map(|s| s.trim().to_string()).collect();
-    let first = a
-        .data
-        .first()
-        .ok_or_else(|| anyhow!("--data: give at least one run file"))?;
     if inputs.is_empty() {
-        let head = RunFile::read(
-            first,
-            &ReadOptions {
-                skip_bad_rows: true,
-                only: Some(Vec::new()),
-            },
-        )?;
-        inputs = head
-            .columns
+        inputs = columns
             .iter()
             .filter(|c| crate::data::runfile::is_temperature_column(c) && !a.target.contains(c))
             .cloned()
             .collect();
         if inputs.len() < 2 {
             bail!(
-                "{}: {} columns named T<number>: name at least two inputs with --inputs",
-                first.display(),
+                "{source}: {} columns named T<number>: name at least two inputs with --inputs",
                 inputs.len()
             );
         }
@@ -316,26 +305,49 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
             bail!("\"{name}\" is both a --target and an input");
         }
     }
-    let mut needed = inputs.clone();
+    Ok(inputs)
+}
+
+/// Reads the runs (only the columns the selection uses).
+fn read(a: &SelectArgs) -> Result<Vec<RunFile>> {
+    let first = a
+        .data
+        .first()
+        .ok_or_else(|| anyhow!("--data: give at least one run file"))?;
+    let header_only = ReadOptions {
+        skip_bad_rows: true,
+        only: Some(Vec::new()),
+    };
+    let inputs = if a.inputs.is_empty() {
+        let head = RunFile::read(first, &header_only)?;
+        inputs_for(a, &head.columns, &first.display().to_string())?
+    } else {
+        inputs_for(a, &[], "")?
+    };
+    let mut needed = inputs;
     needed.extend(a.target.iter().cloned());
     let opts = ReadOptions {
         skip_bad_rows: a.skip_bad_rows,
-        only: Some(needed.clone()),
+        only: Some(needed),
     };
-    let files = crate::data::source::read_runs(&a.data, &opts)?;
-    for (p, run) in a.data.iter().zip(&files) {
-        for n in &needed {
+    crate::data::source::read_runs(&a.data, &opts)
+}
+
+/// Every run has the columns `needed`, scalable.
+fn check_runs(files: &[RunFile], needed: &[String]) -> Result<()> {
+    for run in files {
+        for n in needed {
             if !run.has_column(n) {
                 bail!(
                     "{}: no column \"{n}\" (columns: {})",
-                    p.display(),
+                    run.path.display(),
                     run.columns.join(", ")
                 );
             }
         }
         crate::data::dataset::check_scalable_columns(run)?;
     }
-    Ok((files, inputs))
+    Ok(())
 }
 
 /// Runs `thermcomp select`.
@@ -353,27 +365,56 @@ pub fn run(a: &SelectArgs) -> Result<()> {
 /// `thermcomp select` does but print. `thermcomp demo` calls it too.
 pub fn select_files(a: &SelectArgs) -> Result<Output> {
     a.check()?;
-    let (files, inputs) = read(a)?;
+    let files = read(a)?;
+    select(a, &files)
+}
+
+/// The selection over runs in memory (`a.data` is not read): checks the
+/// arguments, settles the inputs from the first run's columns, runs the
+/// method.
+pub fn select(a: &SelectArgs, files: &[RunFile]) -> Result<Output> {
+    a.check()?;
+    let first = files
+        .first()
+        .ok_or_else(|| anyhow!("--data: give at least one run file"))?;
+    let inputs = inputs_for(a, &first.columns, &first.path.display().to_string())?;
+    let needed: Vec<String> = inputs.iter().chain(&a.target).cloned().collect();
+    check_runs(files, &needed)?;
     let names: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let mut out = match a.method {
-        Method::Grey => run_grey(a, &files, &names),
-        Method::Wgrey => run_wgrey(a, &files, &names),
-        Method::Maxtree => run_maxtree(a, &files, &names),
+        Method::Grey => run_grey(a, files, &names),
+        Method::Wgrey => run_wgrey(a, files, &names),
+        Method::Maxtree => run_maxtree(a, files, &names),
     }?;
     if let Value::Object(o) = &mut out.json {
         o.insert(
             "skipped_rows".into(),
-            json!(crate::data::source::skipped_rows(&files)),
+            json!(crate::data::source::skipped_rows(files)),
         );
     }
+    out.selected = out.json["selected"]
+        .as_array()
+        .map(|v| {
+            v.iter()
+                .filter_map(|s| s.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default();
     Ok(out)
 }
 
-/// A method's result in both forms.
+/// A method's result: the sensors picked, and the figures in both forms.
+#[derive(Debug, Clone, Serialize)]
 pub struct Output {
-    /// `select --json`'s object (its `"selected"` lists the sensors picked).
+    /// The sensors picked, in the method's order.
+    #[serde(skip)]
+    pub selected: Vec<String>,
+    /// `select --json`'s object (its `"selected"` lists the sensors picked;
+    /// the rest are the method's own tables).
+    #[serde(flatten)]
     pub json: Value,
     /// The tables `select` prints without `--json`.
+    #[serde(skip)]
     pub text: String,
 }
 
@@ -787,7 +828,11 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
         ));
     }
     text.push_str(&format!("\nselected: {}\n", selected.join(", ")));
-    Ok(Output { json, text })
+    Ok(Output {
+        selected: Vec::new(),
+        json,
+        text,
+    })
 }
 
 fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output> {
@@ -895,7 +940,11 @@ fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output
         selected.join(", ")
     };
     text.push_str(&format!("selected: {shown}\n"));
-    Ok(Output { json, text })
+    Ok(Output {
+        selected: Vec::new(),
+        json,
+        text,
+    })
 }
 
 fn run_maxtree(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output> {
@@ -1061,7 +1110,11 @@ fn run_maxtree(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Outp
         "\nrule: {rule}\nselected: {}\n",
         selected.join(", ")
     ));
-    Ok(Output { json, text })
+    Ok(Output {
+        selected: Vec::new(),
+        json,
+        text,
+    })
 }
 
 #[cfg(test)]
