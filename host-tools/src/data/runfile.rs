@@ -230,8 +230,11 @@ impl RunFile {
                 kind,
             })
         };
+        if let Some(row) = t_s.iter().position(|t| !t.is_finite()) {
+            return Err(row_error(row, RowErrorKind::MissingTime { column: 1 }));
+        }
         for (row, pair) in t_s.windows(2).enumerate() {
-            if !(pair[1] > pair[0]) {
+            if pair[1] <= pair[0] {
                 let kind = RowErrorKind::TimeNotIncreasing {
                     column: 1,
                     time: pair[1],
@@ -239,9 +242,6 @@ impl RunFile {
                 };
                 return Err(row_error(row + 1, kind));
             }
-        }
-        if let Some(row) = t_s.iter().position(|t| !t.is_finite()) {
-            return Err(row_error(row, RowErrorKind::MissingTime { column: 1 }));
         }
         let mut values = Vec::with_capacity(columns.len());
         let mut read = Vec::with_capacity(columns.len());

@@ -122,8 +122,8 @@ pub fn align(sim: &RunFile, real: &RunFile) -> Result<Aligned> {
         }
     }
     let grid = &real.t_s;
-    let speed = filled(&real, "speed_rpm", grid)
-        .or_else(|| filled(&sim, "speed_rpm", grid))
+    let speed = filled(real, "speed_rpm", grid)
+        .or_else(|| filled(sim, "speed_rpm", grid))
         .with_context(|| {
             format!(
                 "neither {} nor {} has a speed_rpm column (needed to find the regimes)",
@@ -131,17 +131,17 @@ pub fn align(sim: &RunFile, real: &RunFile) -> Result<Aligned> {
                 sim_path.display()
             )
         })?;
-    let optional = |name: &str| filled(&real, name, grid);
+    let optional = |name: &str| filled(real, name, grid);
     let power = optional("power_kw");
     let ambient = optional("ambient_c");
     let coolant = optional("coolant_c");
     let sims: Vec<Vec<Option<f64>>> = names_sorted
         .iter()
-        .map(|c| filled(&sim, c, grid).unwrap_or_default())
+        .map(|c| filled(sim, c, grid).unwrap_or_default())
         .collect();
     let reals: Vec<Vec<Option<f64>>> = names_sorted
         .iter()
-        .map(|c| filled(&real, c, grid).unwrap_or_default())
+        .map(|c| filled(real, c, grid).unwrap_or_default())
         .collect();
     let keep: Vec<usize> = (0..grid.len())
         .filter(|&k| {
