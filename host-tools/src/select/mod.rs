@@ -832,10 +832,10 @@ fn grey_text(a: &SelectArgs, g: &GreyFound) -> String {
         "\n{:<8} {:>10} {:>9} {:>6}\n",
         "input", "grey_coef", "pearson", "group"
     ));
-    for j in 0..names.len() {
+    for (j, name) in names.iter().enumerate() {
         text.push_str(&format!(
             "{:<8} {:>10.5} {:>9.5} {:>6}{}\n",
-            names[j],
+            name,
             g.deng[j],
             g.pearson[j],
             group_of(j) + 1,
