@@ -38,7 +38,8 @@
 //! time; the figures are then coarser.
 
 use crate::data::runfile::{ReadOptions, RunFile};
-use crate::fit::{self, FitArgs, FitKind};
+use crate::eval::MetricsReport;
+use crate::fit::{self, FitKind};
 use crate::replay::{self, ReplayArgs};
 use crate::runner::{self, ColumnMap};
 use crate::select::{self, SelectArgs};
@@ -228,10 +229,23 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     Ok(())
 }
 
+/// What the stages share: the arguments, budgets, output folder, machine,
+/// stage timing, and the two run files of stage 1.
+struct Demo<'a> {
+    budget: Budget,
+    dir: &'a Path,
+    machine: Machine,
+    p: Progress,
+    cal: PathBuf,
+    val: PathBuf,
+}
+
+/// A fitted kind: its model and blob file.
+type FittedKind = (FitKind, ValidModel, PathBuf);
+
 /// Runs every stage, writes everything to `a.out`, and returns `demo
 /// --json`'s object.
 pub fn demo(a: &DemoArgs) -> Result<Value> {
-    let budget = Budget::new(a.quick);
     let dir = &a.out;
     std::fs::create_dir_all(dir.join("models"))
         .and_then(|()| std::fs::create_dir_all(dir.join("diagnose")))
@@ -242,252 +256,304 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
         if a.quick { " (--quick budgets)" } else { "" },
         shown.display()
     );
-    let mut p = Progress::new();
-    let machine = Machine::default_machine();
+    let mut d = Demo {
+        budget: Budget::new(a.quick),
+        dir,
+        machine: Machine::default_machine(),
+        p: Progress::new(),
+        cal: dir.join("calibration.csv"),
+        val: dir.join("validation.csv"),
+    };
+    let simulate_json = d.simulate()?;
+    let (select_json, selected) = d.select()?;
+    let (fit_json, fitted) = d.fit(&selected)?;
+    let best_kind = fit_json["best"].as_str().unwrap_or("").to_string();
+    let (export_json, best_model, model_bin) = d.export(&best_kind, &fitted)?;
+    let (replay_json, replay_files) = d.replay(&best_model, &model_bin)?;
+    let (diagnose_json, diagnose_files, report) = d.diagnose()?;
+    let fivepoint_json = crate::fivepoint_demo::step(&d.val)?;
+    let written: Vec<PathBuf> = [
+        d.cal.clone(),
+        d.val.clone(),
+        model_bin,
+        dir.join("model.txt"),
+    ]
+    .into_iter()
+    .chain(replay_files)
+    .chain(diagnose_files)
+    .chain(fitted.iter().map(|(_, _, b)| b.clone()))
+    .collect();
+    let files = d.files(&written, &report)?;
+    let elapsed_s = d.p.started.elapsed().as_secs_f64();
+    eprintln!(
+        "done in {elapsed_s:.1} s: {} files in {}",
+        files.len(),
+        shown.display()
+    );
+    Ok(json!({
+        "out": path_arg(dir),
+        "quick": a.quick,
+        "hours": d.budget.hours,
+        "dt_s": d.budget.dt_s,
+        "target": TARGET,
+        "simulate": simulate_json,
+        "select": select_json,
+        "fit": fit_json,
+        "export": export_json,
+        "replay": replay_json,
+        "fivepoint": fivepoint_json,
+        "diagnose": diagnose_json,
+        "files": files,
+        "elapsed_s": elapsed_s,
+    }))
+}
 
-    // 1. Simulate.
-    p.begin(
+impl Demo<'_> {
+    /// Stage 1: the calibration and validation runs.
+    fn simulate(&mut self) -> Result<Value> {
+        let (budget, machine, cal, val, p) = (
+            &self.budget,
+            &self.machine,
+            &self.cal,
+            &self.val,
+            &mut self.p,
+        );
+        // 1. Simulate.
+        p.begin(
         1,
         &format!(
             "simulate: calibration (spectrum, seed 1) and validation (steps, seed 2) runs, {} h at {} s",
             budget.hours, budget.dt_s
         ),
     );
-    let cal = dir.join("calibration.csv");
-    let val = dir.join("validation.csv");
-    let cal_run = simulate_run(
-        &machine,
-        &Profile::Spectrum,
-        &budget,
-        1,
-        EffectSet::none(),
-        &cal,
-    )?;
-    let val_run = simulate_run(
-        &machine,
-        &Profile::Steps,
-        &budget,
-        2,
-        EffectSet::none(),
-        &val,
-    )?;
-    let t = p.end(&format!(
-        "{} rows each; max |dz| {:.1} um (calibration), {:.1} um (validation)",
-        cal_run["rows"],
-        num(&cal_run["max_abs_dz_um"]),
-        num(&val_run["max_abs_dz_um"])
-    ));
-    let simulate_json = json!({
-        "machine": machine.name,
-        "calibration": cal_run,
-        "validation": val_run,
-        "elapsed_s": t,
-    });
+        let cal_run = simulate_run(
+            machine,
+            &Profile::Spectrum,
+            budget,
+            1,
+            EffectSet::none(),
+            cal,
+        )?;
+        let val_run = simulate_run(machine, &Profile::Steps, budget, 2, EffectSet::none(), val)?;
+        let t = p.end(&format!(
+            "{} rows each; max |dz| {:.1} um (calibration), {:.1} um (validation)",
+            cal_run["rows"],
+            num(&cal_run["max_abs_dz_um"]),
+            num(&val_run["max_abs_dz_um"])
+        ));
+        Ok(json!({
+            "machine": machine.name,
+            "calibration": cal_run,
+            "validation": val_run,
+            "elapsed_s": t,
+        }))
+    }
 
-    // 2. Select.
-    p.begin(
-        2,
-        &format!("select: maxtree and grey on the calibration run for {TARGET}"),
-    );
-    let mut picks = Map::new();
-    let mut commands = Vec::new();
-    let mut selected: Vec<String> = Vec::new();
-    for (method, extra) in [("maxtree", &[][..]), ("grey", &["--scale", "interval"][..])] {
-        let mut argv = vec![
-            "--data".to_string(),
-            path_arg(&cal),
-            "--target".into(),
-            TARGET.into(),
-            "--method".into(),
-            method.into(),
-        ];
-        argv.extend(extra.iter().map(|s| s.to_string()));
-        let args: SelectArgs = parse_args("select", &argv)?;
-        let o = select::select_files(&args).with_context(|| format!("demo: select {method}"))?;
-        let pick: Vec<String> = o.json["selected"]
-            .as_array()
-            .ok_or_else(|| anyhow!("demo: select {method} returned no \"selected\""))?
-            .iter()
-            .filter_map(|v| v.as_str().map(str::to_string))
-            .collect();
-        for s in &pick {
-            if !selected.contains(s) {
-                selected.push(s.clone());
+    /// Stage 2: sensors picked by maxtree and grey on the calibration run.
+    fn select(&mut self) -> Result<(Value, Vec<String>)> {
+        let (cal, p) = (&self.cal, &mut self.p);
+        // 2. Select.
+        p.begin(
+            2,
+            &format!("select: maxtree and grey on the calibration run for {TARGET}"),
+        );
+        let mut picks = Map::new();
+        let mut commands = Vec::new();
+        let mut selected: Vec<String> = Vec::new();
+        for (method, extra) in [("maxtree", &[][..]), ("grey", &["--scale", "interval"][..])] {
+            let mut argv = vec![
+                "--data".to_string(),
+                path_arg(cal),
+                "--target".into(),
+                TARGET.into(),
+                "--method".into(),
+                method.into(),
+            ];
+            argv.extend(extra.iter().map(|s| s.to_string()));
+            let args: SelectArgs = parse_args("select", &argv)?;
+            let o =
+                select::select_files(&args).with_context(|| format!("demo: select {method}"))?;
+            let pick = o.selected;
+            for s in &pick {
+                if !selected.contains(s) {
+                    selected.push(s.clone());
+                }
             }
+            picks.insert(method.into(), json!(pick));
+            commands.push(command_line("select", &argv));
         }
-        picks.insert(method.into(), json!(pick));
-        commands.push(command_line("select", &argv));
+        if selected.is_empty() {
+            bail!("demo: select picked no sensors");
+        }
+        // File order (T1, T2, ...), as a user would list them.
+        selected.sort_by_key(|s| s[1..].parse::<u32>().unwrap_or(u32::MAX));
+        let t = p.end(&format!(
+            "maxtree {}, grey {}: inputs {}",
+            list_of(&picks["maxtree"]),
+            list_of(&picks["grey"]),
+            selected.join(",")
+        ));
+        let select_json = json!({
+            "target": TARGET,
+            "methods": picks,
+            "selected": selected,
+            "commands": commands,
+            "elapsed_s": t,
+        });
+        Ok((select_json, selected))
     }
-    if selected.is_empty() {
-        bail!("demo: select picked no sensors");
-    }
-    // File order (T1, T2, ...), as a user would list them.
-    selected.sort_by_key(|s| s[1..].parse::<u32>().unwrap_or(u32::MAX));
-    let t = p.end(&format!(
-        "maxtree {}, grey {}: inputs {}",
-        list_of(&picks["maxtree"]),
-        list_of(&picks["grey"]),
-        selected.join(",")
-    ));
-    let select_json = json!({
-        "target": TARGET,
-        "methods": picks,
-        "selected": selected,
-        "commands": commands,
-        "elapsed_s": t,
-    });
 
-    // 3. Fit and validate.
-    let names: Vec<&str> = KINDS.iter().map(|k| kind_name(*k)).collect();
-    p.begin(
-        3,
-        &format!(
-            "fit: {} on the calibration run, scored on the validation run",
-            names.join(", ")
-        ),
-    );
-    let bar = crate::num::progress::progress(KINDS.len(), "fit");
-    let mut models = Vec::new();
-    let mut fitted: Vec<(FitKind, ValidModel, PathBuf)> = Vec::new();
-    for kind in KINDS {
-        let name = kind_name(kind);
-        bar.set_message(format!("fit {name}"));
-        let blob = dir.join("models").join(format!("{name}.bin"));
-        let mut argv = vec![
-            "--data".to_string(),
-            path_arg(&cal),
-            "--validate".into(),
-            path_arg(&val),
-            "--target".into(),
-            TARGET.into(),
-            "--model".into(),
-            name.into(),
-            "--out".into(),
-            path_arg(&blob),
-        ];
-        // auto reads every temperature and heat source and chooses for itself.
-        if kind != FitKind::Arma && kind != FitKind::Auto {
-            argv.push("--inputs".into());
-            argv.push(selected.join(","));
+    /// Stage 3: every kind fitted on the calibration run, scored on the
+    /// validation run; the blobs written to `models/`.
+    fn fit(&mut self, selected: &[String]) -> Result<(Value, Vec<FittedKind>)> {
+        let (budget, dir, cal, val, p) =
+            (&self.budget, self.dir, &self.cal, &self.val, &mut self.p);
+        // 3. Fit and validate.
+        let names: Vec<&str> = KINDS.iter().map(|k| kind_name(*k)).collect();
+        p.begin(
+            3,
+            &format!(
+                "fit: {} on the calibration run, scored on the validation run",
+                names.join(", ")
+            ),
+        );
+        let bar = crate::num::progress::progress(KINDS.len(), "fit");
+        let read = |path: &Path| RunFile::read(path, &ReadOptions::default());
+        let (cal_run, val_run) = (read(cal)?, read(val)?);
+        let mut models = Vec::new();
+        let mut fitted: Vec<FittedKind> = Vec::new();
+        for kind in KINDS {
+            let name = kind_name(kind);
+            bar.set_message(format!("fit {name}"));
+            let blob = dir.join("models").join(format!("{name}.bin"));
+            let params = fit_params(budget, kind, selected)?.check()?;
+            let started = Instant::now();
+            let o = fit::fit(
+                &params,
+                std::slice::from_ref(&cal_run),
+                std::slice::from_ref(&val_run),
+            )
+            .with_context(|| format!("demo: fit {name}"))?;
+            crate::data::fsio::write_bytes_atomic(&blob, &o.bytes)?;
+            let elapsed = started.elapsed().as_secs_f64();
+            let mut entry = fit_entry(kind, &o, &blob)?;
+            merge(
+                &mut entry,
+                json!({
+                    "elapsed_s": elapsed,
+                    "command": fit_command(budget, kind, selected, [cal, val, &blob]),
+                }),
+            );
+            models.push(entry);
+            fitted.push((kind, o.model, blob));
+            bar.inc(1);
         }
-        argv.extend((budget.fit_extra)(kind).iter().map(|s| s.to_string()));
-        let args: FitArgs = parse_args("fit", &argv)?;
-        let started = Instant::now();
-        let o = fit::fit_files(&args).with_context(|| format!("demo: fit {name}"))?;
-        let elapsed = started.elapsed().as_secs_f64();
-        let target = &o.json["targets"][TARGET];
-        let (cal_m, val_m) = (&target["calibration"], &target["holdout"]);
-        if !val_m.is_object() {
-            bail!("demo: fit {name}: no held-out figures");
-        }
-        let forecaster = kind == FitKind::Arma;
-        models.push(json!({
-            "kind": name,
-            "label": if forecaster {
-                "forecaster: one step ahead from the measured dz_um itself (needs a displacement probe on the machine)"
-            } else {
-                "compensation model: dz_um from temperatures"
-            },
-            "forecaster": forecaster,
-            "inputs": o.inputs,
-            "blob": path_arg(&blob),
-            "bytes": o.bytes.len(),
-            "calibration": pick_metrics(cal_m),
-            "validation": pick_metrics(val_m),
-            "elapsed_s": elapsed,
-            "command": command_line("fit", &argv),
-        }));
-        fitted.push((kind, o.model, blob));
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
-    // The model is chosen on the calibration run only (auto's cross-
-    // validation); the validation run scores it beside the other kinds.
-    let best = models
-        .iter()
-        .find(|m| m["kind"] == json!("auto"))
-        .ok_or_else(|| anyhow!("demo: no auto model fitted"))?;
-    let best_kind = best["kind"].as_str().unwrap_or("").to_string();
-    let best_reduction = num(&best["validation"]["reduction_pct"]);
-    let t = p.end(&format!(
+        bar.finish_and_clear();
+        // The model is chosen on the calibration run only (auto's cross-
+        // validation); the validation run scores it beside the other kinds.
+        let best = models
+            .iter()
+            .find(|m| m["kind"] == json!("auto"))
+            .ok_or_else(|| anyhow!("demo: no auto model fitted"))?;
+        let best_kind = best["kind"].as_str().unwrap_or("").to_string();
+        let best_reduction = num(&best["validation"]["reduction_pct"]);
+        let t = p.end(&format!(
         "exported: auto (chosen by cross-validation on the calibration run), validation reduction {best_reduction:.1} %, rmse {:.2} um",
         num(&best["validation"]["rmse_um"])
     ));
-    let fit_json = json!({
-        "target": TARGET,
-        "inputs": selected,
-        "models": models,
-        "best": best_kind,
-        "elapsed_s": t,
-    });
+        let fit_json = json!({
+            "target": TARGET,
+            "inputs": selected,
+            "models": models,
+            "best": best_kind,
+            "elapsed_s": t,
+        });
+        Ok((fit_json, fitted))
+    }
 
-    // 4. Export the best blob.
-    p.begin(
-        4,
-        &format!(
+    /// Stage 4: the chosen blob as `model.bin`, described as `model show` does.
+    fn export(
+        &mut self,
+        best_kind: &str,
+        fitted: &[FittedKind],
+    ) -> Result<(Value, ValidModel, PathBuf)> {
+        let (dir, p) = (self.dir, &mut self.p);
+        // 4. Export the best blob.
+        p.begin(
+            4,
+            &format!(
             "export: {best_kind} (chosen on the calibration run by cross-validation) to model.bin"
         ),
-    );
-    let (_, best_model, best_blob) = fitted
-        .iter()
-        .find(|(k, _, _)| kind_name(*k) == best_kind)
-        .ok_or_else(|| anyhow!("demo: lost the {best_kind} blob"))?;
-    let model_bin = dir.join("model.bin");
-    let bytes =
-        std::fs::read(best_blob).with_context(|| format!("cannot read {}", best_blob.display()))?;
-    crate::data::fsio::write_bytes_atomic(&model_bin, &bytes)?;
-    let described = crate::show::describe_json(best_model, &bytes);
-    let model_txt = dir.join("model.txt");
-    let text = crate::show::describe_text(&model_bin, best_model, &bytes);
-    crate::data::fsio::write_bytes_atomic(&model_txt, text.as_bytes())?;
-    let t = p.end(&format!(
-        "{} bytes, {} model, format v{}, CRC {}, dt {} s, inputs {}",
-        bytes.len(),
-        described["kind"].as_str().unwrap_or("?"),
-        described["format_version"],
-        described["crc32"].as_str().unwrap_or("?"),
-        described["dt_s"],
-        input_names(&described).join(",")
-    ));
-    let export_json = json!({
-        "kind": best_kind,
-        "model": path_arg(&model_bin),
-        "show": path_arg(&model_txt),
-        "blob_kind": described["kind"],
-        "bytes": bytes.len(),
-        "format_version": described["format_version"],
-        "crc32": described["crc32"],
-        "dt_s": described["dt_s"],
-        "inputs": input_names(&described),
-        "outputs": described["outputs"],
-        "command": command_line("model show", &["--model".into(), path_arg(&model_bin)]),
-        "elapsed_s": t,
-    });
+        );
+        let (_, best_model, best_blob) = fitted
+            .iter()
+            .find(|(k, _, _)| kind_name(*k) == best_kind)
+            .ok_or_else(|| anyhow!("demo: lost the {best_kind} blob"))?;
+        let model_bin = dir.join("model.bin");
+        let bytes = std::fs::read(best_blob)
+            .with_context(|| format!("cannot read {}", best_blob.display()))?;
+        crate::data::fsio::write_bytes_atomic(&model_bin, &bytes)?;
+        let described = crate::show::describe_json(best_model, &bytes);
+        let model_txt = dir.join("model.txt");
+        let text = crate::show::describe_text(&model_bin, best_model, &bytes);
+        crate::data::fsio::write_bytes_atomic(&model_txt, text.as_bytes())?;
+        let t = p.end(&format!(
+            "{} bytes, {} model, format v{}, CRC {}, dt {} s, inputs {}",
+            bytes.len(),
+            described["kind"].as_str().unwrap_or("?"),
+            described["format_version"],
+            described["crc32"].as_str().unwrap_or("?"),
+            described["dt_s"],
+            input_names(&described).join(",")
+        ));
+        let export_json = json!({
+            "kind": best_kind,
+            "model": path_arg(&model_bin),
+            "show": path_arg(&model_txt),
+            "blob_kind": described["kind"],
+            "bytes": bytes.len(),
+            "format_version": described["format_version"],
+            "crc32": described["crc32"],
+            "dt_s": described["dt_s"],
+            "inputs": input_names(&described),
+            "outputs": described["outputs"],
+            "command": command_line("model show", &["--model".into(), path_arg(&model_bin)]),
+            "elapsed_s": t,
+        });
+        Ok((export_json, best_model.clone(), model_bin))
+    }
 
-    // 5. Replay through the firmware.
-    p.begin(
-        5,
-        "replay: model.bin through the hub's firmware pipeline over the validation run",
-    );
-    let candump = dir.join("replay.log");
-    let trace = dir.join("replay-trace.csv");
-    let argv = vec![
-        "--model".to_string(),
-        path_arg(&model_bin),
-        "--data".into(),
-        path_arg(&val),
-        "--candump".into(),
-        path_arg(&candump),
-        "--trace".into(),
-        path_arg(&trace),
-    ];
-    let args: ReplayArgs = parse_args("replay", &argv)?;
-    let summary = replay::replay_files(&args).context("demo: replay")?;
-    let run0 = summary["runs"]
-        .get(0)
-        .ok_or_else(|| anyhow!("demo: replay reported no run"))?;
-    let agreement = replay_agreement(best_model, &trace, &val)?;
-    let t = p.end(&format!(
+    /// Stage 5: `model.bin` through the hub's firmware pipeline.
+    fn replay(
+        &mut self,
+        best_model: &ValidModel,
+        model_bin: &Path,
+    ) -> Result<(Value, Vec<PathBuf>)> {
+        let (dir, val, p) = (self.dir, &self.val, &mut self.p);
+        // 5. Replay through the firmware.
+        p.begin(
+            5,
+            "replay: model.bin through the hub's firmware pipeline over the validation run",
+        );
+        let candump = dir.join("replay.log");
+        let trace = dir.join("replay-trace.csv");
+        let argv = vec![
+            "--model".to_string(),
+            path_arg(model_bin),
+            "--data".into(),
+            path_arg(val),
+            "--candump".into(),
+            path_arg(&candump),
+            "--trace".into(),
+            path_arg(&trace),
+        ];
+        let args: ReplayArgs = parse_args("replay", &argv)?;
+        let summary = replay::replay_files(&args).context("demo: replay")?;
+        let run0 = summary["runs"]
+            .get(0)
+            .ok_or_else(|| anyhow!("demo: replay reported no run"))?;
+        let agreement = replay_agreement(best_model, &trace, val)?;
+        let t = p.end(&format!(
         "{} frames over {} samples; running {} of {}; max |sent - model| {:.3} um on the hub's readings ({} of {} samples, no limiter), {:.3} um on the file",
         run0["frames"],
         run0["samples"],
@@ -498,95 +564,101 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
         agreement.samples,
         agreement.max_on_file_um
     ));
-    let replay_json = json!({
-        "model": path_arg(&model_bin),
-        "candump": path_arg(&candump),
-        "trace": path_arg(&trace),
-        "sample_period_s": summary["sample_period_s"],
-        "samples": run0["samples"],
-        "frames": run0["frames"],
-        "states": run0["states"],
-        "sensor_fault_samples": run0["sensor_fault_samples"],
-        "stale_samples": run0["stale_samples"],
-        "max_abs_offset_um": run0["max_abs_offset_um"][TARGET],
-        "limited_samples": agreement.limited,
-        "compared_samples": agreement.compared,
-        "max_abs_sent_minus_model_um": agreement.max_on_readings_um,
-        "max_abs_sent_minus_model_on_file_um": agreement.max_on_file_um,
-        "frame_half_step_um": FRAME_HALF_STEP_UM,
-        "command": command_line("replay", &argv),
-        "elapsed_s": t,
-    });
+        let replay_json = json!({
+            "model": path_arg(model_bin),
+            "candump": path_arg(&candump),
+            "trace": path_arg(&trace),
+            "sample_period_s": summary["sample_period_s"],
+            "samples": run0["samples"],
+            "frames": run0["frames"],
+            "states": run0["states"],
+            "sensor_fault_samples": run0["sensor_fault_samples"],
+            "stale_samples": run0["stale_samples"],
+            "max_abs_offset_um": run0["max_abs_offset_um"][TARGET],
+            "limited_samples": agreement.limited,
+            "compared_samples": agreement.compared,
+            "max_abs_sent_minus_model_um": agreement.max_on_readings_um,
+            "max_abs_sent_minus_model_on_file_um": agreement.max_on_file_um,
+            "frame_half_step_um": FRAME_HALF_STEP_UM,
+            "command": command_line("replay", &argv),
+            "elapsed_s": t,
+        });
+        Ok((replay_json, vec![candump, trace]))
+    }
 
-    // 6. Diagnose a sim-to-real gap.
-    let withheld = WITHHELD_EFFECT.name();
-    p.begin(
+    /// Stage 6: a sim-to-real gap with a withheld effect, diagnosed.
+    fn diagnose(&mut self) -> Result<(Value, Vec<PathBuf>, PathBuf)> {
+        let (budget, dir, machine, p) = (&self.budget, self.dir, &self.machine, &mut self.p);
+        // 6. Diagnose a sim-to-real gap.
+        let withheld = WITHHELD_EFFECT.name();
+        p.begin(
         6,
         &format!(
             "diagnose: \"real\" = default machine + {withheld} (withheld) + front bearing heat +{:.0} %, \"sim\" = nominal twin, same spectrum (seed 3)",
             (MISMATCH_FRONT_BEARING - 1.0) * 100.0
         ),
     );
-    let ddir = dir.join("diagnose");
-    let sim_csv = ddir.join("sim.csv");
-    let real_csv = ddir.join("real.csv");
-    let report = ddir.join("report");
-    let schedule = profile::schedule(
-        &Profile::Spectrum,
-        machine.max_rpm,
-        Some(budget.hours),
-        budget.dt_s,
-        3,
-    )?;
-    let mut real_machine = machine.clone();
-    real_machine.heat.front_bearing_w_at_ref *= MISMATCH_FRONT_BEARING;
-    let real_opts = SimOptions {
-        effects: EffectSet::none().with(WITHHELD_EFFECT),
-        seed: 3,
-        sensors: None,
-    };
-    // The twin's own noise is another draw than the "measurement"'s.
-    let sim_opts = SimOptions {
-        effects: EffectSet::none(),
-        seed: 103,
-        sensors: None,
-    };
-    let (real_sum, _) = simulate::write_run(&real_machine, &schedule, &real_opts, &real_csv)?;
-    let (sim_sum, _) = simulate::write_run(&machine, &schedule, &sim_opts, &sim_csv)?;
-    let diag = diagnose_call(&sim_csv, &real_csv, None, Some(&report)).context("demo: diagnose")?;
-    let mut diagnose_json = json!({
-        "withheld": withheld,
-        "mismatch": {"front_bearing_w_at_ref_factor": MISMATCH_FRONT_BEARING},
-        "profile": "spectrum",
-        "seed": 3,
-        "sim": path_arg(&sim_csv),
-        "real": path_arg(&real_csv),
-        "max_abs_dz_um": {"sim": sim_sum.max_abs_dz_um, "real": real_sum.max_abs_dz_um},
-        "command": command_line(
-            "diagnose",
-            &["--sim".into(), path_arg(&sim_csv), "--real".into(), path_arg(&real_csv),
-              "--report".into(), path_arg(&report), "--json".into()],
-        ),
-    });
-    let verdict = diag["verdict"].as_str().unwrap_or("?").to_string();
-    let top = diag["effects"].get(0).cloned().unwrap_or(Value::Null);
-    let found = verdict == withheld;
-    merge(
-        &mut diagnose_json,
-        json!({
-            "report": path_arg(&report),
-            "verdict": verdict,
-            "found_withheld": found,
-            "best_effect": top["name"],
-            "best_shrink_pct": top["shrink_pct"],
-            "rms_before_um": top["rms_before"],
-            "rms_after_um": top["rms_after"],
-            "holdout_from_t_s": diag["holdout_from_t_s"],
-            "gap_dz_rms_um": diag["gap"][TARGET]["rms"],
-            "result": diag,
-        }),
-    );
-    let figures = format!(
+        let ddir = dir.join("diagnose");
+        let sim_csv = ddir.join("sim.csv");
+        let real_csv = ddir.join("real.csv");
+        let report = ddir.join("report");
+        let schedule = profile::schedule(
+            &Profile::Spectrum,
+            machine.max_rpm,
+            Some(budget.hours),
+            budget.dt_s,
+            3,
+        )?;
+        let mut real_machine = machine.clone();
+        real_machine.heat.front_bearing_w_at_ref *= MISMATCH_FRONT_BEARING;
+        let real_opts = SimOptions {
+            effects: EffectSet::none().with(WITHHELD_EFFECT),
+            seed: 3,
+            sensors: None,
+        };
+        // The twin's own noise is another draw than the "measurement"'s.
+        let sim_opts = SimOptions {
+            effects: EffectSet::none(),
+            seed: 103,
+            sensors: None,
+        };
+        let (real_sum, _) = simulate::write_run(&real_machine, &schedule, &real_opts, &real_csv)?;
+        let (sim_sum, _) = simulate::write_run(machine, &schedule, &sim_opts, &sim_csv)?;
+        let diag =
+            diagnose_call(&sim_csv, &real_csv, None, Some(&report)).context("demo: diagnose")?;
+        let mut diagnose_json = json!({
+            "withheld": withheld,
+            "mismatch": {"front_bearing_w_at_ref_factor": MISMATCH_FRONT_BEARING},
+            "profile": "spectrum",
+            "seed": 3,
+            "sim": path_arg(&sim_csv),
+            "real": path_arg(&real_csv),
+            "max_abs_dz_um": {"sim": sim_sum.max_abs_dz_um, "real": real_sum.max_abs_dz_um},
+            "command": command_line(
+                "diagnose",
+                &["--sim".into(), path_arg(&sim_csv), "--real".into(), path_arg(&real_csv),
+                  "--report".into(), path_arg(&report), "--json".into()],
+            ),
+        });
+        let verdict = diag["verdict"].as_str().unwrap_or("?").to_string();
+        let top = diag["effects"].get(0).cloned().unwrap_or(Value::Null);
+        let found = verdict == withheld;
+        merge(
+            &mut diagnose_json,
+            json!({
+                "report": path_arg(&report),
+                "verdict": verdict,
+                "found_withheld": found,
+                "best_effect": top["name"],
+                "best_shrink_pct": top["shrink_pct"],
+                "rms_before_um": top["rms_before"],
+                "rms_after_um": top["rms_after"],
+                "holdout_from_t_s": diag["holdout_from_t_s"],
+                "gap_dz_rms_um": diag["gap"][TARGET]["rms"],
+                "result": diag,
+            }),
+        );
+        let figures = format!(
         "verdict {verdict} ({}); best {} shrinks the held-out dz gap {:.1} % ({:.2} -> {:.2} um rms)",
         if found {
             "the withheld effect: found"
@@ -598,46 +670,90 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
         num(&top["rms_before"]),
         num(&top["rms_after"])
     );
-    let t = p.end(&figures);
-    merge(&mut diagnose_json, json!({"elapsed_s": t}));
-
-    let fivepoint_json = crate::fivepoint_demo::step(&val)?;
-    // Everything written.
-    // What this run wrote (not whatever else the folder holds): the known
-    // files, and whatever diagnose put in its report folder.
-    let mut files: Vec<String> = [
-        &cal, &val, &model_bin, &model_txt, &candump, &trace, &sim_csv, &real_csv,
-    ]
-    .into_iter()
-    .cloned()
-    .chain(fitted.iter().map(|(_, _, b)| b.clone()))
-    .map(|f| f.strip_prefix(dir).unwrap_or(&f).display().to_string())
-    .collect();
-    if report.is_dir() {
-        list_files(dir, &report, &mut files)?;
+        let t = p.end(&figures);
+        merge(&mut diagnose_json, json!({"elapsed_s": t}));
+        Ok((diagnose_json, vec![sim_csv, real_csv], report))
     }
-    files.sort();
-    let elapsed_s = p.started.elapsed().as_secs_f64();
-    eprintln!(
-        "done in {elapsed_s:.1} s: {} files in {}",
-        files.len(),
-        shown.display()
-    );
+
+    /// What this run wrote (not whatever else the folder holds): the known
+    /// files, and whatever diagnose put in its report folder.
+    fn files(&self, written: &[PathBuf], report: &Path) -> Result<Vec<String>> {
+        let dir = self.dir;
+        let mut files: Vec<String> = written
+            .iter()
+            .map(|f| f.strip_prefix(dir).unwrap_or(f).display().to_string())
+            .collect();
+        if report.is_dir() {
+            list_files(dir, report, &mut files)?;
+        }
+        files.sort();
+        Ok(files)
+    }
+}
+
+/// Stage 3's parameters for `kind`: the selected sensors (auto and arma
+/// choose their own inputs) and the budget's options.
+fn fit_params(budget: &Budget, kind: FitKind, selected: &[String]) -> Result<fit::FitParams> {
+    let pairs: Vec<(String, String)> = (budget.fit_extra)(kind)
+        .chunks(2)
+        .map(|c| (c[0].trim_start_matches("--").to_string(), c[1].to_string()))
+        .collect();
+    let own_inputs = kind == FitKind::Arma || kind == FitKind::Auto;
+    Ok(fit::FitParams {
+        targets: vec![TARGET.into()],
+        inputs: if own_inputs {
+            Vec::new()
+        } else {
+            selected.to_vec()
+        },
+        kind,
+        holdout_from_s: None,
+        reference: crate::data::dataset::InputForm::Change,
+        l_defl_mm: None,
+        options: fit::FitOptions::from_pairs(&pairs)?,
+    })
+}
+
+/// The `thermcomp fit` command that repeats stage 3 for `kind` on the
+/// files `[calibration, validation, blob]`.
+fn fit_command(budget: &Budget, kind: FitKind, selected: &[String], files: [&Path; 3]) -> String {
+    let [cal, val, blob] = files.map(path_arg);
+    let name = kind_name(kind).to_string();
+    let mut argv = vec!["--data".to_string(), cal, "--validate".into(), val];
+    argv.extend(["--target".into(), TARGET.into(), "--model".into(), name]);
+    argv.extend(["--out".into(), blob]);
+    if kind != FitKind::Arma && kind != FitKind::Auto {
+        argv.extend(["--inputs".into(), selected.join(",")]);
+    }
+    argv.extend((budget.fit_extra)(kind).iter().map(|s| s.to_string()));
+    command_line("fit", &argv)
+}
+
+/// Stage 3's figures for one kind (less time and command).
+fn fit_entry(kind: FitKind, o: &fit::FitOutcome, blob: &Path) -> Result<Value> {
+    let name = kind_name(kind);
+    let target = o
+        .report
+        .targets
+        .get(TARGET)
+        .ok_or_else(|| anyhow!("demo: fit {name}: no figures for {TARGET}"))?;
+    let Some(val_m) = target.holdout.as_ref() else {
+        bail!("demo: fit {name}: no held-out figures");
+    };
+    let forecaster = kind == FitKind::Arma;
     Ok(json!({
-        "out": path_arg(dir),
-        "quick": a.quick,
-        "hours": budget.hours,
-        "dt_s": budget.dt_s,
-        "target": TARGET,
-        "simulate": simulate_json,
-        "select": select_json,
-        "fit": fit_json,
-        "export": export_json,
-        "replay": replay_json,
-        "fivepoint": fivepoint_json,
-        "diagnose": diagnose_json,
-        "files": files,
-        "elapsed_s": elapsed_s,
+        "kind": name,
+        "label": if forecaster {
+            "forecaster: one step ahead from the measured dz_um itself (needs a displacement probe on the machine)"
+        } else {
+            "compensation model: dz_um from temperatures"
+        },
+        "forecaster": forecaster,
+        "inputs": o.inputs,
+        "blob": path_arg(blob),
+        "bytes": o.bytes.len(),
+        "calibration": target.calibration.as_ref().map(pick_metrics),
+        "validation": pick_metrics(val_m),
     }))
 }
 
@@ -809,20 +925,16 @@ fn kind_name(k: FitKind) -> &'static str {
     }
 }
 
-/// The figures the summary needs from eval's metrics object.
-fn pick_metrics(m: &Value) -> Value {
-    let mut out = Map::new();
-    for key in [
-        "n",
-        "rmse_um",
-        "fit_pct",
-        "r2",
-        "max_abs_um",
-        "reduction_pct",
-    ] {
-        out.insert(key.into(), m[key].clone());
-    }
-    Value::Object(out)
+/// The figures the summary needs from eval's metrics.
+fn pick_metrics(m: &MetricsReport) -> Value {
+    json!({
+        "n": m.n,
+        "rmse_um": m.rmse_um,
+        "fit_pct": m.fit_pct,
+        "r2": m.r2,
+        "max_abs_um": m.max_abs_um,
+        "reduction_pct": m.reduction_pct,
+    })
 }
 
 fn num(v: &Value) -> f64 {
@@ -1009,17 +1121,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn demo_arguments_parse_with_cli_defaults() {
-        let argv: Vec<String> = [
-            "--data", "a.csv", "--target", "dz_um", "--model", "gabp", "--out", "m.bin",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-        let a: Result<FitArgs> = parse_args("fit", &argv);
-        assert!(a.is_ok_and(|a| a.model == FitKind::Gabp && a.bp.ga_population == 40));
-        let bad: Result<FitArgs> = parse_args("fit", &["--model".to_string(), "nope".into()]);
-        assert!(bad.is_err());
+    fn budgets_become_typed_fit_options() {
+        let selected = vec!["T3".to_string(), "T9".into()];
+        let quick = fit_params(&Budget::new(true), FitKind::Gabp, &selected).unwrap();
+        let bp = &quick.options.bp;
+        assert_eq!((bp.ga_population, bp.gd_epochs, bp.epochs), (6, 0, 60));
+        assert_eq!(quick.inputs, selected);
+        let full = fit_params(&Budget::new(false), FitKind::Bp, &selected).unwrap();
+        assert_eq!(full.options.bp.ga_population, 40, "the CLI's default");
+        let auto = fit_params(&Budget::new(false), FitKind::Auto, &selected).unwrap();
+        assert!(auto.inputs.is_empty(), "auto chooses its own inputs");
+        assert!(auto.check().is_ok());
     }
 
     #[test]

@@ -1,12 +1,16 @@
 //! `thermcomp eval`: a model's predictions scored against the measured
 //! columns, over all runs together and per run (CONTRACT.md section 1).
 
+use crate::data::runfile::RunFile;
 use crate::data::source::{ModelSource, RunSource};
 use crate::runner;
-use anyhow::{anyhow, Result};
+use crate::runner::ColumnMap;
+use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use model_core::metrics::{Metrics, MetricsAccumulator};
-use serde_json::{json, Map, Value};
+use model_core::ValidModel;
+use serde::Serialize;
+use serde_json::{Map, Value};
 use std::fmt::Write as _;
 
 /// Arguments of `thermcomp eval`.
@@ -23,94 +27,143 @@ pub struct EvalArgs {
     pub json: bool,
 }
 
-/// The contract's metric keys (CONTRACT.md section 1) and a few more.
-pub fn metrics_json(m: &Metrics) -> Value {
-    json!({
-        "n": m.n,
-        "rmse_um": m.rmse,
-        "fit_pct": m.fit_pct,
-        "r2": m.r2,
-        "eta_pct": m.eta_pct,
-        "max_abs_um": m.max_abs,
-        "mean_abs_um": m.mean_abs,
-        "min_abs_um": m.min_abs,
-        "dpk_um": m.dpk,
-        "reduction_pct": m.reduction_pct,
-        "residual_mean_um": m.mean,
-        "residual_min_um": m.residual_min,
-        "residual_max_um": m.residual_max,
-    })
+/// One set of figures under the contract's metric keys (CONTRACT.md
+/// section 1) and a few more: what `eval --json` and `fit --json` print.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MetricsReport {
+    /// Rows scored.
+    pub n: usize,
+    /// Root-mean-square residual.
+    pub rmse_um: f64,
+    /// (1 - ||r|| / ||y - mean(y)||) * 100.
+    pub fit_pct: f64,
+    /// 1 - SSE / SST.
+    pub r2: f64,
+    /// (1 - ||r|| / ||y||) * 100 (the seeds' predictive ability).
+    pub eta_pct: f64,
+    /// max |r|.
+    pub max_abs_um: f64,
+    /// mean |r|.
+    pub mean_abs_um: f64,
+    /// min |r|.
+    pub min_abs_um: f64,
+    /// |max r| + |min r|.
+    pub dpk_um: f64,
+    /// (1 - mean|r| / mean|y|) * 100.
+    pub reduction_pct: f64,
+    /// mean r.
+    pub residual_mean_um: f64,
+    /// min r.
+    pub residual_min_um: f64,
+    /// max r.
+    pub residual_max_um: f64,
 }
 
-/// Runs `thermcomp eval`.
-pub fn run(a: &EvalArgs) -> Result<()> {
-    let model = a.model.load()?;
+impl From<&Metrics> for MetricsReport {
+    fn from(m: &Metrics) -> Self {
+        Self {
+            n: m.n,
+            rmse_um: m.rmse,
+            fit_pct: m.fit_pct,
+            r2: m.r2,
+            eta_pct: m.eta_pct,
+            max_abs_um: m.max_abs,
+            mean_abs_um: m.mean_abs,
+            min_abs_um: m.min_abs,
+            dpk_um: m.dpk,
+            reduction_pct: m.reduction_pct,
+            residual_mean_um: m.mean,
+            residual_min_um: m.residual_min,
+            residual_max_um: m.residual_max,
+        }
+    }
+}
+
+/// [`MetricsReport`] as a JSON value (for trainers' `details`).
+pub fn metrics_json(m: &Metrics) -> Value {
+    serde_json::to_value(MetricsReport::from(m)).unwrap_or(Value::Null)
+}
+
+/// `eval`'s figures for one model output, over all runs and per run.
+#[derive(Clone, Debug, Serialize)]
+pub struct TargetEval {
+    /// Over every run together.
+    #[serde(flatten)]
+    pub metrics: MetricsReport,
+    /// The measured column compared with (the output's name unless mapped).
+    pub column: String,
+    /// Rows with no prediction or no measured value, over all runs.
+    pub rows_not_scored: usize,
+    /// Rows the reader left out (`--skip-bad-rows`), over all runs.
+    pub skipped_rows: usize,
+    /// Per run, in the order given.
+    pub per_run: Vec<RunEval>,
+}
+
+/// One run's figures for one output, or why there are none.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum RunEval {
+    /// Scored.
+    Scored {
+        /// The figures.
+        #[serde(flatten)]
+        metrics: MetricsReport,
+        /// The run's file (or in-memory name).
+        file: String,
+        /// Rows of this run not scored.
+        rows_not_scored: usize,
+    },
+    /// Nothing to score in this run.
+    Failed {
+        /// Why.
+        error: String,
+        /// The run's file (or in-memory name).
+        file: String,
+        /// Rows of this run not scored.
+        rows_not_scored: usize,
+    },
+}
+
+/// What `eval` found: one entry per model output, keyed by its name (the
+/// object `eval --json` prints).
+pub type EvalOutcome = std::collections::BTreeMap<String, TargetEval>;
+
+/// Scores `model` on `runs` (in memory): predictions against the measured
+/// columns, `map` naming a measured column per output where it differs.
+/// Notes (unscored rows, an arma model's caveat) go to stderr.
+pub fn evaluate(model: &ValidModel, runs: &[RunFile], map: &ColumnMap) -> Result<EvalOutcome> {
     if model.kind() == model_core::ModelKind::Arma {
         eprintln!("note: an arma model forecasts one step ahead from the measured series itself: these figures hold only where the error is measured every dt_s on the machine (docs/arma.md)");
     }
-    let map = a.runs.column_map()?;
-    let runs = a.runs.read(map.model_columns(&model, true))?;
-    let skipped_rows = crate::data::source::skipped_rows(&runs);
+    let skipped_rows = crate::data::source::skipped_rows(runs);
     // A five-point model's tip drift is scored too, where the run has it.
-    let names = runner::prediction_names(&model);
+    let names = runner::prediction_names(model);
     let n_model = model.outputs().len();
     let n_out = names.len();
     let mut all = vec![MetricsAccumulator::new(); n_out];
-    let mut per_run: Vec<Vec<Value>> = vec![Vec::new(); n_out];
+    let mut per_run: Vec<Vec<RunEval>> = vec![Vec::new(); n_out];
     let mut unscored = vec![0usize; n_out];
-    for run in &runs {
-        let p = runner::predict(&model, run, &map)?;
+    for run in runs {
+        let p = runner::predict(model, run, map)?;
         for note in &p.notes {
             eprintln!("note: {}: {note}", run.path.display());
         }
         for (k, name) in names.iter().enumerate() {
-            let col = map.column(name);
-            if k >= n_model && run.column(col).is_none() {
+            if k >= n_model && run.column(map.column(name)).is_none() {
                 eprintln!(
-                    "note: {}: no measured {col}: the tool-tip {name} is not scored",
-                    run.path.display()
+                    "note: {}: no measured {}: the tool-tip {name} is not scored",
+                    run.path.display(),
+                    map.column(name)
                 );
                 continue;
             }
-            let y = run.column(col).ok_or_else(|| {
-                anyhow!(
-                    "{}: no measured column \"{col}\" to compare output \"{name}\" with (use --map {name}=COLUMN)",
-                    run.path.display()
-                )
-            })?;
-            let mut acc = MetricsAccumulator::new();
-            let mut skipped = 0usize;
-            for (row, yi) in y.iter().enumerate() {
-                match (yi, p.values[k].get(row).copied().flatten()) {
-                    (Some(yi), Some(yhat)) => {
-                        // Both are finite: the reader rejects non-finite
-                        // cells and the runner non-finite outputs.
-                        acc.push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
-                        all[k].push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
-                    }
-                    _ => skipped += 1,
-                }
-            }
-            if skipped > 0 {
-                eprintln!(
-                    "note: {}: {name}: {skipped} of {} rows not scored (no prediction or no measured {col}); n counts the scored rows",
-                    run.path.display(),
-                    run.len()
-                );
-            }
+            let (entry, skipped) = score_run(run, name, map, &p.values[k], &mut all[k])?;
             unscored[k] += skipped;
-            let mut entry = match acc.finish() {
-                Ok(m) => metrics_json(&m),
-                Err(e) => json!({"error": e.to_string()}),
-            };
-            if let Value::Object(o) = &mut entry {
-                o.insert("file".into(), json!(run.path.display().to_string()));
-                o.insert("rows_not_scored".into(), json!(skipped));
-            }
             per_run[k].push(entry);
         }
     }
-    let mut out = Map::new();
+    let mut out = EvalOutcome::new();
     for (k, name) in names.iter().enumerate() {
         if k >= n_model && per_run[k].is_empty() {
             continue;
@@ -118,20 +171,79 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         let m = all[k].clone().finish().map_err(|e| {
             anyhow!("output \"{name}\": nothing to score ({e}): no row has both a prediction and a measurement")
         })?;
-        let mut obj = metrics_json(&m);
-        if let Value::Object(o) = &mut obj {
-            o.insert("column".into(), json!(map.column(name)));
-            o.insert("rows_not_scored".into(), json!(unscored[k]));
-            // Rows the reader left out (--skip-bad-rows), per target
-            // object: the contract keys eval's object by target only.
-            o.insert("skipped_rows".into(), json!(skipped_rows));
-            o.insert(
-                "per_run".into(),
-                Value::Array(std::mem::take(&mut per_run[k])),
-            );
-        }
-        out.insert(name.to_string(), obj);
+        let entry = TargetEval {
+            metrics: MetricsReport::from(&m),
+            column: map.column(name).to_string(),
+            rows_not_scored: unscored[k],
+            skipped_rows,
+            per_run: std::mem::take(&mut per_run[k]),
+        };
+        out.insert(name.to_string(), entry);
     }
+    Ok(out)
+}
+
+/// One run's figures for output `name` (also pushed into `all`), and how
+/// many of its rows could not be scored.
+fn score_run(
+    run: &RunFile,
+    name: &str,
+    map: &ColumnMap,
+    yhat: &[Option<f64>],
+    all: &mut MetricsAccumulator,
+) -> Result<(RunEval, usize)> {
+    let col = map.column(name);
+    let y = run.column(col).ok_or_else(|| {
+        anyhow!(
+            "{}: no measured column \"{col}\" to compare output \"{name}\" with (use --map {name}=COLUMN)",
+            run.path.display()
+        )
+    })?;
+    let mut acc = MetricsAccumulator::new();
+    let mut skipped = 0usize;
+    for (row, yi) in y.iter().enumerate() {
+        match (yi, yhat.get(row).copied().flatten()) {
+            (Some(yi), Some(yhat)) => {
+                // Both are finite: the reader rejects non-finite
+                // cells and the runner non-finite outputs.
+                acc.push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+                all.push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+            }
+            _ => skipped += 1,
+        }
+    }
+    let file = run.path.display().to_string();
+    if skipped > 0 {
+        eprintln!(
+            "note: {file}: {name}: {skipped} of {} rows not scored (no prediction or no measured {col}); n counts the scored rows",
+            run.len()
+        );
+    }
+    let entry = match acc.finish() {
+        Ok(m) => RunEval::Scored {
+            metrics: MetricsReport::from(&m),
+            file,
+            rows_not_scored: skipped,
+        },
+        Err(e) => RunEval::Failed {
+            error: e.to_string(),
+            file,
+            rows_not_scored: skipped,
+        },
+    };
+    Ok((entry, skipped))
+}
+
+/// Runs `thermcomp eval`: reads the model and the runs, [`evaluate`]s,
+/// prints the table or the JSON object.
+pub fn run(a: &EvalArgs) -> Result<()> {
+    let model = a.model.load()?;
+    let map = a.runs.column_map()?;
+    let runs = a.runs.read(map.model_columns(&model, true))?;
+    let out = evaluate(&model, &runs, &map)?;
+    let Value::Object(out) = serde_json::to_value(&out)? else {
+        bail!("eval: the outcome is not a JSON object");
+    };
     if a.json {
         crate::data::fsio::print_line(&Value::Object(out).to_string())?;
     } else {

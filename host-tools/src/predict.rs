@@ -6,6 +6,7 @@ use crate::runner::{self, ColumnMap};
 use anyhow::{Context, Result};
 use clap::Args;
 use model_core::ValidModel;
+use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -38,15 +39,67 @@ fn cell(v: Option<f64>) -> String {
     v.map_or_else(String::new, |x| format!("{x}"))
 }
 
-/// Runs `thermcomp predict`.
-pub fn run(a: &PredictArgs) -> Result<()> {
-    let model = a.model.load()?;
-    if a.interval && model.model().bounds.is_none() {
+/// Refuses `--interval` for a model without an error band.
+pub fn check_interval(model: &ValidModel, interval: bool) -> Result<()> {
+    if interval && model.model().bounds.is_none() {
         anyhow::bail!(
             "--interval: this {} model carries no error band (fit it with --model auto)",
             model.kind().name()
         );
     }
+    Ok(())
+}
+
+/// One run's predictions in memory, row for row with the run.
+#[derive(Clone, Debug, Serialize)]
+pub struct PredictionTable {
+    /// The run's times, s.
+    pub t_s: Vec<f64>,
+    /// `<output>_pred` per output, then (with an interval) `<output>_lo95`
+    /// and `<output>_hi95` per output: the columns `predict` writes.
+    /// `None` where there is no prediction (an empty cell in the file).
+    pub columns: Vec<(String, Vec<Option<f64>>)>,
+    /// What the runner did that the user should know.
+    pub notes: Vec<String>,
+}
+
+/// `model`'s predictions for `run` (in memory): what `predict` writes for
+/// it, as columns.
+pub fn predict_run(
+    model: &ValidModel,
+    run: &RunFile,
+    map: &ColumnMap,
+    interval: bool,
+) -> Result<PredictionTable> {
+    check_interval(model, interval)?;
+    let p = runner::predict(model, run, map)?;
+    let names = model.outputs().iter().map(|o| o.to_string());
+    let mut columns: Vec<(String, Vec<Option<f64>>)> = names
+        .clone()
+        .zip(&p.values)
+        .map(|(o, v)| (format!("{o}_pred"), v.clone()))
+        .collect();
+    if interval {
+        for (o, (v, b)) in names.zip(p.values.iter().zip(&p.bands)) {
+            let pair = |i: usize| v.get(i).copied().flatten().zip(b.get(i).copied().flatten());
+            let rows = 0..run.len();
+            let lo = rows.clone().map(|i| pair(i).map(|(y, h)| y - h)).collect();
+            let hi = rows.map(|i| pair(i).map(|(y, h)| y + h)).collect();
+            columns.push((format!("{o}_lo95"), lo));
+            columns.push((format!("{o}_hi95"), hi));
+        }
+    }
+    Ok(PredictionTable {
+        t_s: run.t_s.clone(),
+        columns,
+        notes: p.notes,
+    })
+}
+
+/// Runs `thermcomp predict`.
+pub fn run(a: &PredictArgs) -> Result<()> {
+    let model = a.model.load()?;
+    check_interval(&model, a.interval)?;
     let map = a.runs.column_map()?;
     let runs = a.runs.read(map.model_columns(&model, false))?;
     let inputs = [a.model.paths(), a.runs.paths()].concat();

@@ -2,6 +2,7 @@
 //! run file (CONTRACT.md section 2).
 
 use crate::data::fsio::{named, Named};
+use crate::data::runfile::RunFile;
 use crate::twin::calibrate;
 use crate::twin::effects::EffectSet;
 use crate::twin::machine::{Machine, DEFAULT_MACHINE_TOML, N_NODES};
@@ -83,18 +84,8 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
         bail!("--out FILE.csv is needed");
     };
     check_paths(a, &[])?;
-    let machine = match &a.machine {
-        Some(p) => Machine::load(p)?,
-        None => Machine::default_machine(),
-    };
-    let profile = Profile::parse(&a.profile)?;
-    let effects = EffectSet::parse(&a.effects)?;
-    let schedule = profile::schedule(&profile, machine.max_rpm, a.hours, a.dt_s, a.seed)?;
-    let opts = SimOptions {
-        effects,
-        seed: a.seed,
-        sensors: a.sensors,
-    };
+    let (machine, profile, schedule, opts) = setup(a)?;
+    let effects = opts.effects;
     let started = Instant::now();
     let (summary, n_sensors) = write_run(&machine, &schedule, &opts, out)?;
     let elapsed_s = started.elapsed().as_secs_f64();
@@ -120,8 +111,81 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
     Ok(())
 }
 
+/// The machine (`--machine` or the built-in one), profile, schedule and
+/// options `a` asks for.
+fn setup(a: &SimulateArgs) -> Result<(Machine, Profile, profile::Schedule, SimOptions)> {
+    let machine = match &a.machine {
+        Some(p) => Machine::load(p)?,
+        None => Machine::default_machine(),
+    };
+    let profile = Profile::parse(&a.profile)?;
+    let effects = EffectSet::parse(&a.effects)?;
+    let schedule = profile::schedule(&profile, machine.max_rpm, a.hours, a.dt_s, a.seed)?;
+    let opts = SimOptions {
+        effects,
+        seed: a.seed,
+        sensors: a.sensors,
+    };
+    Ok((machine, profile, schedule, opts))
+}
+
+/// The run `simulate` would write for `a` (its `--out` is not used), in
+/// memory: the very text of the file, read back, so every value is the
+/// file's.
+///
+/// With `--calibrate REAL.csv` (and `--save-machine`, written), the
+/// calibrated twin's run over the real run's grid, as `--out` would hold.
+pub fn simulate(a: &SimulateArgs) -> Result<RunFile> {
+    let (machine, schedule, opts) = match &a.calibrate {
+        Some(real) => {
+            let (cal, data, _) = calibrate_machine(a, real)?;
+            (cal.machine, data.schedule, calibrated_options(a)?)
+        }
+        None => {
+            let (machine, _, schedule, opts) = setup(a)?;
+            (machine, schedule, opts)
+        }
+    };
+    let n_sensors = opts.sensors.unwrap_or(machine.sensors.sites.len());
+    let name = std::path::Path::new("simulated");
+    let mut text = Vec::new();
+    write_rows(&machine, &schedule, &opts, n_sensors, &mut text, name)?;
+    Ok(RunFile::from_reader(
+        "simulated",
+        text.as_slice(),
+        &crate::data::runfile::ReadOptions::default(),
+    )?)
+}
+
 /// `simulate --calibrate REAL.csv --save-machine CAL.toml [--out SIM.csv]`.
 fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
+    let (cal, data, save) = calibrate_machine(a, real)?;
+    let mut v = calibrate::to_json(&cal);
+    v["machine"] = save.display().to_string().into();
+    if let Some(out) = &a.out {
+        write_run(&cal.machine, &data.schedule, &calibrated_options(a)?, out)?;
+        v["out"] = out.display().to_string().into();
+    }
+    if a.json {
+        crate::data::fsio::print_line(&v.to_string())?;
+    } else {
+        eprint!("{}", calibration_table(&cal));
+        eprintln!("wrote {}", save.display());
+    }
+    Ok(())
+}
+
+/// `--calibrate REAL.csv`: the twin fitted to the real run, its machine
+/// file written to `--save-machine`; returns the calibration, the real
+/// run's schedule and the path written.
+fn calibrate_machine<'a>(
+    a: &'a SimulateArgs,
+    real: &std::path::Path,
+) -> Result<(
+    calibrate::Calibration,
+    calibrate::Measured,
+    &'a std::path::Path,
+)> {
     let Some(save) = &a.save_machine else {
         bail!("--calibrate needs --save-machine CAL.toml");
     };
@@ -147,24 +211,16 @@ fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
     let cal = calibrate::calibrate(&base, &data, &opts)?;
     let toml = calibrate::to_toml(&text, &cal, &real.display().to_string())?;
     crate::data::fsio::write_bytes_atomic(save, toml.as_bytes())?;
-    let mut v = calibrate::to_json(&cal);
-    v["machine"] = save.display().to_string().into();
-    if let Some(out) = &a.out {
-        let sim_opts = SimOptions {
-            effects: EffectSet::parse("")?,
-            seed: a.seed,
-            sensors: None,
-        };
-        write_run(&cal.machine, &data.schedule, &sim_opts, out)?;
-        v["out"] = out.display().to_string().into();
-    }
-    if a.json {
-        crate::data::fsio::print_line(&v.to_string())?;
-    } else {
-        eprint!("{}", calibration_table(&cal));
-        eprintln!("wrote {}", save.display());
-    }
-    Ok(())
+    Ok((cal, data, save))
+}
+
+/// The options of the calibrated twin's run: no effects, `--seed`.
+fn calibrated_options(a: &SimulateArgs) -> Result<SimOptions> {
+    Ok(SimOptions {
+        effects: EffectSet::parse("")?,
+        seed: a.seed,
+        sensors: None,
+    })
 }
 
 /// Refuses outputs (`--out`, `--save-machine`) that are the same file as an

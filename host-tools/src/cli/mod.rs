@@ -8,6 +8,7 @@
 //! and a non-zero exit status.
 
 mod fivepoint;
+pub mod pairs;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};

@@ -210,6 +210,87 @@ impl RunFile {
         Self::parse(name.to_owned(), PathBuf::from(name), r, opts, None)
     }
 
+    /// A run held in memory as columns (a pandas DataFrame, a numpy array):
+    /// `t_s` and `(name, values)` per column, `NaN` for a missing cell (what
+    /// an empty CSV cell means). `None` values: a column that is kept by name
+    /// but not numeric (ignored unless a model names it, as in a file).
+    ///
+    /// The same rules as [`RunFile::read`], with `name` for the file and the
+    /// place a CSV would have (line = row + 2, column 1 = `t_s`) in errors:
+    /// `t_s` present, finite and strictly increasing; no duplicate or empty
+    /// names; cells finite and at most [`MAX_CELL_MAGNITUDE`] in magnitude.
+    pub fn from_columns(
+        name: &str,
+        t_s: Vec<f64>,
+        columns: Vec<(String, Option<Vec<f64>>)>,
+    ) -> Result<RunFile, RunFileError> {
+        let file = name.to_owned();
+        check_names(&file, &columns)?;
+        let row_error = |row: usize, kind| {
+            RunFileError::Row(RowError {
+                file: file.clone(),
+                line: row as u64 + 2,
+                kind,
+            })
+        };
+        if let Some(row) = t_s.iter().position(|t| !t.is_finite()) {
+            return Err(row_error(row, RowErrorKind::MissingTime { column: 1 }));
+        }
+        for (row, pair) in t_s.windows(2).enumerate() {
+            if pair[1] <= pair[0] {
+                let kind = RowErrorKind::TimeNotIncreasing {
+                    column: 1,
+                    time: pair[1],
+                    previous: pair[0],
+                };
+                return Err(row_error(row + 1, kind));
+            }
+        }
+        let mut values = Vec::with_capacity(columns.len());
+        let mut read = Vec::with_capacity(columns.len());
+        let mut names = Vec::with_capacity(columns.len());
+        for (index, (col, cells)) in columns.into_iter().enumerate() {
+            let cells = cells.unwrap_or_default();
+            if !cells.is_empty() && cells.len() != t_s.len() {
+                return Err(RunFileError::Csv {
+                    file,
+                    message: format!(
+                        "column {col} has {} rows, t_s has {}",
+                        cells.len(),
+                        t_s.len()
+                    ),
+                });
+            }
+            read.push(!cells.is_empty() || t_s.is_empty());
+            let checked = cells
+                .iter()
+                .enumerate()
+                .map(|(row, &v)| memory_cell(v, index + 2, &col).map_err(|k| row_error(row, k)))
+                .collect::<Result<Vec<_>, _>>()?;
+            values.push(if checked.is_empty() {
+                vec![None; t_s.len()]
+            } else {
+                checked
+            });
+            names.push(col);
+        }
+        if t_s.is_empty() {
+            return Err(RunFileError::NoDataRows {
+                file,
+                skipped: 0,
+                first_skipped: None,
+            });
+        }
+        Ok(RunFile {
+            path: PathBuf::from(name),
+            columns: names,
+            t_s,
+            values,
+            skipped: Vec::new(),
+            read,
+        })
+    }
+
     /// Number of samples (data rows kept).
     pub fn len(&self) -> usize {
         self.t_s.len()
@@ -670,6 +751,60 @@ impl Header {
             }),
             _ => Ok(time),
         }
+    }
+}
+
+/// Header rules of [`RunFile::from_columns`]: no empty, duplicate or
+/// `t_s` name among the data columns (the header is line 1).
+fn check_names(file: &str, columns: &[(String, Option<Vec<f64>>)]) -> Result<(), RunFileError> {
+    for (i, (name, _)) in columns.iter().enumerate() {
+        if name.trim().is_empty() {
+            return Err(RunFileError::EmptyColumnName {
+                file: file.to_owned(),
+                line: 1,
+                column: i + 2,
+            });
+        }
+        let first = if name == TIME_COLUMN {
+            Some(0)
+        } else {
+            columns[..i]
+                .iter()
+                .position(|(n, _)| n == name)
+                .map(|j| j + 2)
+        };
+        if let Some(first) = first {
+            return Err(RunFileError::DuplicateColumn {
+                file: file.to_owned(),
+                line: 1,
+                name: name.clone(),
+                first: first.max(1),
+                second: i + 2,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// One in-memory cell: `NaN` is a missing value, any other non-finite or
+/// too large value an error (as [`parse_cell`] judges a CSV cell).
+fn memory_cell(v: f64, column: usize, name: &str) -> Result<Option<f64>, RowErrorKind> {
+    if v.is_nan() {
+        Ok(None)
+    } else if !v.is_finite() {
+        Err(RowErrorKind::NotFinite {
+            column,
+            name: name.to_owned(),
+            text: format!("{v}"),
+        })
+    } else if v.abs() > MAX_CELL_MAGNITUDE {
+        Err(RowErrorKind::OutOfRange {
+            column,
+            name: name.to_owned(),
+            text: format!("{v}"),
+        })
+    } else {
+        Ok(Some(v))
     }
 }
 

@@ -80,6 +80,12 @@ pub fn read(sim_path: &Path, real_path: &Path) -> Result<Aligned> {
     let opts = ReadOptions::default();
     let sim = RunFile::read(sim_path, &opts)?;
     let real = RunFile::read(real_path, &opts)?;
+    align(&sim, &real)
+}
+
+/// [`read`] for runs already in memory (named by their `path` in messages).
+pub fn align(sim: &RunFile, real: &RunFile) -> Result<Aligned> {
+    let (sim_path, real_path) = (sim.path.as_path(), real.path.as_path());
     if sim.len() < 2 || real.len() < 2 {
         bail!("diagnose needs at least two rows in each of --sim and --real");
     }
@@ -107,7 +113,7 @@ pub fn read(sim_path: &Path, real_path: &Path) -> Result<Aligned> {
     let inputs = ["speed_rpm", "power_kw", "ambient_c", "coolant_c"];
     let used = names_sorted.iter().map(String::as_str).chain(inputs);
     for name in used {
-        for (run, path) in [(&sim, sim_path), (&real, real_path)] {
+        for (run, path) in [(sim, sim_path), (real, real_path)] {
             let Some(values) = run.column(name) else {
                 continue;
             };
@@ -116,8 +122,8 @@ pub fn read(sim_path: &Path, real_path: &Path) -> Result<Aligned> {
         }
     }
     let grid = &real.t_s;
-    let speed = filled(&real, "speed_rpm", grid)
-        .or_else(|| filled(&sim, "speed_rpm", grid))
+    let speed = filled(real, "speed_rpm", grid)
+        .or_else(|| filled(sim, "speed_rpm", grid))
         .with_context(|| {
             format!(
                 "neither {} nor {} has a speed_rpm column (needed to find the regimes)",
@@ -125,17 +131,17 @@ pub fn read(sim_path: &Path, real_path: &Path) -> Result<Aligned> {
                 sim_path.display()
             )
         })?;
-    let optional = |name: &str| filled(&real, name, grid);
+    let optional = |name: &str| filled(real, name, grid);
     let power = optional("power_kw");
     let ambient = optional("ambient_c");
     let coolant = optional("coolant_c");
     let sims: Vec<Vec<Option<f64>>> = names_sorted
         .iter()
-        .map(|c| filled(&sim, c, grid).unwrap_or_default())
+        .map(|c| filled(sim, c, grid).unwrap_or_default())
         .collect();
     let reals: Vec<Vec<Option<f64>>> = names_sorted
         .iter()
-        .map(|c| filled(&real, c, grid).unwrap_or_default())
+        .map(|c| filled(real, c, grid).unwrap_or_default())
         .collect();
     let keep: Vec<usize> = (0..grid.len())
         .filter(|&k| {

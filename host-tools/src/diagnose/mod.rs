@@ -229,7 +229,23 @@ pub fn diagnose_with_machine(
     machine: Option<&Path>,
 ) -> Result<Value> {
     let twin = machine.map(physical::Twin::load).transpose()?;
-    let al = align::read(sim, real)?;
+    let opts = crate::data::runfile::ReadOptions::default();
+    let sim = crate::data::runfile::RunFile::read(sim, &opts)?;
+    let real = crate::data::runfile::RunFile::read(real, &opts)?;
+    diagnose_runs(&sim, &real, holdout_from_s, report, twin.as_ref())
+}
+
+/// The diagnosis of runs in memory: [`diagnose_with_machine`] without the
+/// reading. The physical diagnosis (with `twin`) re-reads the real run from
+/// `real.path`, so it needs `real` read from a file.
+pub fn diagnose_runs(
+    sim: &crate::data::runfile::RunFile,
+    real: &crate::data::runfile::RunFile,
+    holdout_from_s: Option<f64>,
+    report: Option<&Path>,
+    twin: Option<&physical::Twin>,
+) -> Result<Value> {
+    let al = align::align(sim, real)?;
     let t = &al.t_s;
     let n = t.len();
     let holdout = holdout_from_s.unwrap_or(0.5 * (t[0] + t[n - 1]));
@@ -268,8 +284,8 @@ pub fn diagnose_with_machine(
     let physical = twin
         .map(|m| {
             physical::diagnose(
-                &m,
-                real,
+                m,
+                &real.path,
                 &al,
                 (n_fit, holdout),
                 physical_channel(&al, first, main, &verdict),

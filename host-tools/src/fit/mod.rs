@@ -11,18 +11,21 @@ pub mod arx;
 pub mod auto;
 pub mod bp;
 pub mod gain;
+pub mod job;
 pub mod mlr;
 pub mod pcr;
 pub mod tfbank;
 
+pub use job::{fit, FitOptions, FitOutcome, FitParams, FitReport, ValidFitParams};
+
 use crate::data::dataset::{Dataset, InputForm};
 use crate::data::runfile::{ReadOptions, RunFile};
-use crate::score::{score, TargetScore};
-use anyhow::{anyhow, bail, Result};
+use crate::score::TargetScore;
+use anyhow::{anyhow, Result};
 use clap::{Args, ValueEnum};
 use model_core::model::{Name, MAX_CHANNELS, MAX_OUTPUTS};
 use model_core::{Channel, ValidModel};
-use serde_json::{json, Map, Value};
+use serde_json::Value;
 use std::path::PathBuf;
 
 /// Model kinds `fit` trains.
@@ -176,19 +179,6 @@ pub fn outputs(ds: &Dataset) -> Result<heapless::Vec<Name, MAX_OUTPUTS>> {
     Ok(out)
 }
 
-/// Every column named `T<number>`, in file order: the default inputs
-/// (with `auto`, also the columns of [`AUTO_EXTRA_INPUTS`] present).
-fn default_inputs(run: &RunFile, auto: bool) -> Vec<String> {
-    run.columns
-        .iter()
-        .filter(|c| {
-            crate::data::runfile::is_temperature_column(c)
-                || (auto && AUTO_EXTRA_INPUTS.contains(&c.as_str()))
-        })
-        .cloned()
-        .collect()
-}
-
 fn scores_text(scores: &[TargetScore]) -> String {
     let mut s = format!(
         "{:<10} {:<12} {:>7} {:>9} {:>8} {:>8} {:>9} {:>9}\n",
@@ -207,59 +197,43 @@ fn scores_text(scores: &[TargetScore]) -> String {
     s
 }
 
-/// What [`fit_files`] produced: the blob written and its figures.
-pub struct FitOutcome {
-    /// The model decoded back from the blob written (what is flashed).
-    pub model: ValidModel,
-    /// The blob's bytes, as written to `--out`.
-    pub bytes: Vec<u8>,
-    /// Calibration and held-out figures per target.
-    pub scores: Vec<TargetScore>,
-    /// The inputs the model reads, in order.
-    pub inputs: Vec<String>,
-    /// Calibration rows used.
-    pub calibration_rows: usize,
-    /// `fit --json`'s object.
-    pub json: Value,
+impl FitArgs {
+    /// The job's parameters, from the flags.
+    pub fn params(&self) -> FitParams {
+        FitParams {
+            targets: self.target.clone(),
+            inputs: self.inputs.clone(),
+            kind: self.model,
+            holdout_from_s: self.holdout_from_s,
+            reference: self.reference,
+            l_defl_mm: self.l_defl_mm,
+            options: FitOptions {
+                pcr: self.pcr.clone(),
+                arx: self.arx.clone(),
+                bp: self.bp.clone(),
+                arma: self.arma.clone(),
+                auto: self.auto.clone(),
+            },
+        }
+    }
 }
 
-/// Trains, writes the blob and scores it: everything `thermcomp fit` does
-/// but print. `thermcomp demo` calls it too.
+/// Reads the runs, [`fit`]s, writes the blob: everything `thermcomp fit`
+/// does but print. `thermcomp demo` calls it too.
 pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
+    let first = a.data.first().ok_or_else(|| anyhow!("no --data"))?;
+    check_paths(a)?;
+    let params = a.params().check()?;
     // Read only the columns the fit uses; the inputs default needs the header first.
     let header_only = ReadOptions {
         skip_bad_rows: true,
         only: Some(Vec::new()),
     };
-    let first = a.data.first().ok_or_else(|| anyhow!("no --data"))?;
-    check_paths(a)?;
-    // An ARMA forecaster reads the very series it forecasts, as logged.
-    let arma = a.model == FitKind::Arma;
-    if arma && (a.target.len() != 1 || !a.inputs.is_empty()) {
-        bail!("arma: give one --target (the series it forecasts) and no --inputs");
-    }
-    let auto = a.model == FitKind::Auto;
-    let form = if arma || auto {
-        InputForm::Absolute
+    let inputs = if a.inputs.is_empty() && a.model != FitKind::Arma {
+        let header = RunFile::read(first, &header_only)?;
+        params.inputs_for(&header.columns, &first.display().to_string())?
     } else {
-        a.reference
-    };
-    let inputs = if arma {
-        a.target.clone()
-    } else if a.inputs.is_empty() {
-        let cols = default_inputs(&RunFile::read(first, &header_only)?, auto);
-        if cols.is_empty() {
-            bail!(
-                "{}: no T<number> columns; name the inputs with --inputs",
-                first.display()
-            );
-        }
-        cols.into_iter().filter(|c| !a.target.contains(c)).collect()
-    } else {
-        if let Some(t) = a.target.iter().find(|t| a.inputs.contains(t)) {
-            bail!("{t} is both a --target and one of the --inputs: a model cannot read what it predicts");
-        }
-        a.inputs.clone()
+        params.inputs_for(&[], "")?
     };
     let needed: Vec<String> = inputs.iter().chain(&a.target).cloned().collect();
     let opts = ReadOptions {
@@ -268,65 +242,18 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
     };
     let runs = crate::data::source::read_runs(&a.data, &opts)?;
     let validate = crate::data::source::read_runs(&a.validate, &opts)?;
-    let ds = Dataset::new(&runs, &validate, &inputs, &a.target, form, a.holdout_from_s)?;
-    let fitted = match a.model {
-        FitKind::Auto => {
-            let params = auto::AutoParams {
-                folds: a.auto.auto_folds,
-                ensemble: a.auto.auto_ensemble,
-                dt_s: a.arx.dt_s,
-                eliminate: a.auto.auto_eliminate,
-                families: a.auto.auto_families.clone(),
-            };
-            auto::fit(&ds, &params.check(&ds)?)?.0
-        }
-        FitKind::Mlr => mlr::fit(&ds)?,
-        FitKind::Pcr => pcr::fit(&ds, &a.pcr)?,
-        FitKind::Arx => arx::fit(&ds, &a.arx)?,
-        FitKind::Tf => tfbank::fit(&ds, &a.arx)?,
-        FitKind::Gain => gain::fit(&ds, &a.arx, &runs, &validate)?,
-        FitKind::Bp => bp::fit(&ds, &a.bp, false)?,
-        FitKind::Gabp => bp::fit(&ds, &a.bp, true)?,
-        FitKind::Arma => arma::fit(&ds, &a.arma, a.arx.dt_s)?,
-    };
-    let model = crate::fivepoint::with_geometry(fitted.model.clone(), a.l_defl_mm)?;
-    let bytes = crate::data::blobfile::write(&model, &a.out)?;
-    // Score what was written, decoded back: the figures are the blob's.
-    let flashed = model_core::decode(&bytes).map_err(|e| anyhow!("written blob: {e}"))?;
-    let split: Vec<(&RunFile, usize)> = runs
-        .iter()
-        .zip(&ds.runs)
-        .map(|(r, d)| (r, d.calib_end))
-        .chain(validate.iter().map(|r| (r, 0)))
-        .collect();
-    let scores = score(&flashed, &split)?;
-    let n_calib = ds.calibration_len();
-    let targets: Map<String, Value> = scores
-        .iter()
-        .map(|t| (t.output.clone(), t.json()))
-        .collect();
-    let json = json!({
-        "model": flashed.kind().name(),
-        "out": a.out.display().to_string(),
-        "bytes": bytes.len(),
-        "inputs": ds.inputs,
-        "reference": ds.form.name(),
-        "holdout_from_s": a.holdout_from_s,
-        "calibration_rows": n_calib,
-        "holdout_rows": ds.holdout_len(),
-        "skipped_rows": crate::data::source::skipped_rows(runs.iter().chain(&validate)),
-        "targets": targets,
-        "l_defl_mm": flashed.five_point().map(|t| t.l_defl_mm()),
-        "details": fitted.details,
-    });
-    Ok(FitOutcome {
-        model: flashed,
-        bytes,
-        scores,
-        inputs: ds.inputs,
-        calibration_rows: n_calib,
-        json,
-    })
+    let outcome = fit(&params, &runs, &validate)?;
+    crate::data::fsio::write_bytes_atomic(&a.out, &outcome.bytes)?;
+    Ok(outcome)
+}
+
+/// `fit --json`'s object: the report and the path written.
+pub fn report_json(o: &FitOutcome, out: &std::path::Path) -> Result<Value> {
+    let mut v = serde_json::to_value(&o.report)?;
+    if let Value::Object(m) = &mut v {
+        m.insert("out".into(), Value::String(out.display().to_string()));
+    }
+    Ok(v)
 }
 
 /// Refuses an `--out` that is the same file as a `--data` or `--validate` run.
@@ -344,7 +271,7 @@ fn check_paths(a: &FitArgs) -> Result<()> {
 pub fn run(a: &FitArgs) -> Result<()> {
     let o = fit_files(a)?;
     if a.json {
-        crate::data::fsio::print_line(&o.json.to_string())?;
+        crate::data::fsio::print_line(&report_json(&o, &a.out)?.to_string())?;
     } else {
         crate::data::fsio::print(&scores_text(&o.scores))?;
         eprintln!(

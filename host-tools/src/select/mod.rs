@@ -33,6 +33,7 @@ use crate::data::runfile::{ReadOptions, RunFile};
 use crate::num::stats;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, ValueEnum};
+use serde::Serialize;
 use serde_json::{json, Map, Value};
 use std::path::PathBuf;
 
@@ -273,31 +274,19 @@ impl Table {
     }
 }
 
-/// Reads the runs and settles the input columns.
-fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
+/// The input columns of a selection on runs with `columns` (`source` names
+/// the first run): `--inputs`, or every `T<number>` but the targets.
+pub fn inputs_for(a: &SelectArgs, columns: &[String], source: &str) -> Result<Vec<String>> {
     let mut inputs: Vec<String> = a.inputs.iter().map(|s| s.trim().to_string()).collect();
-    let first = a
-        .data
-        .first()
-        .ok_or_else(|| anyhow!("--data: give at least one run file"))?;
     if inputs.is_empty() {
-        let head = RunFile::read(
-            first,
-            &ReadOptions {
-                skip_bad_rows: true,
-                only: Some(Vec::new()),
-            },
-        )?;
-        inputs = head
-            .columns
+        inputs = columns
             .iter()
             .filter(|c| crate::data::runfile::is_temperature_column(c) && !a.target.contains(c))
             .cloned()
             .collect();
         if inputs.len() < 2 {
             bail!(
-                "{}: {} columns named T<number>: name at least two inputs with --inputs",
-                first.display(),
+                "{source}: {} columns named T<number>: name at least two inputs with --inputs",
                 inputs.len()
             );
         }
@@ -316,26 +305,49 @@ fn read(a: &SelectArgs) -> Result<(Vec<RunFile>, Vec<String>)> {
             bail!("\"{name}\" is both a --target and an input");
         }
     }
-    let mut needed = inputs.clone();
+    Ok(inputs)
+}
+
+/// Reads the runs (only the columns the selection uses).
+fn read(a: &SelectArgs) -> Result<Vec<RunFile>> {
+    let first = a
+        .data
+        .first()
+        .ok_or_else(|| anyhow!("--data: give at least one run file"))?;
+    let header_only = ReadOptions {
+        skip_bad_rows: true,
+        only: Some(Vec::new()),
+    };
+    let inputs = if a.inputs.is_empty() {
+        let head = RunFile::read(first, &header_only)?;
+        inputs_for(a, &head.columns, &first.display().to_string())?
+    } else {
+        inputs_for(a, &[], "")?
+    };
+    let mut needed = inputs;
     needed.extend(a.target.iter().cloned());
     let opts = ReadOptions {
         skip_bad_rows: a.skip_bad_rows,
-        only: Some(needed.clone()),
+        only: Some(needed),
     };
-    let files = crate::data::source::read_runs(&a.data, &opts)?;
-    for (p, run) in a.data.iter().zip(&files) {
-        for n in &needed {
+    crate::data::source::read_runs(&a.data, &opts)
+}
+
+/// Every run has the columns `needed`, scalable.
+fn check_runs(files: &[RunFile], needed: &[String]) -> Result<()> {
+    for run in files {
+        for n in needed {
             if !run.has_column(n) {
                 bail!(
                     "{}: no column \"{n}\" (columns: {})",
-                    p.display(),
+                    run.path.display(),
                     run.columns.join(", ")
                 );
             }
         }
         crate::data::dataset::check_scalable_columns(run)?;
     }
-    Ok((files, inputs))
+    Ok(())
 }
 
 /// Runs `thermcomp select`.
@@ -353,27 +365,56 @@ pub fn run(a: &SelectArgs) -> Result<()> {
 /// `thermcomp select` does but print. `thermcomp demo` calls it too.
 pub fn select_files(a: &SelectArgs) -> Result<Output> {
     a.check()?;
-    let (files, inputs) = read(a)?;
+    let files = read(a)?;
+    select(a, &files)
+}
+
+/// The selection over runs in memory (`a.data` is not read): checks the
+/// arguments, settles the inputs from the first run's columns, runs the
+/// method.
+pub fn select(a: &SelectArgs, files: &[RunFile]) -> Result<Output> {
+    a.check()?;
+    let first = files
+        .first()
+        .ok_or_else(|| anyhow!("--data: give at least one run file"))?;
+    let inputs = inputs_for(a, &first.columns, &first.path.display().to_string())?;
+    let needed: Vec<String> = inputs.iter().chain(&a.target).cloned().collect();
+    check_runs(files, &needed)?;
     let names: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let mut out = match a.method {
-        Method::Grey => run_grey(a, &files, &names),
-        Method::Wgrey => run_wgrey(a, &files, &names),
-        Method::Maxtree => run_maxtree(a, &files, &names),
+        Method::Grey => run_grey(a, files, &names),
+        Method::Wgrey => run_wgrey(a, files, &names),
+        Method::Maxtree => run_maxtree(a, files, &names),
     }?;
     if let Value::Object(o) = &mut out.json {
         o.insert(
             "skipped_rows".into(),
-            json!(crate::data::source::skipped_rows(&files)),
+            json!(crate::data::source::skipped_rows(files)),
         );
     }
+    out.selected = out.json["selected"]
+        .as_array()
+        .map(|v| {
+            v.iter()
+                .filter_map(|s| s.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default();
     Ok(out)
 }
 
-/// A method's result in both forms.
+/// A method's result: the sensors picked, and the figures in both forms.
+#[derive(Debug, Clone, Serialize)]
 pub struct Output {
-    /// `select --json`'s object (its `"selected"` lists the sensors picked).
+    /// The sensors picked, in the method's order.
+    #[serde(skip)]
+    pub selected: Vec<String>,
+    /// `select --json`'s object (its `"selected"` lists the sensors picked;
+    /// the rest are the method's own tables).
+    #[serde(flatten)]
     pub json: Value,
     /// The tables `select` prints without `--json`.
+    #[serde(skip)]
     pub text: String,
 }
 
@@ -716,40 +757,89 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
         "combinations": combos_json,
     });
 
+    let notes = [
+        rel_choice.text("the grey relative degree between the inputs"),
+        choice.text(&with_what),
+    ];
+    let found = GreyFound {
+        target,
+        names,
+        rows: xy.rows(),
+        notes: notes.into_iter().flatten().collect(),
+        scale,
+        rho: &rho,
+        deng: &deng,
+        pearson: &pearson,
+        groups: &groups,
+        typical: &typical,
+        combos: &combos,
+        best,
+        selected: &selected,
+    };
+    let text = grey_text(a, &found);
+    Ok(Output {
+        selected: Vec::new(),
+        json,
+        text,
+    })
+}
+
+/// What `select --method grey` found, for its text tables.
+struct GreyFound<'a> {
+    target: &'a str,
+    names: &'a [&'a str],
+    /// Rows with the target and every input.
+    rows: usize,
+    /// Scale fallbacks to tell.
+    notes: Vec<String>,
+    scale: grey::Scale,
+    /// Comprehensive correlation degrees between the inputs.
+    rho: &'a [Vec<f64>],
+    /// Deng's grey coefficient of each input with the target.
+    deng: &'a [f64],
+    pearson: &'a [f64],
+    groups: &'a [Vec<usize>],
+    typical: &'a [usize],
+    combos: &'a [(Vec<usize>, stats::Regression)],
+    /// Index of the best combination.
+    best: usize,
+    selected: &'a [String],
+}
+
+/// `select --method grey`'s text: the degrees, the groups, every
+/// combination's regression and the pick.
+fn grey_text(a: &SelectArgs, g: &GreyFound) -> String {
+    let (target, names) = (g.target, g.names);
+    let group_of = |j: usize| g.groups.iter().position(|c| c.contains(&j)).unwrap_or(0);
+    let groups_named: Vec<Vec<String>> = g.groups.iter().map(|c| names_of(c, names)).collect();
     let mut text = format!(
         "grey selection for {target} ({} rows; seed 000: grey clustering at level {}, theta {}, Deng xi {}, --scale {})\n\n",
-        xy.rows(),
+        g.rows,
         a.level,
         a.theta,
         a.xi,
-        scale.name()
+        g.scale.name()
     );
-    for line in [
-        rel_choice.text("the grey relative degree between the inputs"),
-        choice.text(&with_what),
-    ]
-    .into_iter()
-    .flatten()
-    {
+    for line in &g.notes {
         text.push_str(&format!("{line}\n\n"));
     }
     text.push_str(&matrix_text(
         "grey comprehensive correlation degree between inputs",
-        &rho,
+        g.rho,
         names,
     ));
     text.push_str(&format!(
         "\n{:<8} {:>10} {:>9} {:>6}\n",
         "input", "grey_coef", "pearson", "group"
     ));
-    for j in 0..names.len() {
+    for (j, name) in names.iter().enumerate() {
         text.push_str(&format!(
             "{:<8} {:>10.5} {:>9.5} {:>6}{}\n",
-            names[j],
-            deng[j],
-            pearson[j],
+            name,
+            g.deng[j],
+            g.pearson[j],
             group_of(j) + 1,
-            if typical.contains(&j) {
+            if g.typical.contains(&j) {
                 "  typical"
             } else {
                 ""
@@ -770,7 +860,7 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
         "F",
         "p"
     ));
-    for (i, (c, r)) in combos.iter().enumerate() {
+    for (i, (c, r)) in g.combos.iter().enumerate() {
         text.push_str(&format!(
             "{:<40} {:>8.5} {:>8.5} {:>8.5} {:>11} {:>9}{}\n",
             names_of(c, names).join(","),
@@ -779,15 +869,15 @@ fn run_grey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output>
             r.adj_r2,
             fmt_f(r.f, 1),
             fmt_p(r.p_value),
-            if i == best {
+            if i == g.best {
                 "  <- best adjusted R2"
             } else {
                 ""
             }
         ));
     }
-    text.push_str(&format!("\nselected: {}\n", selected.join(", ")));
-    Ok(Output { json, text })
+    text.push_str(&format!("\nselected: {}\n", g.selected.join(", ")));
+    text
 }
 
 fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output> {
@@ -895,7 +985,11 @@ fn run_wgrey(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output
         selected.join(", ")
     };
     text.push_str(&format!("selected: {shown}\n"));
-    Ok(Output { json, text })
+    Ok(Output {
+        selected: Vec::new(),
+        json,
+        text,
+    })
 }
 
 fn run_maxtree(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Output> {
@@ -922,11 +1016,6 @@ fn run_maxtree(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Outp
     let y = &xy.cols[names.len()];
     let basis = stats::Basis::new(&xy.cols[..names.len()], y)
         .with_context(|| format!("regressing {target}"))?;
-    struct LevelFit {
-        reps: Vec<usize>,
-        reg: stats::Regression,
-        col: stats::Collinearity,
-    }
     let fits: Vec<LevelFit> = levels
         .iter()
         .map(|l| {
@@ -1013,26 +1102,74 @@ fn run_maxtree(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Outp
         "rule": rule,
     });
 
+    let found = MaxtreeFound {
+        target,
+        names,
+        rows: xy.rows(),
+        edges: &edges,
+        target_r: &target_r,
+        levels: &levels,
+        fits: &fits,
+        chosen: choice.index,
+        rule: &rule,
+        selected: &selected,
+    };
+    let text = maxtree_text(&found);
+    Ok(Output {
+        selected: Vec::new(),
+        json,
+        text,
+    })
+}
+
+/// One level's representatives, regression and collinearity.
+struct LevelFit {
+    reps: Vec<usize>,
+    reg: stats::Regression,
+    col: stats::Collinearity,
+}
+
+/// What `select --method maxtree` found, for its text tables.
+struct MaxtreeFound<'a> {
+    target: &'a str,
+    names: &'a [&'a str],
+    /// Rows with the target and every input.
+    rows: usize,
+    edges: &'a [maxtree::Edge],
+    /// Pearson r of each input with the target.
+    target_r: &'a [f64],
+    levels: &'a [maxtree::Level],
+    fits: &'a [LevelFit],
+    /// Index of the chosen level.
+    chosen: usize,
+    rule: &'a str,
+    selected: &'a [String],
+}
+
+/// `select --method maxtree`'s text: the tree, each level's fit, the
+/// groups and the pick.
+fn maxtree_text(g: &MaxtreeFound) -> String {
+    let (target, names) = (g.target, g.names);
     let mut text = format!(
         "maximal-tree selection for {target} ({} rows; seed 003: similarity |Pearson r|, Prim from {})\n\ntree edges (added in this order):\n",
-        xy.rows(),
+        g.rows,
         names[0]
     );
-    for e in &edges {
+    for e in g.edges {
         text.push_str(&format!(
             "  {}-{} {:.5}\n",
             names[e.a], names[e.b], e.weight
         ));
     }
     text.push_str(&format!("\n{:<8} {:>8}\n", "input", "r_target"));
-    for (n, v) in names.iter().zip(&target_r) {
+    for (n, v) in names.iter().zip(g.target_r) {
         text.push_str(&format!("{n:<8} {v:>8.5}\n"));
     }
     text.push_str(&format!(
         "\n{:>3} {:>8} {:<34} {:>8} {:>8} {:>11} {:>9} {:>9} {:>10}\n",
         "#", "lambda", "representatives", "R2", "adj_R2", "F", "p", "cond", "max_VIF"
     ));
-    for (i, (l, f)) in levels.iter().zip(&fits).enumerate() {
+    for (i, (l, f)) in g.levels.iter().zip(g.fits).enumerate() {
         let max_vif = f.col.vif.iter().copied().fold(1.0, f64::max);
         text.push_str(&format!(
             "{:>3} {:>8.5} {:<34} {:>8.5} {:>8.5} {:>11} {:>9} {:>9} {:>10}{}\n",
@@ -1045,11 +1182,11 @@ fn run_maxtree(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Outp
             fmt_p(f.reg.p_value),
             fmt_f(f.col.condition_number, 1),
             fmt_f(max_vif, 1),
-            if i == choice.index { "  <- chosen" } else { "" }
+            if i == g.chosen { "  <- chosen" } else { "" }
         ));
     }
     text.push_str("\ngroups per level:\n");
-    for (i, l) in levels.iter().enumerate() {
+    for (i, l) in g.levels.iter().enumerate() {
         let g: Vec<String> = l
             .groups
             .iter()
@@ -1058,10 +1195,11 @@ fn run_maxtree(a: &SelectArgs, files: &[RunFile], names: &[&str]) -> Result<Outp
         text.push_str(&format!("{:>3} {:.5} {}\n", i + 1, l.lambda, g.join(" ")));
     }
     text.push_str(&format!(
-        "\nrule: {rule}\nselected: {}\n",
-        selected.join(", ")
+        "\nrule: {}\nselected: {}\n",
+        g.rule,
+        g.selected.join(", ")
     ));
-    Ok(Output { json, text })
+    text
 }
 
 #[cfg(test)]

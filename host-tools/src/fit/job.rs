@@ -1,0 +1,292 @@
+//! The `fit` job as a library call (linfa's shape): [`FitParams`] ->
+//! [`FitParams::check`] -> [`ValidFitParams`] -> [`fit`] over runs in
+//! memory -> [`FitOutcome`], whose [`FitReport`] serialises to the object
+//! `fit --json` prints (less its `out`, the path the CLI wrote).
+
+use super::{arma, arx, auto, bp, gain, mlr, pcr, tfbank, FitKind, Fitted, AUTO_EXTRA_INPUTS};
+use crate::data::dataset::{Dataset, InputForm};
+use crate::data::runfile::RunFile;
+use crate::eval::MetricsReport;
+use crate::score::{score, TargetScore};
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+use model_core::ValidModel;
+use serde::Serialize;
+use serde_json::Value;
+use std::collections::BTreeMap;
+
+/// Every kind's training options, as `fit`'s flags define them (one source
+/// for the defaults and the checks of each value).
+#[derive(Args, Clone, Debug)]
+pub struct FitOptions {
+    /// PCR options.
+    #[command(flatten)]
+    pub pcr: pcr::PcrArgs,
+    /// ARX, TF, gain (and auto/arma `--dt-s`) options.
+    #[command(flatten)]
+    pub arx: arx::ArxArgs,
+    /// BP and GA-BP options.
+    #[command(flatten)]
+    pub bp: bp::BpArgs,
+    /// ARMA options.
+    #[command(flatten)]
+    pub arma: arma::ArmaArgs,
+    /// Auto options.
+    #[command(flatten)]
+    pub auto: super::AutoArgs,
+}
+
+impl FitOptions {
+    /// The documented defaults (those of `thermcomp fit --help`).
+    pub fn defaults() -> Result<Self> {
+        Self::from_pairs(&[])
+    }
+
+    /// Options by name and value as `fit`'s flags spell them, without the
+    /// leading `--` (`("variance", "0.9")`, `("auto_folds", "3")`:
+    /// underscores stand for dashes); the others keep their defaults. A bad
+    /// name or value fails with the CLI's one-line message.
+    pub fn from_pairs(pairs: &[(String, String)]) -> Result<Self> {
+        crate::cli::pairs::args_from_pairs("fit", pairs)
+    }
+}
+
+/// What to fit: targets, inputs, kind, split and options.
+#[derive(Clone, Debug)]
+pub struct FitParams {
+    /// Target columns (model outputs).
+    pub targets: Vec<String>,
+    /// Input columns; empty: every `T<n>` of the first run (with `auto` also
+    /// [`AUTO_EXTRA_INPUTS`] present), less the targets.
+    pub inputs: Vec<String>,
+    /// The model kind.
+    pub kind: FitKind,
+    /// Hold out every row at or after this time (s) of each calibration run.
+    pub holdout_from_s: Option<f64>,
+    /// How inputs enter the model (ignored by `auto` and `arma`: absolute).
+    pub reference: InputForm,
+    /// Five-point geometry: the deflection-centre distance, mm, recorded
+    /// when the targets are `e_um`, `theta_x_urad`, `theta_y_urad`
+    /// (default [`crate::fivepoint`]'s); refused for other targets.
+    pub l_defl_mm: Option<f64>,
+    /// Kind-specific options.
+    pub options: FitOptions,
+}
+
+/// [`FitParams`] that passed [`FitParams::check`].
+#[derive(Clone, Debug)]
+pub struct ValidFitParams {
+    params: FitParams,
+    form: InputForm,
+}
+
+impl FitParams {
+    /// Checks what can be checked without data: one target at least; arma
+    /// forecasts one target from itself; no target among the inputs (the
+    /// holdout time is judged against the runs, by [`Dataset::new`]).
+    pub fn check(&self) -> Result<ValidFitParams> {
+        if self.targets.is_empty() {
+            bail!("a fit needs at least one --target column");
+        }
+        let arma = self.kind == FitKind::Arma;
+        if arma && (self.targets.len() != 1 || !self.inputs.is_empty()) {
+            bail!("arma: give one --target (the series it forecasts) and no --inputs");
+        }
+        if let Some(t) = self.targets.iter().find(|t| self.inputs.contains(t)) {
+            bail!("{t} is both a --target and one of the --inputs: a model cannot read what it predicts");
+        }
+        let form = if arma || self.kind == FitKind::Auto {
+            InputForm::Absolute
+        } else {
+            self.reference
+        };
+        Ok(ValidFitParams {
+            params: self.clone(),
+            form,
+        })
+    }
+}
+
+impl ValidFitParams {
+    /// The checked parameters.
+    pub fn params(&self) -> &FitParams {
+        &self.params
+    }
+
+    /// The inputs a fit on runs with `columns` reads (`source` names the
+    /// first run in the error when no default input exists).
+    pub fn inputs_for(&self, columns: &[String], source: &str) -> Result<Vec<String>> {
+        let p = &self.params;
+        if p.kind == FitKind::Arma {
+            return Ok(p.targets.clone());
+        }
+        if !p.inputs.is_empty() {
+            return Ok(p.inputs.clone());
+        }
+        let auto = p.kind == FitKind::Auto;
+        let cols: Vec<String> = columns
+            .iter()
+            .filter(|c| {
+                crate::data::runfile::is_temperature_column(c)
+                    || (auto && AUTO_EXTRA_INPUTS.contains(&c.as_str()))
+            })
+            .cloned()
+            .collect();
+        if cols.is_empty() {
+            bail!("{source}: no T<number> columns; name the inputs with --inputs");
+        }
+        Ok(cols
+            .into_iter()
+            .filter(|c| !p.targets.contains(c))
+            .collect())
+    }
+}
+
+/// One target's figures on calibration and held-out rows.
+#[derive(Clone, Debug, Serialize)]
+pub struct TargetReport {
+    /// Over calibration rows (`null` if none).
+    pub calibration: Option<MetricsReport>,
+    /// Over held-out rows (`null` if none).
+    pub holdout: Option<MetricsReport>,
+    /// Rows with no prediction or no measured value.
+    pub rows_not_scored: usize,
+}
+
+impl From<&TargetScore> for TargetReport {
+    fn from(t: &TargetScore) -> Self {
+        Self {
+            calibration: t.calibration.as_ref().map(MetricsReport::from),
+            holdout: t.holdout.as_ref().map(MetricsReport::from),
+            rows_not_scored: t.rows_not_scored,
+        }
+    }
+}
+
+/// `fit --json`'s object, less `out`.
+#[derive(Clone, Debug, Serialize)]
+pub struct FitReport {
+    /// The kind of the model written (`auto` writes a `tf`, `arx` a `tf`, ...).
+    pub model: String,
+    /// Size of the blob, bytes.
+    pub bytes: usize,
+    /// The inputs the model reads, in order.
+    pub inputs: Vec<String>,
+    /// `change` or `absolute`.
+    pub reference: String,
+    /// As given.
+    pub holdout_from_s: Option<f64>,
+    /// Calibration rows used.
+    pub calibration_rows: usize,
+    /// Held-out rows (calibration runs' tails and validation runs).
+    pub holdout_rows: usize,
+    /// Rows the reader left out (`--skip-bad-rows`).
+    pub skipped_rows: usize,
+    /// Figures per target.
+    pub targets: BTreeMap<String, TargetReport>,
+    /// Five-point geometry recorded in the blob (docs/fivepoint.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub l_defl_mm: Option<f64>,
+    /// Kind-specific figures (search tables, chosen orders, ...).
+    pub details: Value,
+}
+
+/// What [`fit`] produced.
+pub struct FitOutcome {
+    /// The model decoded back from its blob (what is flashed).
+    pub model: ValidModel,
+    /// The blob's bytes.
+    pub bytes: Vec<u8>,
+    /// Calibration and held-out figures per target.
+    pub scores: Vec<TargetScore>,
+    /// The inputs the model reads, in order.
+    pub inputs: Vec<String>,
+    /// Calibration rows used.
+    pub calibration_rows: usize,
+    /// The figures, serialisable.
+    pub report: FitReport,
+}
+
+/// Trains on `runs` (calibration, with a held-out tail from
+/// `holdout_from_s`) and scores on them and on `validate` (held out whole),
+/// all in memory. The figures are those of the encoded blob, decoded back.
+pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result<FitOutcome> {
+    let first = runs.first().ok_or_else(|| anyhow!("no --data"))?;
+    let inputs = p.inputs_for(&first.columns, &first.path.display().to_string())?;
+    let a = &p.params;
+    let ds = Dataset::new(
+        runs,
+        validate,
+        &inputs,
+        &a.targets,
+        p.form,
+        a.holdout_from_s,
+    )?;
+    let fitted = train(p, &ds, runs, validate)?;
+    let model = crate::fivepoint::with_geometry(fitted.model, a.l_defl_mm)?;
+    let bytes = model_core::blob::encode_to_vec(&model)
+        .map_err(|e| anyhow!("cannot encode the model: {e}"))?;
+    // Score what is flashed, decoded back: the figures are the blob's.
+    let flashed = model_core::decode(&bytes).map_err(|e| anyhow!("written blob: {e}"))?;
+    let split: Vec<(&RunFile, usize)> = runs
+        .iter()
+        .zip(&ds.runs)
+        .map(|(r, d)| (r, d.calib_end))
+        .chain(validate.iter().map(|r| (r, 0)))
+        .collect();
+    let scores = score(&flashed, &split)?;
+    let report = FitReport {
+        model: flashed.kind().name().to_string(),
+        bytes: bytes.len(),
+        inputs: ds.inputs.clone(),
+        reference: ds.form.name().to_string(),
+        holdout_from_s: a.holdout_from_s,
+        calibration_rows: ds.calibration_len(),
+        holdout_rows: ds.holdout_len(),
+        skipped_rows: crate::data::source::skipped_rows(runs.iter().chain(validate)),
+        targets: scores
+            .iter()
+            .map(|t| (t.output.clone(), TargetReport::from(t)))
+            .collect(),
+        l_defl_mm: flashed.five_point().map(|t| t.l_defl_mm()),
+        details: fitted.details,
+    };
+    Ok(FitOutcome {
+        model: flashed,
+        bytes,
+        scores,
+        calibration_rows: report.calibration_rows,
+        inputs: ds.inputs,
+        report,
+    })
+}
+
+/// The kind's trainer on `ds`.
+fn train(
+    p: &ValidFitParams,
+    ds: &Dataset,
+    runs: &[RunFile],
+    validate: &[RunFile],
+) -> Result<Fitted> {
+    let o = &p.params.options;
+    match p.params.kind {
+        FitKind::Auto => {
+            let params = auto::AutoParams {
+                folds: o.auto.auto_folds,
+                ensemble: o.auto.auto_ensemble,
+                dt_s: o.arx.dt_s,
+                eliminate: o.auto.auto_eliminate,
+                families: o.auto.auto_families.clone(),
+            };
+            Ok(auto::fit(ds, &params.check(ds)?)?.0)
+        }
+        FitKind::Mlr => mlr::fit(ds),
+        FitKind::Pcr => pcr::fit(ds, &o.pcr),
+        FitKind::Arx => arx::fit(ds, &o.arx),
+        FitKind::Tf => tfbank::fit(ds, &o.arx),
+        FitKind::Gain => gain::fit(ds, &o.arx, runs, validate),
+        FitKind::Bp => bp::fit(ds, &o.bp, false),
+        FitKind::Gabp => bp::fit(ds, &o.bp, true),
+        FitKind::Arma => arma::fit(ds, &o.arma, o.arx.dt_s),
+    }
+}
