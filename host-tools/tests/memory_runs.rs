@@ -85,6 +85,7 @@ fn typed_fit_matches_fit_files_figure_for_figure() {
         kind: FitKind::Mlr,
         holdout_from_s: Some(43200.0),
         reference: host_tools::data::dataset::InputForm::Change,
+        l_defl_mm: None,
         options: FitOptions::defaults().unwrap(),
     };
     let typed = host_tools::fit::fit(&params.check().unwrap(), &[mem], &[]).unwrap();
