@@ -1077,9 +1077,13 @@ pub fn summary_text(d: &Value) -> String {
         num(&r["max_abs_sent_minus_model_on_file_um"])
     );
     let g = &d["diagnose"];
+    // The channel the verdict explains: a displacement (um) or, for a
+    // sensor-lag or ambient verdict, possibly a temperature (K).
+    let channel = g["result"]["main_channel"].as_str().unwrap_or("dz_um");
+    let unit = if channel.ends_with("_um") { "um" } else { "K" };
     let _ = writeln!(
         s,
-        "6 diagnose   withheld {}: verdict {} ({}), best {} shrinks the held-out gap {:.1} % ({:.2} -> {:.2} um rms)",
+        "6 diagnose   withheld {}: verdict {} ({}), best {} shrinks the held-out gap on {channel} {:.1} % ({:.2} -> {:.2} {unit} rms)",
         g["withheld"].as_str().unwrap_or("?"),
         g["verdict"].as_str().unwrap_or("?"),
         if g["found_withheld"] == json!(true) {
