@@ -457,6 +457,413 @@ fn once_per_output<'s>(
     Ok(())
 }
 
+/// The `tf` kind's parameters from its spec entries (their spans go to
+/// `spans`, so a model error can point at its entry).
+fn tf_params(
+    spec: &SpecFile,
+    b: &mut Builder,
+    kind_at: &str,
+    spans: &mut Vec<Range<usize>>,
+) -> Result<Params> {
+    if spec.tf.is_empty() {
+        bail!("{kind_at}: kind = \"tf\" needs at least one [[tf]] entry");
+    }
+    let mut entries = heapless::Vec::new();
+    for e in &spec.tf {
+        let span = e.span();
+        let at = b.at(&span);
+        let t = e.get_ref();
+        let entry = (|| -> Result<TfEntry> {
+            finite_ref(t.reference)?;
+            finite(&t.a, "a")?;
+            finite(&t.b, "b")?;
+            let reference = t.reference.map_or(Reference::First, RefSpec::reference);
+            Ok(TfEntry {
+                output: b.output(&t.output)?,
+                input: b.input(&t.input, reference)?,
+                a: vec_of(&t.a, "a")?,
+                b: vec_of(&t.b, "b")?,
+            })
+        })()
+        .map_err(|err| anyhow!("{at}: [[tf]] {} <- {}: {err}", t.output, t.input))?;
+        entries
+            .push(entry)
+            .map_err(|_| anyhow!("{at}: more than {} [[tf]] entries", entries.capacity()))?;
+        spans.push(span);
+    }
+    Ok(Params::Tf(entries))
+}
+
+/// The `linear` kind's parameters from its spec entries (their spans go to
+/// `spans`, so a model error can point at its entry).
+fn linear_params(
+    spec: &SpecFile,
+    b: &mut Builder,
+    kind_at: &str,
+    spans: &mut Vec<Range<usize>>,
+) -> Result<Params> {
+    if spec.linear.is_empty() {
+        bail!("{kind_at}: kind = \"linear\" needs at least one [[linear]] entry");
+    }
+    let mut outputs = heapless::Vec::new();
+    let mut seen: Vec<(&str, String)> = Vec::new();
+    for e in &spec.linear {
+        let span = e.span();
+        let at = b.at(&span);
+        let l = e.get_ref();
+        once_per_output(&mut seen, &l.output, &at, "linear")?;
+        let eq = (|| -> Result<LinearOutput> {
+            finite_ref(l.reference)?;
+            finite(&[l.intercept], "intercept")?;
+            finite_position(&l.position)?;
+            let reference = l.reference.map_or(Reference::Absolute, RefSpec::reference);
+            let mut coef = heapless::Vec::new();
+            for (col, v) in &l.coef {
+                let value = number(v, &format!("coef.{col}"))?;
+                coef.push(Coef {
+                    channel: b.input(col, reference)?,
+                    value,
+                })
+                .map_err(|_| anyhow!("more than {MAX_CHANNELS} coefficients"))?;
+            }
+            Ok(LinearOutput {
+                output: b.output(&l.output)?,
+                intercept: l.intercept,
+                coef,
+                position: b.position(&l.position)?,
+            })
+        })()
+        .map_err(|err| anyhow!("{at}: [[linear]] {}: {err}", l.output))?;
+        outputs
+            .push(eq)
+            .map_err(|_| anyhow!("{at}: more than {MAX_OUTPUTS} [[linear]] entries"))?;
+        spans.push(span);
+    }
+    Ok(Params::Linear(Linear { outputs }))
+}
+
+/// The `pcr` kind's parameters from its spec entries (their spans go to
+/// `spans`, so a model error can point at its entry).
+fn pcr_params(
+    spec: &SpecFile,
+    b: &mut Builder,
+    kind_at: &str,
+    spans: &mut Vec<Range<usize>>,
+) -> Result<Params> {
+    let file = b.file;
+    if spec.pcr.is_empty() {
+        bail!("{kind_at}: kind = \"pcr\" needs at least one [[pcr]] entry");
+    }
+    // Each entry brings its own inputs and components; the model
+    // shares one set, so entries are merged exactly: the union of
+    // inputs (weight 0 where an entry lacks one) and all components
+    // (each output's beta 0 on the others' components).
+    struct Entry {
+        inputs: Vec<u8>,
+        first_component: usize,
+        eq: PcrOutput,
+    }
+    let mut entries: Vec<Entry> = Vec::new();
+    let mut union: Vec<u8> = Vec::new();
+    let mut raw_components: Vec<(usize, f64, Vec<f64>)> = Vec::new();
+    let mut seen: Vec<(&str, String)> = Vec::new();
+    for e in &spec.pcr {
+        let span = e.span();
+        let at = b.at(&span);
+        let p = e.get_ref();
+        once_per_output(&mut seen, &p.output, &at, "pcr")?;
+        let entry = (|| -> Result<Entry> {
+            let reference = p.reference.map_or(Reference::Absolute, RefSpec::reference);
+            finite_ref(p.reference)?;
+            finite(&[p.intercept], "intercept")?;
+            finite(&p.beta, "beta")?;
+            finite_position(&p.position)?;
+            for (j, c) in p.components.iter().enumerate() {
+                finite(&[c.intercept], &format!("component {} intercept", j + 1))?;
+                finite(&c.weights, &format!("component {} weights", j + 1))?;
+            }
+            // Each input has one weight per component; a repeat
+            // would silently keep only the last one.
+            for (i, col) in p.inputs.iter().enumerate() {
+                if p.inputs[..i].contains(col) {
+                    bail!("input {col} is listed twice");
+                }
+            }
+            let inputs = p
+                .inputs
+                .iter()
+                .map(|col| b.input(col, reference))
+                .collect::<Result<Vec<u8>>>()?;
+            for ch in &inputs {
+                if !union.contains(ch) {
+                    union.push(*ch);
+                }
+            }
+            for (j, c) in p.components.iter().enumerate() {
+                if c.weights.len() != p.inputs.len() {
+                    bail!(
+                        "component {} has {} weights for {} inputs",
+                        j + 1,
+                        c.weights.len(),
+                        p.inputs.len()
+                    );
+                }
+            }
+            if p.beta.len() != p.components.len() {
+                bail!(
+                    "{} beta values for {} components",
+                    p.beta.len(),
+                    p.components.len()
+                );
+            }
+            let first_component = raw_components.len();
+            for c in &p.components {
+                raw_components.push((entries.len(), c.intercept, c.weights.clone()));
+            }
+            Ok(Entry {
+                inputs,
+                first_component,
+                eq: PcrOutput {
+                    output: b.output(&p.output)?,
+                    intercept: p.intercept,
+                    beta: vec_of(&p.beta, "beta")?,
+                    position: b.position(&p.position)?,
+                },
+            })
+        })()
+        .map_err(|err| anyhow!("{at}: [[pcr]] {}: {err}", p.output))?;
+        entries.push(entry);
+        spans.push(span);
+    }
+    if raw_components.len() > MAX_COMPONENTS {
+        bail!(
+            "{file}: {} components in all, a model holds at most {MAX_COMPONENTS}",
+            raw_components.len()
+        );
+    }
+    let mut components = heapless::Vec::new();
+    for (owner, intercept, weights) in &raw_components {
+        let mut w = vec![0.0; union.len()];
+        for (ch, v) in entries[*owner].inputs.iter().zip(weights) {
+            if let Some(pos) = union.iter().position(|u| u == ch) {
+                w[pos] = *v;
+            }
+        }
+        let _ = components.push(Component {
+            intercept: *intercept,
+            weights: vec_of(&w, "weights")?,
+        });
+    }
+    let mut outputs = heapless::Vec::new();
+    for entry in entries {
+        let mut beta = vec![0.0; raw_components.len()];
+        for (j, v) in entry.eq.beta.iter().enumerate() {
+            beta[entry.first_component + j] = *v;
+        }
+        outputs
+            .push(PcrOutput {
+                beta: vec_of(&beta, "beta")?,
+                ..entry.eq
+            })
+            .map_err(|_| anyhow!("{file}: more than {MAX_OUTPUTS} [[pcr]] entries"))?;
+    }
+    Ok(Params::Pcr(Pcr {
+        inputs: vec_of(&union, "inputs")?,
+        components,
+        outputs,
+    }))
+}
+
+/// The `bp` kind's parameters from its spec entries (their spans go to
+/// `spans`, so a model error can point at its entry).
+fn bp_params(
+    spec: &SpecFile,
+    b: &mut Builder,
+    kind_at: &str,
+    spans: &mut Vec<Range<usize>>,
+) -> Result<Params> {
+    let e = spec
+        .bp
+        .as_ref()
+        .ok_or_else(|| anyhow!("{kind_at}: kind = \"bp\" needs a [bp] table"))?;
+    let span = e.span();
+    let at = b.at(&span);
+    let n = e.get_ref();
+    let net = (|| -> Result<BpNet> {
+        finite_ref(n.reference)?;
+        for (what, rows) in [("w1", &n.w1), ("w2", &n.w2)] {
+            for row in rows.iter() {
+                finite(row, what)?;
+            }
+        }
+        for (what, v) in [
+            ("b1", &n.b1),
+            ("b2", &n.b2),
+            ("x_min", &n.x_min),
+            ("x_max", &n.x_max),
+            ("y_min", &n.y_min),
+            ("y_max", &n.y_max),
+        ] {
+            finite(v, what)?;
+        }
+        let reference = n.reference.map_or(Reference::Absolute, RefSpec::reference);
+        let (m, hidden, q) = (n.inputs.len(), n.b1.len(), n.outputs.len());
+        if n.w1.len() != hidden || n.w1.iter().any(|r| r.len() != m) {
+            bail!("w1 must be {hidden} rows (one per b1 value) of {m} weights (one per input)");
+        }
+        if n.w2.len() != q || n.w2.iter().any(|r| r.len() != hidden) {
+            bail!("w2 must be {q} rows (one per output) of {hidden} weights");
+        }
+        let mut inputs = heapless::Vec::new();
+        for col in &n.inputs {
+            inputs
+                .push(b.input(col, reference)?)
+                .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
+        }
+        let mut outputs = heapless::Vec::new();
+        for (i, col) in n.outputs.iter().enumerate() {
+            if n.outputs[..i].contains(col) {
+                bail!("output {col} is listed twice");
+            }
+            outputs
+                .push(b.output(col)?)
+                .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
+        }
+        let w1: Vec<f64> = n.w1.iter().flatten().copied().collect();
+        let w2: Vec<f64> = n.w2.iter().flatten().copied().collect();
+        Ok(BpNet {
+            inputs,
+            outputs,
+            hidden_activation: activation(n.hidden_activation.as_deref(), Activation::Tansig)?,
+            output_activation: activation(n.output_activation.as_deref(), Activation::Purelin)?,
+            w1: vec_of(&w1, "w1")?,
+            b1: vec_of(&n.b1, "b1")?,
+            w2: vec_of(&w2, "w2")?,
+            b2: vec_of(&n.b2, "b2")?,
+            x_min: vec_of(&n.x_min, "x_min")?,
+            x_max: vec_of(&n.x_max, "x_max")?,
+            y_min: vec_of(&n.y_min, "y_min")?,
+            y_max: vec_of(&n.y_max, "y_max")?,
+        })
+    })()
+    .map_err(|err| anyhow!("{at}: [bp]: {err}"))?;
+    spans.push(span);
+    Ok(Params::Bp(net))
+}
+
+/// The `arma` kind's parameters from its spec entries (their spans go to
+/// `spans`, so a model error can point at its entry).
+fn arma_params(
+    spec: &SpecFile,
+    b: &mut Builder,
+    kind_at: &str,
+    spans: &mut Vec<Range<usize>>,
+) -> Result<Params> {
+    let e = spec
+        .arma
+        .as_ref()
+        .ok_or_else(|| anyhow!("{kind_at}: kind = \"arma\" needs an [arma] table"))?;
+    let span = e.span();
+    let at = b.at(&span);
+    let a = e.get_ref();
+    let arma = (|| -> Result<model_core::arma::Arma> {
+        let scalars = [a.mean, a.std, a.constant];
+        finite(
+            &scalars.iter().flatten().copied().collect::<Vec<_>>(),
+            "mean/std/constant",
+        )?;
+        finite(&a.phi, "phi")?;
+        finite(&a.theta, "theta")?;
+        Ok(model_core::arma::Arma {
+            channel: b.input(&a.series, Reference::Absolute)?,
+            output: b.output(a.output.as_deref().unwrap_or(&a.series))?,
+            mean: a.mean.unwrap_or(0.0),
+            std: a.std.unwrap_or(1.0),
+            diff: a.diff.unwrap_or(0),
+            constant: a.constant.unwrap_or(0.0),
+            phi: vec_of(&a.phi, "phi")?,
+            theta: vec_of(&a.theta, "theta")?,
+        })
+    })()
+    .map_err(|err| anyhow!("{at}: [arma]: {err}"))?;
+    spans.push(span);
+    Ok(Params::Arma(arma))
+}
+
+/// The `fbank` kind's parameters from its spec entries (their spans go to
+/// `spans`, so a model error can point at its entry).
+fn fbank_params(
+    spec: &SpecFile,
+    b: &mut Builder,
+    kind_at: &str,
+    spans: &mut Vec<Range<usize>>,
+) -> Result<Params> {
+    let e = spec
+        .fbank
+        .as_ref()
+        .ok_or_else(|| anyhow!("{kind_at}: kind = \"fbank\" needs an [fbank] table"))?;
+    let span = e.span();
+    let at = b.at(&span);
+    let f = e.get_ref();
+    let bank = (|| -> Result<FilterBank> {
+        for i in &f.inputs {
+            finite_ref(i.reference)?;
+        }
+        for ft in &f.features {
+            finite(&ft.tau_s.into_iter().collect::<Vec<_>>(), "tau_s")?;
+        }
+        for o in &f.output {
+            finite(&[o.intercept], "intercept")?;
+            finite(&o.coef, "coef")?;
+        }
+        let mut by_name: Vec<(&str, u8)> = Vec::new();
+        for i in &f.inputs {
+            if by_name.iter().any(|(n, _)| *n == i.name) {
+                bail!("input {} is listed twice", i.name);
+            }
+            let reference = i.reference.map_or(Reference::First, RefSpec::reference);
+            by_name.push((&i.name, b.input(&i.name, reference)?));
+        }
+        let mut features = heapless::Vec::new();
+        for (j, ft) in f.features.iter().enumerate() {
+            let input = by_name
+                .iter()
+                .find(|(n, _)| *n == ft.input)
+                .map(|(_, i)| *i)
+                .ok_or_else(|| anyhow!("feature {}: input {} is not in inputs", j + 1, ft.input))?;
+            features
+                .push(Feature {
+                    input,
+                    power: ft.power.unwrap_or(1),
+                    tau_s: ft.tau_s.unwrap_or(0.0),
+                })
+                .map_err(|_| anyhow!("more than {MAX_FB_FEATURES} features"))?;
+        }
+        let mut outputs = heapless::Vec::new();
+        for o in &f.output {
+            if o.coef.len() != features.len() {
+                bail!(
+                    "output {}: {} coef values for {} features",
+                    o.output,
+                    o.coef.len(),
+                    features.len()
+                );
+            }
+            outputs
+                .push(FbOutput {
+                    output: b.output(&o.output)?,
+                    intercept: o.intercept,
+                    coef: vec_of(&o.coef, "coef")?,
+                })
+                .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
+        }
+        Ok(FilterBank { features, outputs })
+    })()
+    .map_err(|err| anyhow!("{at}: [fbank]: {err}"))?;
+    spans.push(span);
+    Ok(Params::Fbank(bank))
+}
+
 /// Reads and validates a spec file.
 pub fn load(path: &Path) -> Result<ValidModel> {
     let text = crate::data::fsio::read_text_capped(path)?;
@@ -497,366 +904,12 @@ pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
         kind,
     )?;
     let params = match kind {
-        "tf" => {
-            if spec.tf.is_empty() {
-                bail!("{kind_at}: kind = \"tf\" needs at least one [[tf]] entry");
-            }
-            let mut entries = heapless::Vec::new();
-            for e in &spec.tf {
-                let span = e.span();
-                let at = b.at(&span);
-                let t = e.get_ref();
-                let entry = (|| -> Result<TfEntry> {
-                    finite_ref(t.reference)?;
-                    finite(&t.a, "a")?;
-                    finite(&t.b, "b")?;
-                    let reference = t.reference.map_or(Reference::First, RefSpec::reference);
-                    Ok(TfEntry {
-                        output: b.output(&t.output)?,
-                        input: b.input(&t.input, reference)?,
-                        a: vec_of(&t.a, "a")?,
-                        b: vec_of(&t.b, "b")?,
-                    })
-                })()
-                .map_err(|err| anyhow!("{at}: [[tf]] {} <- {}: {err}", t.output, t.input))?;
-                entries.push(entry).map_err(|_| {
-                    anyhow!("{at}: more than {} [[tf]] entries", entries.capacity())
-                })?;
-                spans.push(span);
-            }
-            Params::Tf(entries)
-        }
-        "linear" => {
-            if spec.linear.is_empty() {
-                bail!("{kind_at}: kind = \"linear\" needs at least one [[linear]] entry");
-            }
-            let mut outputs = heapless::Vec::new();
-            let mut seen: Vec<(&str, String)> = Vec::new();
-            for e in &spec.linear {
-                let span = e.span();
-                let at = b.at(&span);
-                let l = e.get_ref();
-                once_per_output(&mut seen, &l.output, &at, "linear")?;
-                let eq = (|| -> Result<LinearOutput> {
-                    finite_ref(l.reference)?;
-                    finite(&[l.intercept], "intercept")?;
-                    finite_position(&l.position)?;
-                    let reference = l.reference.map_or(Reference::Absolute, RefSpec::reference);
-                    let mut coef = heapless::Vec::new();
-                    for (col, v) in &l.coef {
-                        let value = number(v, &format!("coef.{col}"))?;
-                        coef.push(Coef {
-                            channel: b.input(col, reference)?,
-                            value,
-                        })
-                        .map_err(|_| anyhow!("more than {MAX_CHANNELS} coefficients"))?;
-                    }
-                    Ok(LinearOutput {
-                        output: b.output(&l.output)?,
-                        intercept: l.intercept,
-                        coef,
-                        position: b.position(&l.position)?,
-                    })
-                })()
-                .map_err(|err| anyhow!("{at}: [[linear]] {}: {err}", l.output))?;
-                outputs
-                    .push(eq)
-                    .map_err(|_| anyhow!("{at}: more than {MAX_OUTPUTS} [[linear]] entries"))?;
-                spans.push(span);
-            }
-            Params::Linear(Linear { outputs })
-        }
-        "pcr" => {
-            if spec.pcr.is_empty() {
-                bail!("{kind_at}: kind = \"pcr\" needs at least one [[pcr]] entry");
-            }
-            // Each entry brings its own inputs and components; the model
-            // shares one set, so entries are merged exactly: the union of
-            // inputs (weight 0 where an entry lacks one) and all components
-            // (each output's beta 0 on the others' components).
-            struct Entry {
-                inputs: Vec<u8>,
-                first_component: usize,
-                eq: PcrOutput,
-            }
-            let mut entries: Vec<Entry> = Vec::new();
-            let mut union: Vec<u8> = Vec::new();
-            let mut raw_components: Vec<(usize, f64, Vec<f64>)> = Vec::new();
-            let mut seen: Vec<(&str, String)> = Vec::new();
-            for e in &spec.pcr {
-                let span = e.span();
-                let at = b.at(&span);
-                let p = e.get_ref();
-                once_per_output(&mut seen, &p.output, &at, "pcr")?;
-                let entry = (|| -> Result<Entry> {
-                    let reference = p.reference.map_or(Reference::Absolute, RefSpec::reference);
-                    finite_ref(p.reference)?;
-                    finite(&[p.intercept], "intercept")?;
-                    finite(&p.beta, "beta")?;
-                    finite_position(&p.position)?;
-                    for (j, c) in p.components.iter().enumerate() {
-                        finite(&[c.intercept], &format!("component {} intercept", j + 1))?;
-                        finite(&c.weights, &format!("component {} weights", j + 1))?;
-                    }
-                    // Each input has one weight per component; a repeat
-                    // would silently keep only the last one.
-                    for (i, col) in p.inputs.iter().enumerate() {
-                        if p.inputs[..i].contains(col) {
-                            bail!("input {col} is listed twice");
-                        }
-                    }
-                    let inputs = p
-                        .inputs
-                        .iter()
-                        .map(|col| b.input(col, reference))
-                        .collect::<Result<Vec<u8>>>()?;
-                    for ch in &inputs {
-                        if !union.contains(ch) {
-                            union.push(*ch);
-                        }
-                    }
-                    for (j, c) in p.components.iter().enumerate() {
-                        if c.weights.len() != p.inputs.len() {
-                            bail!(
-                                "component {} has {} weights for {} inputs",
-                                j + 1,
-                                c.weights.len(),
-                                p.inputs.len()
-                            );
-                        }
-                    }
-                    if p.beta.len() != p.components.len() {
-                        bail!(
-                            "{} beta values for {} components",
-                            p.beta.len(),
-                            p.components.len()
-                        );
-                    }
-                    let first_component = raw_components.len();
-                    for c in &p.components {
-                        raw_components.push((entries.len(), c.intercept, c.weights.clone()));
-                    }
-                    Ok(Entry {
-                        inputs,
-                        first_component,
-                        eq: PcrOutput {
-                            output: b.output(&p.output)?,
-                            intercept: p.intercept,
-                            beta: vec_of(&p.beta, "beta")?,
-                            position: b.position(&p.position)?,
-                        },
-                    })
-                })()
-                .map_err(|err| anyhow!("{at}: [[pcr]] {}: {err}", p.output))?;
-                entries.push(entry);
-                spans.push(span);
-            }
-            if raw_components.len() > MAX_COMPONENTS {
-                bail!(
-                    "{file}: {} components in all, a model holds at most {MAX_COMPONENTS}",
-                    raw_components.len()
-                );
-            }
-            let mut components = heapless::Vec::new();
-            for (owner, intercept, weights) in &raw_components {
-                let mut w = vec![0.0; union.len()];
-                for (ch, v) in entries[*owner].inputs.iter().zip(weights) {
-                    if let Some(pos) = union.iter().position(|u| u == ch) {
-                        w[pos] = *v;
-                    }
-                }
-                let _ = components.push(Component {
-                    intercept: *intercept,
-                    weights: vec_of(&w, "weights")?,
-                });
-            }
-            let mut outputs = heapless::Vec::new();
-            for entry in entries {
-                let mut beta = vec![0.0; raw_components.len()];
-                for (j, v) in entry.eq.beta.iter().enumerate() {
-                    beta[entry.first_component + j] = *v;
-                }
-                outputs
-                    .push(PcrOutput {
-                        beta: vec_of(&beta, "beta")?,
-                        ..entry.eq
-                    })
-                    .map_err(|_| anyhow!("{file}: more than {MAX_OUTPUTS} [[pcr]] entries"))?;
-            }
-            Params::Pcr(Pcr {
-                inputs: vec_of(&union, "inputs")?,
-                components,
-                outputs,
-            })
-        }
-        "bp" => {
-            let e = spec
-                .bp
-                .as_ref()
-                .ok_or_else(|| anyhow!("{kind_at}: kind = \"bp\" needs a [bp] table"))?;
-            let span = e.span();
-            let at = b.at(&span);
-            let n = e.get_ref();
-            let net = (|| -> Result<BpNet> {
-                finite_ref(n.reference)?;
-                for (what, rows) in [("w1", &n.w1), ("w2", &n.w2)] {
-                    for row in rows.iter() {
-                        finite(row, what)?;
-                    }
-                }
-                for (what, v) in [
-                    ("b1", &n.b1),
-                    ("b2", &n.b2),
-                    ("x_min", &n.x_min),
-                    ("x_max", &n.x_max),
-                    ("y_min", &n.y_min),
-                    ("y_max", &n.y_max),
-                ] {
-                    finite(v, what)?;
-                }
-                let reference = n.reference.map_or(Reference::Absolute, RefSpec::reference);
-                let (m, hidden, q) = (n.inputs.len(), n.b1.len(), n.outputs.len());
-                if n.w1.len() != hidden || n.w1.iter().any(|r| r.len() != m) {
-                    bail!("w1 must be {hidden} rows (one per b1 value) of {m} weights (one per input)");
-                }
-                if n.w2.len() != q || n.w2.iter().any(|r| r.len() != hidden) {
-                    bail!("w2 must be {q} rows (one per output) of {hidden} weights");
-                }
-                let mut inputs = heapless::Vec::new();
-                for col in &n.inputs {
-                    inputs
-                        .push(b.input(col, reference)?)
-                        .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
-                }
-                let mut outputs = heapless::Vec::new();
-                for (i, col) in n.outputs.iter().enumerate() {
-                    if n.outputs[..i].contains(col) {
-                        bail!("output {col} is listed twice");
-                    }
-                    outputs
-                        .push(b.output(col)?)
-                        .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
-                }
-                let w1: Vec<f64> = n.w1.iter().flatten().copied().collect();
-                let w2: Vec<f64> = n.w2.iter().flatten().copied().collect();
-                Ok(BpNet {
-                    inputs,
-                    outputs,
-                    hidden_activation: activation(n.hidden_activation.as_deref(), Activation::Tansig)?,
-                    output_activation: activation(n.output_activation.as_deref(), Activation::Purelin)?,
-                    w1: vec_of(&w1, "w1")?,
-                    b1: vec_of(&n.b1, "b1")?,
-                    w2: vec_of(&w2, "w2")?,
-                    b2: vec_of(&n.b2, "b2")?,
-                    x_min: vec_of(&n.x_min, "x_min")?,
-                    x_max: vec_of(&n.x_max, "x_max")?,
-                    y_min: vec_of(&n.y_min, "y_min")?,
-                    y_max: vec_of(&n.y_max, "y_max")?,
-                })
-            })()
-            .map_err(|err| anyhow!("{at}: [bp]: {err}"))?;
-            spans.push(span);
-            Params::Bp(net)
-        }
-        "arma" => {
-            let e = spec
-                .arma
-                .as_ref()
-                .ok_or_else(|| anyhow!("{kind_at}: kind = \"arma\" needs an [arma] table"))?;
-            let span = e.span();
-            let at = b.at(&span);
-            let a = e.get_ref();
-            let arma = (|| -> Result<model_core::arma::Arma> {
-                let scalars = [a.mean, a.std, a.constant];
-                finite(
-                    &scalars.iter().flatten().copied().collect::<Vec<_>>(),
-                    "mean/std/constant",
-                )?;
-                finite(&a.phi, "phi")?;
-                finite(&a.theta, "theta")?;
-                Ok(model_core::arma::Arma {
-                    channel: b.input(&a.series, Reference::Absolute)?,
-                    output: b.output(a.output.as_deref().unwrap_or(&a.series))?,
-                    mean: a.mean.unwrap_or(0.0),
-                    std: a.std.unwrap_or(1.0),
-                    diff: a.diff.unwrap_or(0),
-                    constant: a.constant.unwrap_or(0.0),
-                    phi: vec_of(&a.phi, "phi")?,
-                    theta: vec_of(&a.theta, "theta")?,
-                })
-            })()
-            .map_err(|err| anyhow!("{at}: [arma]: {err}"))?;
-            spans.push(span);
-            Params::Arma(arma)
-        }
-        "fbank" => {
-            let e = spec
-                .fbank
-                .as_ref()
-                .ok_or_else(|| anyhow!("{kind_at}: kind = \"fbank\" needs an [fbank] table"))?;
-            let span = e.span();
-            let at = b.at(&span);
-            let f = e.get_ref();
-            let bank = (|| -> Result<FilterBank> {
-                for i in &f.inputs {
-                    finite_ref(i.reference)?;
-                }
-                for ft in &f.features {
-                    finite(&ft.tau_s.into_iter().collect::<Vec<_>>(), "tau_s")?;
-                }
-                for o in &f.output {
-                    finite(&[o.intercept], "intercept")?;
-                    finite(&o.coef, "coef")?;
-                }
-                let mut by_name: Vec<(&str, u8)> = Vec::new();
-                for i in &f.inputs {
-                    if by_name.iter().any(|(n, _)| *n == i.name) {
-                        bail!("input {} is listed twice", i.name);
-                    }
-                    let reference = i.reference.map_or(Reference::First, RefSpec::reference);
-                    by_name.push((&i.name, b.input(&i.name, reference)?));
-                }
-                let mut features = heapless::Vec::new();
-                for (j, ft) in f.features.iter().enumerate() {
-                    let input = by_name
-                        .iter()
-                        .find(|(n, _)| *n == ft.input)
-                        .map(|(_, i)| *i)
-                        .ok_or_else(|| {
-                            anyhow!("feature {}: input {} is not in inputs", j + 1, ft.input)
-                        })?;
-                    features
-                        .push(Feature {
-                            input,
-                            power: ft.power.unwrap_or(1),
-                            tau_s: ft.tau_s.unwrap_or(0.0),
-                        })
-                        .map_err(|_| anyhow!("more than {MAX_FB_FEATURES} features"))?;
-                }
-                let mut outputs = heapless::Vec::new();
-                for o in &f.output {
-                    if o.coef.len() != features.len() {
-                        bail!(
-                            "output {}: {} coef values for {} features",
-                            o.output,
-                            o.coef.len(),
-                            features.len()
-                        );
-                    }
-                    outputs
-                        .push(FbOutput {
-                            output: b.output(&o.output)?,
-                            intercept: o.intercept,
-                            coef: vec_of(&o.coef, "coef")?,
-                        })
-                        .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
-                }
-                Ok(FilterBank { features, outputs })
-            })()
-            .map_err(|err| anyhow!("{at}: [fbank]: {err}"))?;
-            spans.push(span);
-            Params::Fbank(bank)
-        }
+        "tf" => tf_params(&spec, &mut b, &kind_at, &mut spans)?,
+        "linear" => linear_params(&spec, &mut b, &kind_at, &mut spans)?,
+        "pcr" => pcr_params(&spec, &mut b, &kind_at, &mut spans)?,
+        "bp" => bp_params(&spec, &mut b, &kind_at, &mut spans)?,
+        "arma" => arma_params(&spec, &mut b, &kind_at, &mut spans)?,
+        "fbank" => fbank_params(&spec, &mut b, &kind_at, &mut spans)?,
         other => bail!("{kind_at}: unknown kind \"{other}\" (tf, linear, pcr, bp, arma or fbank)"),
     };
     let dynamic = params.kind().is_dynamic();
