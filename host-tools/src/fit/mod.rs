@@ -96,21 +96,10 @@ pub struct FitArgs {
     /// machine; docs/fivepoint.md).
     #[arg(long, value_name = "MM")]
     pub l_defl_mm: Option<f64>,
-    /// PCR options.
+    /// Every kind's training options (the job's own struct: one source of
+    /// their flags, defaults and checks).
     #[command(flatten)]
-    pub pcr: pcr::PcrArgs,
-    /// ARX, TF and gain options.
-    #[command(flatten)]
-    pub arx: arx::ArxArgs,
-    /// BP and GA-BP options.
-    #[command(flatten)]
-    pub bp: bp::BpArgs,
-    /// ARMA options.
-    #[command(flatten)]
-    pub arma: arma::ArmaArgs,
-    /// Auto options.
-    #[command(flatten)]
-    pub auto: AutoArgs,
+    pub options: FitOptions,
 }
 
 /// Options of `--model auto`.
@@ -207,13 +196,7 @@ impl FitArgs {
             holdout_from_s: self.holdout_from_s,
             reference: self.reference,
             l_defl_mm: self.l_defl_mm,
-            options: FitOptions {
-                pcr: self.pcr.clone(),
-                arx: self.arx.clone(),
-                bp: self.bp.clone(),
-                arma: self.arma.clone(),
-                auto: self.auto.clone(),
-            },
+            options: self.options.clone(),
         }
     }
 }
