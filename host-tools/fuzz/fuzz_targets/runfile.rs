@@ -1,4 +1,4 @@
-//! Fuzzes the run-file reader, `host_tools::runfile::RunFile::from_reader`.
+//! Fuzzes the run-file reader, `host_tools::data::runfile::RunFile::from_reader`.
 //!
 //! The first byte picks the options (bit 0: `--skip-bad-rows`; bit 1: read
 //! only the column `T1`); the rest is the file. The reader takes whatever a
@@ -8,7 +8,7 @@
 //! accounted for.
 #![no_main]
 
-use host_tools::runfile::{ReadOptions, RunFile};
+use host_tools::data::runfile::{ReadOptions, RunFile};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

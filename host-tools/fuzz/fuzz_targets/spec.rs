@@ -1,4 +1,4 @@
-//! Fuzzes the model-spec parser, `host_tools::spec::parse`.
+//! Fuzzes the model-spec parser, `host_tools::data::spec::parse`.
 //!
 //! The input is the spec text (invalid UTF-8 is passed on lossily, so the
 //! TOML parser sees it too). The invariants: no panic; an error is one line
@@ -13,7 +13,7 @@ use model_core::ModelState;
 
 fuzz_target!(|data: &[u8]| {
     let text = String::from_utf8_lossy(data);
-    match host_tools::spec::parse("fuzz.toml", &text) {
+    match host_tools::data::spec::parse("fuzz.toml", &text) {
         Ok(model) => {
             let blob = encode_to_vec(&model).expect("a valid model encodes");
             let back = decode(&blob).expect("an encoded model decodes");
