@@ -194,23 +194,23 @@ fn sse(
     s
 }
 
-/// Fits target `t` on samples `..end(run)` of every run with the given
-/// per-input structures: backfitting, then Levenberg-Marquardt.
-pub fn fit_target(
+/// Backfitting (the first stage of the output-error fit): each input's
+/// transfer function in turn, by least squares on what the others leave of
+/// the target, kept only when stable; `sims` follow `models`.
+fn backfit(
+    models: &mut [Siso],
+    sims: &mut [Vec<Vec<f64>>],
     grid: &[GridRun],
     t: usize,
-    orders: &[Orders],
-    end: impl Fn(&GridRun) -> usize,
-    args: &ArxArgs,
-) -> Result<(Vec<Siso>, OeReport)> {
-    let mut models: Vec<Siso> = orders.iter().map(|o| Siso::zero(*o)).collect();
-    let mut sims = simulate_all(&models, grid, &end);
-    for _ in 0..args.backfit_rounds.max(1) {
+    end: &impl Fn(&GridRun) -> usize,
+    rounds: usize,
+) -> Result<()> {
+    for _ in 0..rounds {
         for i in 0..models.len() {
-            let o = orders[i];
+            let o = models[i].orders;
             let mut ls = Tsqr::new(o.na + o.nb);
             let mut row = vec![0.0; o.na + o.nb];
-            for (g, sim) in grid.iter().zip(&sims) {
+            for (g, sim) in grid.iter().zip(sims.iter()) {
                 let n = end(g);
                 let r: Vec<f64> = (0..n)
                     .map(|k| {
@@ -244,6 +244,28 @@ pub fn fit_target(
             }
         }
     }
+    Ok(())
+}
+
+/// Fits target `t` on samples `..end(run)` of every run with the given
+/// per-input structures: backfitting, then Levenberg-Marquardt.
+pub fn fit_target(
+    grid: &[GridRun],
+    t: usize,
+    orders: &[Orders],
+    end: impl Fn(&GridRun) -> usize,
+    args: &ArxArgs,
+) -> Result<(Vec<Siso>, OeReport)> {
+    let mut models: Vec<Siso> = orders.iter().map(|o| Siso::zero(*o)).collect();
+    let mut sims = simulate_all(&models, grid, &end);
+    backfit(
+        &mut models,
+        &mut sims,
+        grid,
+        t,
+        &end,
+        args.backfit_rounds.max(1),
+    )?;
     let n_total: usize = grid.iter().map(&end).sum();
     let rms = |s: f64| (s / n_total.max(1) as f64).sqrt();
     let mut cost = sse(grid, t, &sims, &end);
