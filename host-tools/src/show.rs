@@ -265,32 +265,9 @@ fn list(v: &[f64]) -> String {
     format!("[{}]", parts.join(", "))
 }
 
-/// The blob as text for a person.
-pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
+/// The coefficients of the blob's kind, as text (one section per kind).
+fn params_text(s: &mut String, model: &ValidModel) {
     let m = model.model();
-    let mut s = String::new();
-    let crc = crc32(&bytes[..bytes.len().saturating_sub(TRAILER_LEN)]);
-    let _ = writeln!(s, "{} ({} bytes)", path.display(), bytes.len());
-    let _ = writeln!(
-        s,
-        "  kind {}, blob format version {}, CRC-32 {crc:#010x} (ok)",
-        model.kind().name(),
-        format_version(bytes)
-    );
-    if model.kind().is_dynamic() {
-        let _ = writeln!(s, "  sample time {} s", m.dt_s);
-    }
-    let _ = writeln!(s, "  inputs:");
-    for c in model.inputs() {
-        let _ = writeln!(
-            s,
-            "    {:<12} {}",
-            c.name.as_str(),
-            reference_text(c.reference)
-        );
-    }
-    let outs: Vec<&str> = model.outputs().iter().map(|o| o.as_str()).collect();
-    let _ = writeln!(s, "  outputs: {}", outs.join(", "));
     match &m.params {
         Params::Tf(entries) => {
             for (i, (e, r)) in entries.iter().zip(model.realised_tfs()).enumerate() {
@@ -324,7 +301,7 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                     let _ = write!(line, " {:+} {}", c.value, input_of(model, c.channel));
                 }
                 let lhs = name_of(model.outputs(), eq.output);
-                regression_text(&mut s, model, lhs, &line, eq.position.as_ref());
+                regression_text(s, model, lhs, &line, eq.position.as_ref());
             }
         }
         Params::Pcr(pcr) => {
@@ -348,7 +325,7 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
                     let _ = write!(collapsed, " {v:+.6} {n}");
                 }
                 let _ = write!(line, "\n    = {collapsed}");
-                regression_text(&mut s, model, lhs, &line, eq.position.as_ref());
+                regression_text(s, model, lhs, &line, eq.position.as_ref());
             }
         }
         Params::Bp(net) => {
@@ -425,6 +402,35 @@ pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
             }
         }
     }
+}
+
+/// The blob as text for a person.
+pub fn describe_text(path: &Path, model: &ValidModel, bytes: &[u8]) -> String {
+    let m = model.model();
+    let mut s = String::new();
+    let crc = crc32(&bytes[..bytes.len().saturating_sub(TRAILER_LEN)]);
+    let _ = writeln!(s, "{} ({} bytes)", path.display(), bytes.len());
+    let _ = writeln!(
+        s,
+        "  kind {}, blob format version {}, CRC-32 {crc:#010x} (ok)",
+        model.kind().name(),
+        format_version(bytes)
+    );
+    if model.kind().is_dynamic() {
+        let _ = writeln!(s, "  sample time {} s", m.dt_s);
+    }
+    let _ = writeln!(s, "  inputs:");
+    for c in model.inputs() {
+        let _ = writeln!(
+            s,
+            "    {:<12} {}",
+            c.name.as_str(),
+            reference_text(c.reference)
+        );
+    }
+    let outs: Vec<&str> = model.outputs().iter().map(|o| o.as_str()).collect();
+    let _ = writeln!(s, "  outputs: {}", outs.join(", "));
+    params_text(&mut s, model);
     if let Some(t) = model.five_point() {
         let _ = writeln!(
             s,
