@@ -194,6 +194,22 @@ impl Dataset {
         (xs, ys)
     }
 
+    /// Each run file with the row where its held-out part starts: the
+    /// calibration runs (`runs`, in this dataset's order) at their split,
+    /// the validation runs (`validate`) held out whole. What scoring a
+    /// fitted model on calibration and held-out rows needs.
+    pub fn scoring_split<'a>(
+        &self,
+        runs: &'a [RunFile],
+        validate: &'a [RunFile],
+    ) -> Vec<(&'a RunFile, usize)> {
+        runs.iter()
+            .zip(&self.runs)
+            .map(|(r, d)| (r, d.calib_end))
+            .chain(validate.iter().map(|r| (r, 0)))
+            .collect()
+    }
+
     /// Calls `f(x, y)` for every calibration row with every input and
     /// target, in the order of [`Dataset::calibration_rows`], from one
     /// reused buffer: the rows are never copied out.

@@ -125,12 +125,7 @@ pub fn fit(ds: &Dataset, args: &ArxArgs, runs: &[RunFile], validate: &[RunFile])
     let model = m
         .validate()
         .map_err(|e| anyhow!("scaled model refused: {e}"))?;
-    let split: Vec<(&RunFile, usize)> = runs
-        .iter()
-        .zip(&ds.runs)
-        .map(|(r, d)| (r, d.calib_end))
-        .chain(validate.iter().map(|r| (r, 0)))
-        .collect();
+    let split = ds.scoring_split(runs, validate);
     let before: Map<String, Value> = score(&old, &split)?
         .iter()
         .map(|t| (t.output.clone(), t.json()))

@@ -228,12 +228,7 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
         .map_err(|e| anyhow!("cannot encode the model: {e}"))?;
     // Score what is flashed, decoded back: the figures are the blob's.
     let flashed = model_core::decode(&bytes).map_err(|e| anyhow!("written blob: {e}"))?;
-    let split: Vec<(&RunFile, usize)> = runs
-        .iter()
-        .zip(&ds.runs)
-        .map(|(r, d)| (r, d.calib_end))
-        .chain(validate.iter().map(|r| (r, 0)))
-        .collect();
+    let split = ds.scoring_split(runs, validate);
     let scores = score(&flashed, &split)?;
     let report = FitReport {
         model: flashed.kind().name().to_string(),
