@@ -1,274 +1,286 @@
-//! `thermcomp simulate`: run the thermal twin ([`crate::twin`]) and write a
-//! run file (CONTRACT.md section 2).
+//! `thermcomp simulate` as a job: run the thermal twin ([`crate::twin`])
+//! over a speed profile, or calibrate the twin to a measured run and run
+//! the calibrated twin over that run's grid (CONTRACT.md section 2). The
+//! command line (`cli/simulate.rs`) turns its flags into [`SimulateParams`]
+//! or [`CalibrateParams`] and prints the typed outcomes.
 
-use crate::data::fsio::{named, Named};
-use crate::data::runfile::RunFile;
+use crate::data::runfile::{ReadOptions, RunFile};
 use crate::twin::calibrate;
 use crate::twin::effects::EffectSet;
 use crate::twin::machine::{Machine, DEFAULT_MACHINE_TOML, N_NODES};
 use crate::twin::profile::{self, Profile};
 use crate::twin::sim::{self, SimOptions, Summary};
-use anyhow::{bail, Context, Result};
-use clap::Args;
+use anyhow::{Context, Result};
+use serde::Serialize;
 use std::fmt::Write as _;
-use std::path::PathBuf;
-use std::time::Instant;
+use std::path::{Path, PathBuf};
 
-/// Arguments of `thermcomp simulate`.
-#[derive(Args, Debug)]
-pub struct SimulateArgs {
-    /// Where to write the run file (CSV).
-    /// With --calibrate: optional, the whole calibration run simulated from
-    /// its logged speed with the calibrated machine.
-    #[arg(long, required_unless_present_any = ["print_machine", "calibrate"])]
-    pub out: Option<PathBuf>,
-    /// Length of the run, hours (built-in profiles; with file:PATH, cuts the file).
-    #[arg(long)]
+/// What to simulate: the parameters of `thermcomp simulate` (without
+/// `--calibrate`).
+#[derive(Clone, Debug)]
+pub struct SimulateParams {
+    /// Length of the run, h (built-in profiles; with `file:PATH`, cuts the file).
     pub hours: Option<f64>,
-    /// Speed profile: steps, spectrum, cooldown, constant:RPM or file:PATH
-    /// (a run file's speed_rpm, power_kw and tool_mm columns on its own time grid).
-    /// Not with --calibrate, whose run file sets the speed.
-    #[arg(long, default_value = "steps", conflicts_with = "calibrate")]
+    /// Speed profile: steps, spectrum, cooldown, constant:RPM or file:PATH.
     pub profile: String,
-    /// Unmodelled effects to switch on, comma-separated: ambient, coolant,
-    /// cutting, motor_loss, sensor_lag (none: the nominal twin).
-    #[arg(long, default_value = "")]
+    /// Unmodelled effects, comma-separated (empty: the nominal twin).
     pub effects: String,
     /// Seed of the sensor noise, the spectrum and the door openings.
-    #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Machine file (TOML); the built-in machine if not given
-    /// (see --print-machine).
-    #[arg(long)]
+    /// Machine file (TOML); the built-in machine if `None`.
     pub machine: Option<PathBuf>,
-    /// Sample time, s (built-in profiles; not with --calibrate, whose run
-    /// file sets the grid).
-    #[arg(long, default_value_t = 1.0, conflicts_with = "calibrate")]
+    /// Sample time, s.
     pub dt_s: f64,
-    /// Number of temperature sensors T1..Tn (the machine's first N sites;
-    /// default all).
-    #[arg(long)]
+    /// Number of temperature sensors (the machine's first N sites; `None`: all).
     pub sensors: Option<usize>,
-    /// Print a JSON summary on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Print the built-in machine file (TOML, commented) and exit.
-    #[arg(long)]
-    pub print_machine: bool,
-    /// Calibrate the machine (--machine, or the built-in one) to this
-    /// measured run: heat, bearing speed exponent, heat capacities and
-    /// ambient conductances by Levenberg-Marquardt; every *_um column as a
-    /// combination of node rises and every T<n> column at its best place
-    /// (docs/twin.md, "Calibration"). Needs --save-machine.
-    #[arg(long, requires = "save_machine")]
-    pub calibrate: Option<PathBuf>,
-    /// Where to write the calibrated machine file (TOML).
-    #[arg(long, requires = "calibrate")]
-    pub save_machine: Option<PathBuf>,
-    /// Calibrate on rows with t_s below this, s (default: the first half of
-    /// the run); the rest is reported as held out.
-    #[arg(long, requires = "calibrate")]
-    pub calibrate_until_s: Option<f64>,
 }
 
-/// Runs `thermcomp simulate`.
-pub fn run(a: &SimulateArgs) -> Result<()> {
-    if a.print_machine {
-        crate::data::fsio::print(DEFAULT_MACHINE_TOML)?;
-        return Ok(());
+impl Default for SimulateParams {
+    fn default() -> Self {
+        SimulateParams {
+            hours: None,
+            profile: "steps".into(),
+            effects: String::new(),
+            seed: 0,
+            machine: None,
+            dt_s: 1.0,
+            sensors: None,
+        }
     }
-    if let Some(real) = &a.calibrate {
-        return run_calibration(a, real);
-    }
-    let Some(out) = &a.out else {
-        bail!("--out FILE.csv is needed");
-    };
-    check_paths(a, &[])?;
-    let (machine, profile, schedule, opts) = setup(a)?;
-    let effects = opts.effects;
-    let started = Instant::now();
-    let (summary, n_sensors) = write_run(&machine, &schedule, &opts, out)?;
-    let elapsed_s = started.elapsed().as_secs_f64();
-    if a.json {
-        crate::data::fsio::print_line(
-            &summary_json(&summary, a, &profile, &effects, n_sensors, out, elapsed_s).to_string(),
-        )?;
-    } else {
-        eprintln!(
-            "wrote {} ({} rows, {} sensors, max |dz| {:.1} um, effects: {}) in {:.2} s",
-            out.display(),
-            summary.rows,
-            n_sensors,
-            summary.max_abs_dz_um,
-            if effects.names().is_empty() {
-                "none".to_string()
-            } else {
-                effects.names().join(",")
+}
+
+/// Checked [`SimulateParams`]: the machine loaded, the profile and effects
+/// parsed, the schedule built.
+#[derive(Clone, Debug)]
+pub struct ValidSimulateParams {
+    /// The machine simulated.
+    pub machine: Machine,
+    /// `"default"` or the machine file's path.
+    pub machine_label: String,
+    /// The speed profile.
+    pub profile: Profile,
+    /// Time grid and drive of the run.
+    pub schedule: profile::Schedule,
+    /// Effects, seed and sensor count.
+    pub opts: SimOptions,
+}
+
+impl SimulateParams {
+    /// Loads the machine, parses the profile and effects and builds the
+    /// schedule; every error is one line.
+    pub fn check(&self) -> Result<ValidSimulateParams> {
+        let machine = match &self.machine {
+            Some(p) => Machine::load(p)?,
+            None => Machine::default_machine(),
+        };
+        let profile = Profile::parse(&self.profile)?;
+        let effects = EffectSet::parse(&self.effects)?;
+        let schedule =
+            profile::schedule(&profile, machine.max_rpm, self.hours, self.dt_s, self.seed)?;
+        Ok(ValidSimulateParams {
+            machine,
+            machine_label: self
+                .machine
+                .as_ref()
+                .map_or_else(|| "default".to_string(), |p| p.display().to_string()),
+            profile,
+            schedule,
+            opts: SimOptions {
+                effects,
+                seed: self.seed,
+                sensors: self.sensors,
             },
-            elapsed_s
-        );
+        })
     }
-    Ok(())
 }
 
-/// The machine (`--machine` or the built-in one), profile, schedule and
-/// options `a` asks for.
-fn setup(a: &SimulateArgs) -> Result<(Machine, Profile, profile::Schedule, SimOptions)> {
-    let machine = match &a.machine {
-        Some(p) => Machine::load(p)?,
-        None => Machine::default_machine(),
-    };
-    let profile = Profile::parse(&a.profile)?;
-    let effects = EffectSet::parse(&a.effects)?;
-    let schedule = profile::schedule(&profile, machine.max_rpm, a.hours, a.dt_s, a.seed)?;
-    let opts = SimOptions {
-        effects,
-        seed: a.seed,
-        sensors: a.sensors,
-    };
-    Ok((machine, profile, schedule, opts))
+/// A simulated run's figures (`simulate --json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct SimulateOutcome {
+    /// The run file written.
+    pub out: String,
+    /// Rows written.
+    pub rows: usize,
+    /// Temperature sensor columns.
+    pub sensors: usize,
+    /// The profile's label.
+    pub profile: String,
+    /// Effects switched on.
+    pub effects: Vec<&'static str>,
+    /// Seed.
+    pub seed: u64,
+    /// `"default"` or the machine file.
+    pub machine: String,
+    /// Largest |dz_um|, um.
+    pub max_abs_dz_um: f64,
+    /// Largest |dx_um|, um.
+    pub max_abs_dx_um: f64,
+    /// Largest |dy_um|, um.
+    pub max_abs_dy_um: f64,
+    /// Largest node temperature rise, K.
+    pub max_rise_c: f64,
+    /// The node of that rise.
+    pub max_rise_node: &'static str,
+    /// Slowest time constant of the network, s.
+    pub slowest_time_constant_s: f64,
+    /// The first constant-speed segment's approach to equilibrium.
+    pub equilibrium: Option<EquilibriumOutcome>,
+    /// Wall time, s.
+    pub elapsed_s: f64,
 }
 
-/// The run `simulate` would write for `a` (its `--out` is not used), in
-/// memory: the very text of the file, read back, so every value is the
-/// file's.
-///
-/// With `--calibrate REAL.csv` (and `--save-machine`, written), the
-/// calibrated twin's run over the real run's grid, as `--out` would hold.
-pub fn simulate(a: &SimulateArgs) -> Result<RunFile> {
-    let (machine, schedule, opts) = match &a.calibrate {
-        Some(real) => {
-            let (cal, data, _) = calibrate_machine(a, real)?;
-            (cal.machine, data.schedule, calibrated_options(a)?)
-        }
-        None => {
-            let (machine, _, schedule, opts) = setup(a)?;
-            (machine, schedule, opts)
-        }
-    };
+/// [`sim::Equilibrium`] as reported.
+#[derive(Clone, Debug, Serialize)]
+pub struct EquilibriumOutcome {
+    /// Speed of the segment, rpm.
+    pub speed_rpm: f64,
+    /// Start of the segment, s.
+    pub from_t_s: f64,
+    /// Equilibrium dz, um.
+    pub dz_um: f64,
+    /// Time to 63 % of the dz change, s.
+    pub t63_s: Option<f64>,
+    /// Time to 95 %, s.
+    pub t95_s: Option<f64>,
+}
+
+/// Simulates `p` into the run file `out`; returns its figures.
+pub fn simulate_to(p: &ValidSimulateParams, out: &Path) -> Result<SimulateOutcome> {
+    let started = std::time::Instant::now();
+    let (s, n_sensors) = write_run(&p.machine, &p.schedule, &p.opts, out)?;
+    Ok(SimulateOutcome {
+        out: out.display().to_string(),
+        rows: s.rows,
+        sensors: n_sensors,
+        profile: p.profile.label(),
+        effects: p.opts.effects.names(),
+        seed: p.opts.seed,
+        machine: p.machine_label.clone(),
+        max_abs_dz_um: s.max_abs_dz_um,
+        max_abs_dx_um: s.max_abs_dx_um,
+        max_abs_dy_um: s.max_abs_dy_um,
+        max_rise_c: s.max_rise_c.0,
+        max_rise_node: s.max_rise_c.1.name(),
+        slowest_time_constant_s: s.slowest_time_constant_s,
+        equilibrium: s.equilibrium.as_ref().map(|e| EquilibriumOutcome {
+            speed_rpm: e.speed_rpm,
+            from_t_s: e.from_t_s,
+            dz_um: e.dz_um,
+            t63_s: e.t63_s,
+            t95_s: e.t95_s,
+        }),
+        elapsed_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The run [`simulate_to`] would write, in memory: the very text of the
+/// file, read back, so every value is the file's.
+pub fn simulate(p: &ValidSimulateParams) -> Result<RunFile> {
+    run_in_memory(&p.machine, &p.schedule, &p.opts)
+}
+
+/// The twin's run as the text of its file, read back.
+fn run_in_memory(
+    machine: &Machine,
+    schedule: &profile::Schedule,
+    opts: &SimOptions,
+) -> Result<RunFile> {
     let n_sensors = opts.sensors.unwrap_or(machine.sensors.sites.len());
-    let name = std::path::Path::new("simulated");
     let mut text = Vec::new();
-    write_rows(&machine, &schedule, &opts, n_sensors, &mut text, name)?;
+    write_rows(
+        machine,
+        schedule,
+        opts,
+        n_sensors,
+        &mut text,
+        Path::new("simulated"),
+    )?;
     Ok(RunFile::from_reader(
         "simulated",
         text.as_slice(),
-        &crate::data::runfile::ReadOptions::default(),
+        &ReadOptions::default(),
     )?)
 }
 
-/// `simulate --calibrate REAL.csv --save-machine CAL.toml [--out SIM.csv]`.
-fn run_calibration(a: &SimulateArgs, real: &std::path::Path) -> Result<()> {
-    let (cal, data, save) = calibrate_machine(a, real)?;
-    let mut v = calibrate::to_json(&cal);
-    v["machine"] = save.display().to_string().into();
-    if let Some(out) = &a.out {
-        write_run(&cal.machine, &data.schedule, &calibrated_options(a)?, out)?;
-        v["out"] = out.display().to_string().into();
-    }
-    if a.json {
-        crate::data::fsio::print_line(&v.to_string())?;
-    } else {
-        eprint!("{}", calibration_table(&cal));
-        eprintln!("wrote {}", save.display());
-    }
-    Ok(())
+/// `simulate --calibrate`: calibrate a machine to a measured run.
+#[derive(Clone, Debug)]
+pub struct CalibrateParams {
+    /// The measured run.
+    pub real: PathBuf,
+    /// The machine to start from (TOML); the built-in one if `None`.
+    pub machine: Option<PathBuf>,
+    /// Calibrate on rows before this time, s (default: the first half).
+    pub until_s: Option<f64>,
+    /// Seed of the calibrated twin's run (its sensor noise).
+    pub seed: u64,
+    /// Draw a progress bar on stderr.
+    pub progress: bool,
 }
 
-/// `--calibrate REAL.csv`: the twin fitted to the real run, its machine
-/// file written to `--save-machine`; returns the calibration, the real
-/// run's schedule and the path written.
-fn calibrate_machine<'a>(
-    a: &'a SimulateArgs,
-    real: &std::path::Path,
-) -> Result<(
-    calibrate::Calibration,
-    calibrate::Measured,
-    &'a std::path::Path,
-)> {
-    let Some(save) = &a.save_machine else {
-        bail!("--calibrate needs --save-machine CAL.toml");
-    };
-    check_paths(a, &[named("--calibrate", real)])?;
-    // The run file fixes the time grid and the speed; the nominal twin
-    // (no effects) is what gets calibrated.
-    if a.hours.is_some() || !a.effects.trim().is_empty() || a.sensors.is_some() {
-        bail!("--hours, --effects and --sensors do not apply to --calibrate (the run file sets the grid, the speed and the sensors)");
+/// A calibrated twin: the fit, the measured run's grid, and the machine
+/// file's text (the starting file with the calibrated values).
+pub struct Calibrated {
+    /// The calibration (parameters, per-channel fit).
+    pub calibration: calibrate::Calibration,
+    /// The measured run (its grid and speed drive the calibrated twin).
+    pub measured: calibrate::Measured,
+    /// The calibrated machine file (TOML).
+    pub toml: String,
+}
+
+impl Calibrated {
+    /// The calibrated twin's run over the measured run's grid, in memory.
+    pub fn simulate(&self, seed: u64) -> Result<RunFile> {
+        run_in_memory(
+            &self.calibration.machine,
+            &self.measured.schedule,
+            &calibrated_options(seed),
+        )
     }
-    let (text, label) = match &a.machine {
-        Some(p) => (
-            crate::data::fsio::read_text_capped(p)?,
-            p.display().to_string(),
+
+    /// The same run written to `out`.
+    pub fn write_run(&self, seed: u64, out: &Path) -> Result<(Summary, usize)> {
+        write_run(
+            &self.calibration.machine,
+            &self.measured.schedule,
+            &calibrated_options(seed),
+            out,
+        )
+    }
+}
+
+/// Calibrates the twin (`p.machine`, or the built-in one; no effects) to
+/// the measured run `p.real`.
+pub fn calibrate_machine(p: &CalibrateParams) -> Result<Calibrated> {
+    let (text, label) = match &p.machine {
+        Some(m) => (
+            crate::data::fsio::read_text_capped(m)?,
+            m.display().to_string(),
         ),
         None => (DEFAULT_MACHINE_TOML.to_string(), "<default machine>".into()),
     };
     let base = crate::twin::machine::parse(&label, &text)?;
-    let data = calibrate::Measured::read(real, a.calibrate_until_s)?;
+    let measured = calibrate::Measured::read(&p.real, p.until_s)?;
     let opts = calibrate::CalibrateOptions {
-        progress: true,
+        progress: p.progress,
         ..Default::default()
     };
-    let cal = calibrate::calibrate(&base, &data, &opts)?;
-    let toml = calibrate::to_toml(&text, &cal, &real.display().to_string())?;
-    crate::data::fsio::write_bytes_atomic(save, toml.as_bytes())?;
-    Ok((cal, data, save))
-}
-
-/// The options of the calibrated twin's run: no effects, `--seed`.
-fn calibrated_options(a: &SimulateArgs) -> Result<SimOptions> {
-    Ok(SimOptions {
-        effects: EffectSet::parse("")?,
-        seed: a.seed,
-        sensors: None,
+    let calibration = calibrate::calibrate(&base, &measured, &opts)?;
+    let toml = calibrate::to_toml(&text, &calibration, &p.real.display().to_string())?;
+    Ok(Calibrated {
+        calibration,
+        measured,
+        toml,
     })
 }
 
-/// Refuses outputs (`--out`, `--save-machine`) that are the same file as an
-/// input (`--machine`, a `file:` profile, `extra`) or as each other.
-fn check_paths(a: &SimulateArgs, extra: &[Named<'_>]) -> Result<()> {
-    let profile_file = a
-        .profile
-        .trim()
-        .strip_prefix("file:")
-        .map(std::path::Path::new);
-    let mut reads: Vec<Named<'_>> = extra.to_vec();
-    reads.extend(a.machine.as_deref().map(|p| named("--machine", p)));
-    reads.extend(profile_file.map(|p| named("--profile file:", p)));
-    let mut writes = Vec::new();
-    writes.extend(a.out.as_deref().map(|p| named("--out", p)));
-    writes.extend(
-        a.save_machine
-            .as_deref()
-            .map(|p| named("--save-machine", p)),
-    );
-    crate::data::fsio::check_distinct(&reads, &writes)
-}
-
-/// A human-readable summary of a calibration (stderr).
-fn calibration_table(cal: &calibrate::Calibration) -> String {
-    let mut s = String::new();
-    for (p, v) in calibrate::PARAMS.iter().zip(calibrate::values(&cal.theta)) {
-        let _ = writeln!(s, "{:>18} = {v:.4} {}", p.name, p.unit);
+/// The options of the calibrated twin's run: no effects, every sensor.
+fn calibrated_options(seed: u64) -> SimOptions {
+    SimOptions {
+        effects: EffectSet::none(),
+        seed,
+        sensors: None,
     }
-    let _ = writeln!(
-        s,
-        "{} iterations, {} simulations, converged: {} ({}), {:.2} s",
-        cal.iterations, cal.evaluations, cal.converged, cal.reason, cal.elapsed_s
-    );
-    let _ = writeln!(
-        s,
-        "{:>10} {:>12} {:>8} {:>12} {:>8}",
-        "channel", "rmse cal", "fit %", "rmse rest", "fit %"
-    );
-    for c in &cal.channels {
-        let (r, f) = c.rest.map_or((f64::NAN, f64::NAN), |p| (p.rmse, p.fit_pct));
-        let _ = writeln!(
-            s,
-            "{:>10} {:>9.3} {:<2} {:>8.1} {:>9.3} {:<2} {:>8.1}",
-            c.name, c.calibration.rmse, c.unit, c.calibration.fit_pct, r, c.unit, f
-        );
-    }
-    s
 }
 
 /// Runs the twin and writes the run file; returns the summary and the
@@ -383,43 +395,6 @@ pub fn push_fixed4(out: &mut String, v: f64) {
     for d in [frac / 1000, frac / 100 % 10, frac / 10 % 10, frac % 10] {
         out.push(char::from(b'0' + d as u8));
     }
-}
-
-fn summary_json(
-    s: &Summary,
-    a: &SimulateArgs,
-    profile: &Profile,
-    effects: &EffectSet,
-    n_sensors: usize,
-    out: &std::path::Path,
-    elapsed_s: f64,
-) -> serde_json::Value {
-    let eq = s.equilibrium.as_ref().map(|e| {
-        serde_json::json!({
-            "speed_rpm": e.speed_rpm,
-            "from_t_s": e.from_t_s,
-            "dz_um": e.dz_um,
-            "t63_s": e.t63_s,
-            "t95_s": e.t95_s,
-        })
-    });
-    serde_json::json!({
-        "out": out.display().to_string(),
-        "rows": s.rows,
-        "sensors": n_sensors,
-        "profile": profile.label(),
-        "effects": effects.names(),
-        "seed": a.seed,
-        "machine": a.machine.as_ref().map_or_else(|| "default".to_string(), |p| p.display().to_string()),
-        "max_abs_dz_um": s.max_abs_dz_um,
-        "max_abs_dx_um": s.max_abs_dx_um,
-        "max_abs_dy_um": s.max_abs_dy_um,
-        "max_rise_c": s.max_rise_c.0,
-        "max_rise_node": s.max_rise_c.1.name(),
-        "slowest_time_constant_s": s.slowest_time_constant_s,
-        "equilibrium": eq,
-        "elapsed_s": elapsed_s,
-    })
 }
 
 #[cfg(test)]

@@ -220,9 +220,12 @@ fn simulate(options: Vec<(String, String)>) -> PyResult<(Vec<f64>, Columns)> {
     let job = || -> Result<(Vec<f64>, Columns)> {
         let mut pairs = vec![("out".to_string(), "(in memory)".to_string())];
         pairs.extend(options);
-        let args: host_tools::simulate::SimulateArgs =
+        let args: host_tools::cli::simulate::SimulateArgs =
             host_tools::cli::pairs::args_from_pairs("simulate", &pairs)?;
-        let run = host_tools::simulate::simulate(&args)?;
+        let run = match host_tools::cli::simulate::calibrated(&args, true)? {
+            Some(cal) => cal.simulate(args.seed)?,
+            None => host_tools::simulate::simulate(&args.params().check()?)?,
+        };
         let cols = run
             .iter_columns()
             .map(|(n, v)| (n.to_string(), v.to_vec()))

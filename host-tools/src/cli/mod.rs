@@ -9,12 +9,11 @@
 
 mod fivepoint;
 pub mod pairs;
+pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{
-    bench, demo, diagnose, eval, fit, hub, predict, refit, replay, select, show, simulate,
-};
+use crate::{bench, demo, diagnose, eval, fit, hub, predict, refit, replay, select, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
