@@ -8,12 +8,13 @@
 //! and a non-zero exit status.
 
 mod fivepoint;
+mod hub;
 pub mod pairs;
 pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, demo, diagnose, eval, fit, hub, predict, refit, replay, select, show};
+use crate::{bench, demo, diagnose, eval, fit, predict, refit, replay, select, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
