@@ -124,24 +124,9 @@ pub struct SimulateOutcome {
     /// Slowest time constant of the network, s.
     pub slowest_time_constant_s: f64,
     /// The first constant-speed segment's approach to equilibrium.
-    pub equilibrium: Option<EquilibriumOutcome>,
+    pub equilibrium: Option<sim::Equilibrium>,
     /// Wall time, s.
     pub elapsed_s: f64,
-}
-
-/// [`sim::Equilibrium`] as reported.
-#[derive(Clone, Debug, Serialize)]
-pub struct EquilibriumOutcome {
-    /// Speed of the segment, rpm.
-    pub speed_rpm: f64,
-    /// Start of the segment, s.
-    pub from_t_s: f64,
-    /// Equilibrium dz, um.
-    pub dz_um: f64,
-    /// Time to 63 % of the dz change, s.
-    pub t63_s: Option<f64>,
-    /// Time to 95 %, s.
-    pub t95_s: Option<f64>,
 }
 
 /// Simulates `p` into the run file `out`; returns its figures.
@@ -162,13 +147,7 @@ pub fn simulate_to(p: &ValidSimulateParams, out: &Path) -> Result<SimulateOutcom
         max_rise_c: s.max_rise_c.0,
         max_rise_node: s.max_rise_c.1.name(),
         slowest_time_constant_s: s.slowest_time_constant_s,
-        equilibrium: s.equilibrium.as_ref().map(|e| EquilibriumOutcome {
-            speed_rpm: e.speed_rpm,
-            from_t_s: e.from_t_s,
-            dz_um: e.dz_um,
-            t63_s: e.t63_s,
-            t95_s: e.t95_s,
-        }),
+        equilibrium: s.equilibrium,
         elapsed_s: started.elapsed().as_secs_f64(),
     })
 }

@@ -66,7 +66,7 @@ pub struct Row<'a> {
 }
 
 /// How far a constant-speed segment got towards its equilibrium.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Equilibrium {
     /// Speed of the segment, rpm.
     pub speed_rpm: f64,
