@@ -98,18 +98,33 @@ pub struct Coefs {
 }
 
 /// Cross-validation result of one candidate.
+///
+/// Candidates are ranked by `geo`, the geometric mean of the per-fold mean
+/// squared errors (the mean of their logarithms): every fold counts alike
+/// in relative terms, so one fold whose conditions nothing else resembles
+/// (a speed never calibrated, the first hours after a cold start) cannot
+/// by itself decide the filters and the penalty, as it does under the
+/// pooled mse, where its squared errors dominate the sum. Chosen on the
+/// development split (docs/fit.md, "The CV criterion").
 #[derive(Clone, Debug)]
 pub struct CvScore {
-    /// Pooled mean squared error over every held-out fold.
+    /// Pooled mean squared error over every held-out fold (reported as
+    /// `cv_rmse`).
     pub mse: f64,
     /// Standard error of the mean of the per-fold mean squared errors.
     pub se: f64,
+    /// Geometric mean of the per-fold mean squared errors: the ranking
+    /// criterion.
+    pub geo: f64,
+    /// Its standard error (delta method: `geo` times the standard error
+    /// of the mean log-mse).
+    pub geo_se: f64,
 }
 
 impl CvScore {
     /// From each scored fold's `(sum of squared errors, samples)`: the
-    /// pooled mse and the standard error of the per-fold mses (`None`
-    /// without a scored sample).
+    /// pooled mse, the geometric mean of the per-fold mses and their
+    /// standard errors (`None` without a scored sample).
     pub fn pooled(per_fold: &[(f64, f64)]) -> Option<Self> {
         let (sse, n) = per_fold
             .iter()
@@ -117,10 +132,21 @@ impl CvScore {
         if per_fold.is_empty() || n == 0.0 {
             return None;
         }
-        let mses: Vec<f64> = per_fold.iter().map(|(e, k)| e / k).collect();
+        let mses: Vec<f64> = per_fold
+            .iter()
+            .filter(|(_, k)| *k > 0.0)
+            .map(|(e, k)| e / k)
+            .collect();
+        // A fold scored exactly (mse 0) would make the log -inf: floor it
+        // at a relative 1e-12 of the pooled mse.
+        let floor = (sse / n * 1e-12).max(f64::MIN_POSITIVE);
+        let logs: Vec<f64> = mses.iter().map(|m| m.max(floor).ln()).collect();
+        let geo = (logs.iter().sum::<f64>() / logs.len() as f64).exp();
         Some(Self {
             mse: sse / n,
             se: standard_error(&mses),
+            geo,
+            geo_se: geo * standard_error(&logs),
         })
     }
 }

@@ -62,6 +62,10 @@ pub struct CvRow {
     pub cv_rmse: f64,
     /// Standard error of the fold-mean squared error, as an rmse spread.
     pub cv_se: f64,
+    /// Square root of the geometric mean of the per-fold mean squared
+    /// errors: the criterion ridge candidates are ranked by (ridge.rs
+    /// `CvScore`), in the target's unit.
+    pub cv_geo_rmse: f64,
     /// Inputs left out (indices into the fit's `inputs`): temperatures
     /// dropped by the sensor elimination; for other families the inputs
     /// that never move in calibration and (arx, tf) the heat sources when
@@ -86,6 +90,7 @@ impl CvRow {
             features: 0,
             cv_rmse: f64::NAN,
             cv_se: f64::NAN,
+            cv_geo_rmse: f64::NAN,
             dropped_inputs: Vec::new(),
             chosen: false,
             note: None,
@@ -163,7 +168,8 @@ fn columns(data: &FormData, defs: &[FeatureDef], dt_s: f64) -> Vec<Vec<f64>> {
 
 struct Scored {
     row: CvRow,
-    mse: f64,
+    /// The ranking criterion (`CvScore::geo`).
+    rank: f64,
     /// Index into the designs.
     design: usize,
     /// Feature columns of that design the candidate uses.
@@ -180,7 +186,7 @@ fn best_lambda_of(
     lambdas
         .iter()
         .filter_map(|&l| design.cv(idx, l, intercept).map(|s| (l, s)))
-        .min_by(|a, b| a.1.mse.total_cmp(&b.1.mse))
+        .min_by(|a, b| a.1.geo.total_cmp(&b.1.geo))
 }
 
 /// Backward elimination of whole temperature sensors (every feature of
@@ -212,18 +218,18 @@ fn eliminate(
                 let (l, cv) = best_lambda_of(design, &cols(&rest), lambdas, intercept)?;
                 Some((rest, l, cv))
             })
-            .min_by(|a, b| a.2.mse.total_cmp(&b.2.mse))?;
+            .min_by(|a, b| a.2.geo.total_cmp(&b.2.geo))?;
         kept.clone_from(&step.0);
         path.push(step);
     }
-    let best = path.iter().map(|p| p.2.mse).fold(f64::INFINITY, f64::min);
+    let best = path.iter().map(|p| p.2.geo).fold(f64::INFINITY, f64::min);
     let best_se = path
         .iter()
-        .find(|p| p.2.mse == best)
-        .map_or(0.0, |p| p.2.se);
+        .find(|p| p.2.geo == best)
+        .map_or(0.0, |p| p.2.geo_se);
     let (kept, lambda, cv) = path
         .into_iter()
-        .filter(|p| p.2.mse <= best + best_se)
+        .filter(|p| p.2.geo <= best + best_se)
         .min_by_key(|p| p.0.len())?;
     let all: Vec<usize> = (0..roles.len())
         .filter(|&i| roles[i] == Role::Temperature && defs.iter().any(|d| d.input == i))
@@ -245,6 +251,7 @@ pub fn cv_columns(row: &mut CvRow, lambda: f64, features: usize, cv: &CvScore) {
     row.features = features;
     row.cv_rmse = cv.mse.sqrt();
     row.cv_se = cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE));
+    row.cv_geo_rmse = cv.geo.sqrt();
 }
 
 /// Step 1: every (form, temperature filters, heat filters) candidate of the
@@ -289,7 +296,7 @@ fn score_grid(
                     design: out.designs.len(),
                     idx: (0..defs.len()).collect(),
                     row,
-                    mse: cv.mse,
+                    rank: cv.geo,
                 });
                 out.designs.push((data.form, defs, design));
             }
@@ -301,7 +308,7 @@ fn score_grid(
 /// Candidate indices, best CV error first.
 fn ranked(scored: &[Scored]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..scored.len()).collect();
-    order.sort_by(|&a, &b| scored[a].mse.total_cmp(&scored[b].mse));
+    order.sort_by(|&a, &b| scored[a].rank.total_cmp(&scored[b].rank));
     order
 }
 
@@ -328,7 +335,7 @@ fn add_eliminations(forms: &[FormData], sc: &mut Scoring, s: &SearchSettings, pr
         let design = sc.scored[i].design;
         sc.scored.push(Scored {
             row,
-            mse: cv.mse,
+            rank: cv.geo,
             design,
             idx,
         });
