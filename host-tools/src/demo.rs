@@ -42,7 +42,7 @@ use crate::eval::MetricsReport;
 use crate::fit::{self, FitKind};
 use crate::replay::{self, ReplayArgs};
 use crate::runner::{self, ColumnMap};
-use crate::select::{self, SelectArgs};
+use crate::select::{self, grey, Method, SelectParams};
 use crate::simulate;
 use crate::twin::effects::{Effect, EffectSet};
 use crate::twin::machine::Machine;
@@ -51,7 +51,8 @@ use crate::twin::sim::SimOptions;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, FromArgMatches};
 use model_core::ValidModel;
-use serde_json::{json, Map, Value};
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -187,6 +188,18 @@ fn command_line(name: &str, argv: &[String]) -> String {
 
 fn path_arg(p: &Path) -> String {
     p.display().to_string()
+}
+
+/// The `thermcomp select` command that repeats one pick of stage 2 on the
+/// calibration run `cal` (the flags that differ from the defaults).
+fn select_command(cal: &Path, method: Method, scale: grey::Scale) -> String {
+    let mut argv = vec!["--data".to_string(), path_arg(cal)];
+    argv.extend(["--target".into(), TARGET.into()]);
+    argv.extend(["--method".into(), method.name().into()]);
+    if scale != grey::Scale::Initial {
+        argv.extend(["--scale".into(), scale.name().into()]);
+    }
+    command_line("select", &argv)
 }
 
 /// Stage headers and timings on stderr.
@@ -357,30 +370,28 @@ impl Demo<'_> {
             2,
             &format!("select: maxtree and grey on the calibration run for {TARGET}"),
         );
-        let mut picks = Map::new();
+        let cal_run = RunFile::read(cal, &ReadOptions::default())?;
+        let mut picks: BTreeMap<&str, Vec<String>> = BTreeMap::new();
         let mut commands = Vec::new();
         let mut selected: Vec<String> = Vec::new();
-        for (method, extra) in [("maxtree", &[][..]), ("grey", &["--scale", "interval"][..])] {
-            let mut argv = vec![
-                "--data".to_string(),
-                path_arg(cal),
-                "--target".into(),
-                TARGET.into(),
-                "--method".into(),
-                method.into(),
-            ];
-            argv.extend(extra.iter().map(|s| s.to_string()));
-            let args: SelectArgs = parse_args("select", &argv)?;
-            let o =
-                select::select_files(&args).with_context(|| format!("demo: select {method}"))?;
-            let pick = o.selected;
+        for (method, scale) in [
+            (Method::Maxtree, grey::Scale::Initial),
+            (Method::Grey, grey::Scale::Interval),
+        ] {
+            let params = SelectParams {
+                scale,
+                ..SelectParams::new(vec![TARGET.into()], method)
+            };
+            let o = select::select(&params.check()?, std::slice::from_ref(&cal_run))
+                .with_context(|| format!("demo: select {}", method.name()))?;
+            let pick = o.selected().to_vec();
             for s in &pick {
                 if !selected.contains(s) {
                     selected.push(s.clone());
                 }
             }
-            picks.insert(method.into(), json!(pick));
-            commands.push(command_line("select", &argv));
+            picks.insert(method.name(), pick);
+            commands.push(select_command(cal, method, scale));
         }
         if selected.is_empty() {
             bail!("demo: select picked no sensors");
@@ -389,8 +400,8 @@ impl Demo<'_> {
         selected.sort_by_key(|s| s[1..].parse::<u32>().unwrap_or(u32::MAX));
         let t = p.end(&format!(
             "maxtree {}, grey {}: inputs {}",
-            list_of(&picks["maxtree"]),
-            list_of(&picks["grey"]),
+            picks["maxtree"].join(","),
+            picks["grey"].join(","),
             selected.join(",")
         ));
         let select_json = json!({
