@@ -996,47 +996,16 @@ fn list_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
     Ok(())
 }
 
-/// The summary `demo` prints without `--json`.
-pub fn summary_text(d: &Value) -> String {
-    let mut s = String::new();
-    let sim = &d["simulate"];
-    let _ = writeln!(
-        s,
-        "thermcomp demo: built-in machine \"{}\", target {TARGET}, runs of {} h at {} s{}",
-        sim["machine"].as_str().unwrap_or("?"),
-        d["hours"],
-        d["dt_s"],
-        if d["quick"] == json!(true) {
-            " (--quick)"
-        } else {
-            ""
-        }
-    );
-    let _ = writeln!(
-        s,
-        "1 simulate   calibration spectrum seed 1 (max |dz| {:.1} um), validation steps seed 2 (max |dz| {:.1} um)",
-        num(&sim["calibration"]["max_abs_dz_um"]),
-        num(&sim["validation"]["max_abs_dz_um"])
-    );
-    let sel = &d["select"];
-    let _ = writeln!(
-        s,
-        "2 select     maxtree {}, grey {} -> inputs {}",
-        list_of(&sel["methods"]["maxtree"]),
-        list_of(&sel["methods"]["grey"]),
-        list_of(&sel["selected"])
-    );
+/// Stage 3's lines of the summary: each kind's held-out figures on the
+/// validation run, the exported one marked.
+fn fit_lines(s: &mut String, fit: &Value) {
     let _ = writeln!(
         s,
         "3 fit        held-out on the validation run:\n  {:<6} {:>9} {:>9} {:>10} {:>10}",
         "kind", "rmse_um", "fit_%", "max|r|_um", "reduce_%"
     );
-    let best = d["fit"]["best"].as_str().unwrap_or("");
-    for m in d["fit"]["models"]
-        .as_array()
-        .map(Vec::as_slice)
-        .unwrap_or(&[])
-    {
+    let best = fit["best"].as_str().unwrap_or("");
+    for m in fit["models"].as_array().map(Vec::as_slice).unwrap_or(&[]) {
         let v = &m["validation"];
         let kind = m["kind"].as_str().unwrap_or("?");
         let note = if m["forecaster"] == json!(true) {
@@ -1056,38 +1025,11 @@ pub fn summary_text(d: &Value) -> String {
             num(&v["reduction_pct"])
         );
     }
-    let ex = &d["export"];
-    let _ = writeln!(
-        s,
-        "4 export     model.bin: the {} fit (a {} blob), {} bytes, CRC {}, inputs {}",
-        ex["kind"].as_str().unwrap_or("?"),
-        ex["blob_kind"].as_str().unwrap_or("?"),
-        ex["bytes"],
-        ex["crc32"].as_str().unwrap_or("?"),
-        list_of(&ex["inputs"])
-    );
-    let r = &d["replay"];
-    let st = &r["states"];
-    let _ = writeln!(
-        s,
-        "5 replay     {} frames over {} samples every {} s (running {}, holding {}, ramping {}, zeroed {})",
-        r["frames"],
-        r["samples"],
-        r["sample_period_s"],
-        st["running"],
-        st["holding"],
-        st["ramping"],
-        st["zeroed"]
-    );
-    let _ = writeln!(
-        s,
-        "             max |sent - model| {:.3} um on the hub's readings ({} samples without a limiter; frames carry 0.1 um), \
-         {:.3} um on the logged temperatures (adds PT100 quantisation)",
-        num(&r["max_abs_sent_minus_model_um"]),
-        r["compared_samples"],
-        num(&r["max_abs_sent_minus_model_on_file_um"])
-    );
-    let g = &d["diagnose"];
+}
+
+/// Stage 6's lines of the summary: the verdict on the withheld effect and,
+/// if figured, the deployment comparison.
+fn diagnose_lines(s: &mut String, g: &Value) {
     // The channel the verdict explains: a displacement (um) or, for a
     // sensor-lag or ambient verdict, possibly a temperature (K).
     let channel = g["result"]["main_channel"].as_str().unwrap_or("dz_um");
@@ -1121,6 +1063,71 @@ pub fn summary_text(d: &Value) -> String {
             num(&dep["trained_on_real_fit_part"]["rmse_um"])
         );
     }
+}
+
+/// The summary `demo` prints without `--json`.
+pub fn summary_text(d: &Value) -> String {
+    let mut s = String::new();
+    let sim = &d["simulate"];
+    let _ = writeln!(
+        s,
+        "thermcomp demo: built-in machine \"{}\", target {TARGET}, runs of {} h at {} s{}",
+        sim["machine"].as_str().unwrap_or("?"),
+        d["hours"],
+        d["dt_s"],
+        if d["quick"] == json!(true) {
+            " (--quick)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        s,
+        "1 simulate   calibration spectrum seed 1 (max |dz| {:.1} um), validation steps seed 2 (max |dz| {:.1} um)",
+        num(&sim["calibration"]["max_abs_dz_um"]),
+        num(&sim["validation"]["max_abs_dz_um"])
+    );
+    let sel = &d["select"];
+    let _ = writeln!(
+        s,
+        "2 select     maxtree {}, grey {} -> inputs {}",
+        list_of(&sel["methods"]["maxtree"]),
+        list_of(&sel["methods"]["grey"]),
+        list_of(&sel["selected"])
+    );
+    fit_lines(&mut s, &d["fit"]);
+    let ex = &d["export"];
+    let _ = writeln!(
+        s,
+        "4 export     model.bin: the {} fit (a {} blob), {} bytes, CRC {}, inputs {}",
+        ex["kind"].as_str().unwrap_or("?"),
+        ex["blob_kind"].as_str().unwrap_or("?"),
+        ex["bytes"],
+        ex["crc32"].as_str().unwrap_or("?"),
+        list_of(&ex["inputs"])
+    );
+    let r = &d["replay"];
+    let st = &r["states"];
+    let _ = writeln!(
+        s,
+        "5 replay     {} frames over {} samples every {} s (running {}, holding {}, ramping {}, zeroed {})",
+        r["frames"],
+        r["samples"],
+        r["sample_period_s"],
+        st["running"],
+        st["holding"],
+        st["ramping"],
+        st["zeroed"]
+    );
+    let _ = writeln!(
+        s,
+        "             max |sent - model| {:.3} um on the hub's readings ({} samples without a limiter; frames carry 0.1 um), \
+         {:.3} um on the logged temperatures (adds PT100 quantisation)",
+        num(&r["max_abs_sent_minus_model_um"]),
+        r["compared_samples"],
+        num(&r["max_abs_sent_minus_model_on_file_um"])
+    );
+    diagnose_lines(&mut s, &d["diagnose"]);
     let _ = writeln!(
         s,
         "{} files in {} ({:.1} s); --json for every figure",
