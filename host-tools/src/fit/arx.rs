@@ -951,16 +951,25 @@ fn order_search(
     table
 }
 
+/// The search row kept, re-estimated on every calibration sample.
+struct Refitted<'t> {
+    row: &'t SearchRow,
+    /// Its mean simulation fit in the search.
+    score: f64,
+    polys: Vec<ArxPoly>,
+    model: ValidModel,
+    /// Better rows whose re-estimate was refused, with why.
+    refused: Vec<Value>,
+}
+
 /// The best stable row of the search, re-estimated on every calibration
-/// sample (should that come out unstable, the next): its row, score,
-/// polynomials and model; and the refused rows' notes.
-#[allow(clippy::type_complexity)]
+/// sample (should that come out unstable, the next).
 fn refit_best<'t>(
     ds: &Dataset,
     grid: &[GridRun],
     dt: f64,
     table: &'t [SearchRow],
-) -> Result<((&'t SearchRow, f64, Vec<ArxPoly>, ValidModel), Vec<Value>)> {
+) -> Result<Refitted<'t>> {
     // Best first; on a tie the smaller penalty (rows are in grid order).
     let mut ranked: Vec<(&SearchRow, f64)> = table
         .iter()
@@ -975,7 +984,15 @@ fn refit_best<'t>(
             .collect();
         let polys = polys?;
         match bank(ds, dt, export(&polys)?) {
-            Ok(model) => return Ok(((row, score, polys, model), refused)),
+            Ok(model) => {
+                return Ok(Refitted {
+                    row,
+                    score,
+                    polys,
+                    model,
+                    refused,
+                })
+            }
             Err(e) => refused.push(
                 json!({"orders": row.orders.json(), "ridge": row.ridge, "error": e.to_string()}),
             ),
@@ -1046,7 +1063,13 @@ fn fit_inputs(
         Ridge::Fixed(v) => vec![v],
     };
     let table = order_search(ds, &grid, dt, (cands, &lambdas), scheme);
-    let ((row, score, polys, model), refused) = refit_best(ds, &grid, dt, &table)?;
+    let Refitted {
+        row,
+        score,
+        polys,
+        model,
+        refused,
+    } = refit_best(ds, &grid, dt, &table)?;
     let (orders, ridge) = (row.orders, row.ridge);
     let details = json!({
         "dt_s": dt,

@@ -123,17 +123,24 @@ fn grey_with_target(
     })
 }
 
+/// The typical variables' combinations, each regressed on the target.
+struct Combinations {
+    /// The typical variables (input indices, sorted).
+    typical: Vec<usize>,
+    /// Each combination (input indices) with its regression.
+    combos: Vec<(Vec<usize>, stats::Regression)>,
+    /// Index of the best adjusted R^2 in `combos`.
+    best: usize,
+}
+
 /// Seed 000's last step: every combination of the typical variables
-/// regressed on the target; the typical variables (sorted), each
-/// combination (as input indices) with its regression, and the index of
-/// the best adjusted R^2.
-#[allow(clippy::type_complexity)]
+/// regressed on the target, the best by adjusted R^2.
 fn grey_combinations(
     c: &InputClusters,
     t: &TargetFit,
     names: &[&str],
     target: &str,
-) -> Result<(Vec<usize>, Vec<(Vec<usize>, stats::Regression)>, usize)> {
+) -> Result<Combinations> {
     let k = c.groups.len();
     let mut typical = grey::typical(&c.groups, &t.deng);
     typical.sort_unstable();
@@ -162,7 +169,11 @@ fn grey_combinations(
                 t.xy.rows()
             )
         })?;
-    Ok((typical, combos, best))
+    Ok(Combinations {
+        typical,
+        combos,
+        best,
+    })
 }
 
 /// `--method grey` (seed 000): grey clustering of the inputs, the typical
@@ -177,7 +188,11 @@ pub(super) fn grey(
     let target = a.target[0].as_str();
     let c = grey_clusters(a, files, names)?;
     let t = grey_with_target(a, files, names, target)?;
-    let (typical, combos, best) = grey_combinations(&c, &t, names, target)?;
+    let Combinations {
+        typical,
+        combos,
+        best,
+    } = grey_combinations(&c, &t, names, target)?;
     let group_of = |j: usize| c.groups.iter().position(|g| g.contains(&j)).unwrap_or(0);
     let variables = (0..names.len())
         .map(|j| GreyVariable {
