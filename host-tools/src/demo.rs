@@ -42,7 +42,7 @@ use crate::eval::MetricsReport;
 use crate::fit::{self, FitKind};
 use crate::replay::{self, ReplayArgs};
 use crate::runner::{self, ColumnMap};
-use crate::select::{self, SelectArgs};
+use crate::select::{self, grey, Method, SelectParams};
 use crate::simulate;
 use crate::twin::effects::{Effect, EffectSet};
 use crate::twin::machine::Machine;
@@ -51,7 +51,8 @@ use crate::twin::sim::SimOptions;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, FromArgMatches};
 use model_core::ValidModel;
-use serde_json::{json, Map, Value};
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -187,6 +188,18 @@ fn command_line(name: &str, argv: &[String]) -> String {
 
 fn path_arg(p: &Path) -> String {
     p.display().to_string()
+}
+
+/// The `thermcomp select` command that repeats one pick of stage 2 on the
+/// calibration run `cal` (the flags that differ from the defaults).
+fn select_command(cal: &Path, method: Method, scale: grey::Scale) -> String {
+    let mut argv = vec!["--data".to_string(), path_arg(cal)];
+    argv.extend(["--target".into(), TARGET.into()]);
+    argv.extend(["--method".into(), method.name().into()]);
+    if scale != grey::Scale::Initial {
+        argv.extend(["--scale".into(), scale.name().into()]);
+    }
+    command_line("select", &argv)
 }
 
 /// Stage headers and timings on stderr.
@@ -357,30 +370,28 @@ impl Demo<'_> {
             2,
             &format!("select: maxtree and grey on the calibration run for {TARGET}"),
         );
-        let mut picks = Map::new();
+        let cal_run = RunFile::read(cal, &ReadOptions::default())?;
+        let mut picks: BTreeMap<&str, Vec<String>> = BTreeMap::new();
         let mut commands = Vec::new();
         let mut selected: Vec<String> = Vec::new();
-        for (method, extra) in [("maxtree", &[][..]), ("grey", &["--scale", "interval"][..])] {
-            let mut argv = vec![
-                "--data".to_string(),
-                path_arg(cal),
-                "--target".into(),
-                TARGET.into(),
-                "--method".into(),
-                method.into(),
-            ];
-            argv.extend(extra.iter().map(|s| s.to_string()));
-            let args: SelectArgs = parse_args("select", &argv)?;
-            let o =
-                select::select_files(&args).with_context(|| format!("demo: select {method}"))?;
-            let pick = o.selected;
+        for (method, scale) in [
+            (Method::Maxtree, grey::Scale::Initial),
+            (Method::Grey, grey::Scale::Interval),
+        ] {
+            let params = SelectParams {
+                scale,
+                ..SelectParams::new(vec![TARGET.into()], method)
+            };
+            let o = select::select(&params.check()?, std::slice::from_ref(&cal_run))
+                .with_context(|| format!("demo: select {}", method.name()))?;
+            let pick = o.selected().to_vec();
             for s in &pick {
                 if !selected.contains(s) {
                     selected.push(s.clone());
                 }
             }
-            picks.insert(method.into(), json!(pick));
-            commands.push(command_line("select", &argv));
+            picks.insert(method.name(), pick);
+            commands.push(select_command(cal, method, scale));
         }
         if selected.is_empty() {
             bail!("demo: select picked no sensors");
@@ -389,8 +400,8 @@ impl Demo<'_> {
         selected.sort_by_key(|s| s[1..].parse::<u32>().unwrap_or(u32::MAX));
         let t = p.end(&format!(
             "maxtree {}, grey {}: inputs {}",
-            list_of(&picks["maxtree"]),
-            list_of(&picks["grey"]),
+            picks["maxtree"].join(","),
+            picks["grey"].join(","),
             selected.join(",")
         ));
         let select_json = json!({
@@ -985,47 +996,16 @@ fn list_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
     Ok(())
 }
 
-/// The summary `demo` prints without `--json`.
-pub fn summary_text(d: &Value) -> String {
-    let mut s = String::new();
-    let sim = &d["simulate"];
-    let _ = writeln!(
-        s,
-        "thermcomp demo: built-in machine \"{}\", target {TARGET}, runs of {} h at {} s{}",
-        sim["machine"].as_str().unwrap_or("?"),
-        d["hours"],
-        d["dt_s"],
-        if d["quick"] == json!(true) {
-            " (--quick)"
-        } else {
-            ""
-        }
-    );
-    let _ = writeln!(
-        s,
-        "1 simulate   calibration spectrum seed 1 (max |dz| {:.1} um), validation steps seed 2 (max |dz| {:.1} um)",
-        num(&sim["calibration"]["max_abs_dz_um"]),
-        num(&sim["validation"]["max_abs_dz_um"])
-    );
-    let sel = &d["select"];
-    let _ = writeln!(
-        s,
-        "2 select     maxtree {}, grey {} -> inputs {}",
-        list_of(&sel["methods"]["maxtree"]),
-        list_of(&sel["methods"]["grey"]),
-        list_of(&sel["selected"])
-    );
+/// Stage 3's lines of the summary: each kind's held-out figures on the
+/// validation run, the exported one marked.
+fn fit_lines(s: &mut String, fit: &Value) {
     let _ = writeln!(
         s,
         "3 fit        held-out on the validation run:\n  {:<6} {:>9} {:>9} {:>10} {:>10}",
         "kind", "rmse_um", "fit_%", "max|r|_um", "reduce_%"
     );
-    let best = d["fit"]["best"].as_str().unwrap_or("");
-    for m in d["fit"]["models"]
-        .as_array()
-        .map(Vec::as_slice)
-        .unwrap_or(&[])
-    {
+    let best = fit["best"].as_str().unwrap_or("");
+    for m in fit["models"].as_array().map(Vec::as_slice).unwrap_or(&[]) {
         let v = &m["validation"];
         let kind = m["kind"].as_str().unwrap_or("?");
         let note = if m["forecaster"] == json!(true) {
@@ -1045,38 +1025,11 @@ pub fn summary_text(d: &Value) -> String {
             num(&v["reduction_pct"])
         );
     }
-    let ex = &d["export"];
-    let _ = writeln!(
-        s,
-        "4 export     model.bin: the {} fit (a {} blob), {} bytes, CRC {}, inputs {}",
-        ex["kind"].as_str().unwrap_or("?"),
-        ex["blob_kind"].as_str().unwrap_or("?"),
-        ex["bytes"],
-        ex["crc32"].as_str().unwrap_or("?"),
-        list_of(&ex["inputs"])
-    );
-    let r = &d["replay"];
-    let st = &r["states"];
-    let _ = writeln!(
-        s,
-        "5 replay     {} frames over {} samples every {} s (running {}, holding {}, ramping {}, zeroed {})",
-        r["frames"],
-        r["samples"],
-        r["sample_period_s"],
-        st["running"],
-        st["holding"],
-        st["ramping"],
-        st["zeroed"]
-    );
-    let _ = writeln!(
-        s,
-        "             max |sent - model| {:.3} um on the hub's readings ({} samples without a limiter; frames carry 0.1 um), \
-         {:.3} um on the logged temperatures (adds PT100 quantisation)",
-        num(&r["max_abs_sent_minus_model_um"]),
-        r["compared_samples"],
-        num(&r["max_abs_sent_minus_model_on_file_um"])
-    );
-    let g = &d["diagnose"];
+}
+
+/// Stage 6's lines of the summary: the verdict on the withheld effect and,
+/// if figured, the deployment comparison.
+fn diagnose_lines(s: &mut String, g: &Value) {
     // The channel the verdict explains: a displacement (um) or, for a
     // sensor-lag or ambient verdict, possibly a temperature (K).
     let channel = g["result"]["main_channel"].as_str().unwrap_or("dz_um");
@@ -1110,6 +1063,71 @@ pub fn summary_text(d: &Value) -> String {
             num(&dep["trained_on_real_fit_part"]["rmse_um"])
         );
     }
+}
+
+/// The summary `demo` prints without `--json`.
+pub fn summary_text(d: &Value) -> String {
+    let mut s = String::new();
+    let sim = &d["simulate"];
+    let _ = writeln!(
+        s,
+        "thermcomp demo: built-in machine \"{}\", target {TARGET}, runs of {} h at {} s{}",
+        sim["machine"].as_str().unwrap_or("?"),
+        d["hours"],
+        d["dt_s"],
+        if d["quick"] == json!(true) {
+            " (--quick)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        s,
+        "1 simulate   calibration spectrum seed 1 (max |dz| {:.1} um), validation steps seed 2 (max |dz| {:.1} um)",
+        num(&sim["calibration"]["max_abs_dz_um"]),
+        num(&sim["validation"]["max_abs_dz_um"])
+    );
+    let sel = &d["select"];
+    let _ = writeln!(
+        s,
+        "2 select     maxtree {}, grey {} -> inputs {}",
+        list_of(&sel["methods"]["maxtree"]),
+        list_of(&sel["methods"]["grey"]),
+        list_of(&sel["selected"])
+    );
+    fit_lines(&mut s, &d["fit"]);
+    let ex = &d["export"];
+    let _ = writeln!(
+        s,
+        "4 export     model.bin: the {} fit (a {} blob), {} bytes, CRC {}, inputs {}",
+        ex["kind"].as_str().unwrap_or("?"),
+        ex["blob_kind"].as_str().unwrap_or("?"),
+        ex["bytes"],
+        ex["crc32"].as_str().unwrap_or("?"),
+        list_of(&ex["inputs"])
+    );
+    let r = &d["replay"];
+    let st = &r["states"];
+    let _ = writeln!(
+        s,
+        "5 replay     {} frames over {} samples every {} s (running {}, holding {}, ramping {}, zeroed {})",
+        r["frames"],
+        r["samples"],
+        r["sample_period_s"],
+        st["running"],
+        st["holding"],
+        st["ramping"],
+        st["zeroed"]
+    );
+    let _ = writeln!(
+        s,
+        "             max |sent - model| {:.3} um on the hub's readings ({} samples without a limiter; frames carry 0.1 um), \
+         {:.3} um on the logged temperatures (adds PT100 quantisation)",
+        num(&r["max_abs_sent_minus_model_um"]),
+        r["compared_samples"],
+        num(&r["max_abs_sent_minus_model_on_file_um"])
+    );
+    diagnose_lines(&mut s, &d["diagnose"]);
     let _ = writeln!(
         s,
         "{} files in {} ({:.1} s); --json for every figure",

@@ -34,6 +34,7 @@ use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use model_core::linear::LinearOutput;
 use model_core::pcr::{Pcr, PcrOutput};
+use model_core::tf::TfEntry;
 use model_core::{Model, Params, Reference, ValidModel};
 use nalgebra::{DMatrix, DVector};
 use rls::Coefs;
@@ -186,111 +187,136 @@ fn pcr_eq(model: &Model, k: usize) -> Option<(&Pcr, &PcrOutput)> {
     }
 }
 
+/// Output `k` of a linear or PCR model: its regressors as a function of
+/// the model-form inputs, and its old coefficients.
+fn static_equation(model: &Model, k: usize) -> Result<(RegressorFn, Coefs)> {
+    if let Some(eq) = linear_eq(model, k) {
+        if eq.position.is_some() {
+            bail!("refit does not update positional (slope) regressions");
+        }
+        let ch: Vec<usize> = eq.coef.iter().map(|c| usize::from(c.channel)).collect();
+        Ok((
+            Box::new(move |x: &[f64]| ch.iter().map(|&c| x[c]).collect()),
+            (eq.intercept, eq.coef.iter().map(|c| c.value).collect()),
+        ))
+    } else if let Some((pcr, eq)) = pcr_eq(model, k) {
+        if eq.position.is_some() {
+            bail!("refit does not update positional (slope) regressions");
+        }
+        // The components stay; the regression on them is updated.
+        let (pcr, used) = (pcr.clone(), eq.beta.len());
+        Ok((
+            Box::new(move |x: &[f64]| pcr.scores(x)[..used].to_vec()),
+            (eq.intercept, eq.beta.to_vec()),
+        ))
+    } else {
+        bail!("output #{k} has no equation");
+    }
+}
+
+/// Every output's [`Structure`] of a linear or PCR model over the new runs.
+fn static_structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Structure>> {
+    let xs: Vec<Vec<Option<Vec<f64>>>> = runs
+        .iter()
+        .map(|r| model_inputs(old, r))
+        .collect::<Result<_>>()?;
+    (0..old.outputs().len())
+        .map(|k| {
+            let (phi, old_c) = static_equation(old.model(), k)?;
+            let regs = xs
+                .iter()
+                .map(|run| run.iter().map(|x| x.as_deref().map(&phi)).collect())
+                .collect();
+            Ok(Structure {
+                regs,
+                old: old_c,
+                tf_entries: None,
+            })
+        })
+        .collect()
+}
+
+/// Each TF entry simulated alone on each run, through the runner
+/// (resampling and state exactly as the whole model runs):
+/// `[entry][run][row]`.
+fn tf_entry_series(
+    old: &ValidModel,
+    entries: &[TfEntry],
+    runs: &[RunFile],
+) -> Result<Vec<Vec<Vec<Option<f64>>>>> {
+    let model = old.model();
+    let map = ColumnMap::default();
+    let mut series = Vec::new();
+    for entry in entries {
+        let mut single = entry.clone();
+        single.output = 0;
+        let name = old
+            .outputs()
+            .get(usize::from(entry.output))
+            .cloned()
+            .ok_or_else(|| anyhow!("tf entry names a missing output"))?;
+        let mut ents = heapless::Vec::new();
+        let _ = ents.push(single);
+        let mut outputs = heapless::Vec::new();
+        let _ = outputs.push(name);
+        let m = Model {
+            inputs: model.inputs.clone(),
+            outputs,
+            dt_s: model.dt_s,
+            params: Params::Tf(ents),
+            bounds: None,
+            five_point: None,
+        }
+        .validate()
+        .map_err(|e| anyhow!("tf entry: {e}"))?;
+        series.push(
+            runs.iter()
+                .map(|r| Ok(runner::predict(&m, r, &map)?.values.swap_remove(0)))
+                .collect::<Result<_>>()?,
+        );
+    }
+    Ok(series)
+}
+
+/// Every output's [`Structure`] of a TF bank: its entries' simulated
+/// outputs as regressors, a gain per entry (old gains 1).
+fn tf_structures(
+    old: &ValidModel,
+    entries: &[TfEntry],
+    runs: &[RunFile],
+) -> Result<Vec<Structure>> {
+    let series = tf_entry_series(old, entries, runs)?;
+    Ok((0..old.outputs().len())
+        .map(|k| {
+            let idx: Vec<usize> = entries
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| usize::from(e.output) == k)
+                .map(|(i, _)| i)
+                .collect();
+            let regs = runs
+                .iter()
+                .enumerate()
+                .map(|(ri, run)| {
+                    (0..run.len())
+                        .map(|row| idx.iter().map(|&e| series[e][ri][row]).collect())
+                        .collect()
+                })
+                .collect();
+            Structure {
+                regs,
+                old: (0.0, vec![1.0; idx.len()]),
+                tf_entries: Some(idx),
+            }
+        })
+        .collect())
+}
+
 /// Builds every output's [`Structure`] over the new runs.
 fn structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Structure>> {
-    let model = old.model();
-    let n_out = old.outputs().len();
-    match &model.params {
-        Params::Linear(_) | Params::Pcr(_) => {
-            let xs: Vec<Vec<Option<Vec<f64>>>> = runs
-                .iter()
-                .map(|r| model_inputs(old, r))
-                .collect::<Result<_>>()?;
-            (0..n_out)
-                .map(|k| {
-                    let (phi, old_c): (RegressorFn, Coefs) = if let Some(eq) = linear_eq(model, k) {
-                        if eq.position.is_some() {
-                            bail!("refit does not update positional (slope) regressions");
-                        }
-                        let ch: Vec<usize> =
-                            eq.coef.iter().map(|c| usize::from(c.channel)).collect();
-                        (
-                            Box::new(move |x: &[f64]| ch.iter().map(|&c| x[c]).collect()),
-                            (eq.intercept, eq.coef.iter().map(|c| c.value).collect()),
-                        )
-                    } else if let Some((pcr, eq)) = pcr_eq(model, k) {
-                        if eq.position.is_some() {
-                            bail!("refit does not update positional (slope) regressions");
-                        }
-                        // The components stay; the regression on them is updated.
-                        let (pcr, used) = (pcr.clone(), eq.beta.len());
-                        (
-                            Box::new(move |x: &[f64]| pcr.scores(x)[..used].to_vec()),
-                            (eq.intercept, eq.beta.to_vec()),
-                        )
-                    } else {
-                        bail!("output #{k} has no equation");
-                    };
-                    let regs = xs
-                        .iter()
-                        .map(|run| run.iter().map(|x| x.as_deref().map(&phi)).collect())
-                        .collect();
-                    Ok(Structure {
-                        regs,
-                        old: old_c,
-                        tf_entries: None,
-                    })
-                })
-                .collect()
-        }
-        Params::Tf(entries) => {
-            // Each entry simulated alone, through the runner (resampling and
-            // state exactly as the whole model runs).
-            let map = ColumnMap::default();
-            let mut series: Vec<Vec<Vec<Option<f64>>>> = Vec::new(); // [entry][run][row]
-            for entry in entries {
-                let mut single = entry.clone();
-                single.output = 0;
-                let name = old
-                    .outputs()
-                    .get(usize::from(entry.output))
-                    .cloned()
-                    .ok_or_else(|| anyhow!("tf entry names a missing output"))?;
-                let mut ents = heapless::Vec::new();
-                let _ = ents.push(single);
-                let mut outputs = heapless::Vec::new();
-                let _ = outputs.push(name);
-                let m = Model {
-                    inputs: model.inputs.clone(),
-                    outputs,
-                    dt_s: model.dt_s,
-                    params: Params::Tf(ents),
-                    bounds: None,
-                    five_point: None,
-                }
-                .validate()
-                .map_err(|e| anyhow!("tf entry: {e}"))?;
-                series.push(
-                    runs.iter()
-                        .map(|r| Ok(runner::predict(&m, r, &map)?.values.swap_remove(0)))
-                        .collect::<Result<_>>()?,
-                );
-            }
-            Ok((0..n_out)
-                .map(|k| {
-                    let idx: Vec<usize> = entries
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, e)| usize::from(e.output) == k)
-                        .map(|(i, _)| i)
-                        .collect();
-                    let regs = runs
-                        .iter()
-                        .enumerate()
-                        .map(|(ri, run)| {
-                            (0..run.len())
-                                .map(|row| idx.iter().map(|&e| series[e][ri][row]).collect())
-                                .collect()
-                        })
-                        .collect();
-                    Structure {
-                        regs,
-                        old: (0.0, vec![1.0; idx.len()]),
-                        tf_entries: Some(idx),
-                    }
-                })
-                .collect())
-        }
+    match &old.model().params {
+        Params::Linear(_) | Params::Pcr(_) => static_structures(old, runs),
+        Params::Tf(entries) => tf_structures(old, entries, runs),
         _ => bail!(
             "refit updates linear, pcr and tf models; this is a {} model",
             old.kind().name()
@@ -487,8 +513,8 @@ fn verdict_json(v: &Verdict) -> Value {
     })
 }
 
-/// Runs `thermcomp refit`.
-pub fn run(a: &RefitArgs) -> Result<()> {
+/// The flags' ranges, and `--out` apart from every file read.
+fn check_args(a: &RefitArgs) -> Result<()> {
     if !(a.holdout_fraction > 0.0 && a.holdout_fraction < 1.0) {
         bail!(
             "--holdout-fraction {} must be in (0, 1)",
@@ -528,20 +554,48 @@ pub fn run(a: &RefitArgs) -> Result<()> {
             bail!("{name} must be a positive number of hours");
         }
     }
+    Ok(())
+}
+
+/// What `refit` reads.
+struct RefitInputs {
+    /// The model in service.
+    old: ValidModel,
+    /// Its blob, byte for byte.
+    old_bytes: Vec<u8>,
+    /// The new runs.
+    runs: Vec<RunFile>,
+    /// The baseline runs.
+    baseline: Vec<RunFile>,
+}
+
+/// The model in service (decoded, and its bytes), the new runs and the
+/// baseline runs, read with only the model's columns.
+fn read_inputs(a: &RefitArgs) -> Result<RefitInputs> {
     let (old, old_bytes) = crate::data::blobfile::read(&a.model)?;
-    let map = ColumnMap::default();
     let opts = ReadOptions {
         skip_bad_rows: a.skip_bad_rows,
-        only: Some(map.model_columns(&old, true)),
+        only: Some(ColumnMap::default().model_columns(&old, true)),
     };
     let runs = crate::data::source::read_runs(&a.data, &opts)?;
     let baseline = crate::data::source::read_runs(&a.baseline, &opts)?;
     for r in runs.iter().chain(&baseline) {
         crate::data::dataset::check_scalable_columns(r)?;
     }
-    let outputs: Vec<String> = old.outputs().iter().map(|o| o.to_string()).collect();
-    let ys: Vec<Vec<&[Option<f64>]>> = runs
-        .iter()
+    Ok(RefitInputs {
+        old,
+        old_bytes,
+        runs,
+        baseline,
+    })
+}
+
+/// Each run's measured column of each model output: `ys[run][output]`.
+fn measured_outputs<'r>(
+    runs: &'r [RunFile],
+    outputs: &[String],
+) -> Result<Vec<Vec<&'r [Option<f64>]>>> {
+    runs.iter()
         .map(|r| {
             outputs
                 .iter()
@@ -555,100 +609,133 @@ pub fn run(a: &RefitArgs) -> Result<()> {
                 })
                 .collect::<Result<_>>()
         })
-        .collect::<Result<_>>()?;
-    // Hold out the last fraction of each run, by time.
-    let split: Vec<usize> = runs
-        .iter()
+        .collect()
+}
+
+/// Where each run's held-out tail starts: the last `fraction` of its time.
+fn holdout_starts(runs: &[RunFile], fraction: f64) -> Vec<usize> {
+    runs.iter()
         .map(|r| match (r.t_s.first(), r.t_s.last()) {
             (Some(t0), Some(t1)) => {
-                let ts = t0 + (1.0 - a.holdout_fraction) * (t1 - t0);
+                let ts = t0 + (1.0 - fraction) * (t1 - t0);
                 r.t_s.partition_point(|t| *t < ts)
             }
             _ => 0,
         })
-        .collect();
+        .collect()
+}
 
-    // 1. The test, on every row of the new runs.
+/// The old model's predictions on each run (the runner's notes on stderr).
+fn predictions(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<runner::Prediction>> {
+    let map = ColumnMap::default();
     let preds: Vec<runner::Prediction> = runs
         .iter()
-        .map(|r| runner::predict(&old, r, &map))
+        .map(|r| runner::predict(old, r, &map))
         .collect::<Result<_>>()?;
     for (r, p) in runs.iter().zip(&preds) {
         for note in &p.notes {
             eprintln!("note: {}: {note}", r.path.display());
         }
     }
+    Ok(preds)
+}
+
+/// Output `k`'s residual samples per run: time since the run's start,
+/// prediction and residual, at every row with both.
+fn residual_samples(
+    runs: &[RunFile],
+    preds: &[runner::Prediction],
+    ys: &[Vec<&[Option<f64>]>],
+    k: usize,
+) -> Vec<Vec<Sample>> {
+    runs.iter()
+        .zip(preds)
+        .zip(ys)
+        .map(|((run, p), y)| {
+            let t0 = run.t_s.first().copied().unwrap_or(0.0);
+            (0..run.len())
+                .filter_map(|row| match (y[k][row], p.values[k][row]) {
+                    (Some(y), Some(yhat)) => Some(Sample {
+                        tau_h: (run.t_s[row] - t0) / 3600.0,
+                        yhat,
+                        r: y - yhat,
+                    }),
+                    _ => None,
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The `--tolerance` rule on one output: the baseline's and the new runs'
+/// figures, and whether the new rmse or dpk exceeds the baseline's.
+fn baseline_rule(a: &RefitArgs, base: &TargetScore, new: &TargetScore) -> (Option<Value>, bool) {
+    let (Some(bm), Some(nm)) = (&base.calibration, &new.calibration) else {
+        return (None, false);
+    };
+    let exceeds = |new: f64, base: f64| new > a.tolerance * base && new - base >= a.min_effect_um;
+    let flag = exceeds(nm.rmse, bm.rmse) || exceeds(nm.dpk, bm.dpk);
+    let figures = json!({
+        "rmse_um": bm.rmse, "dpk_um": bm.dpk,
+        "new_rmse_um": nm.rmse, "new_dpk_um": nm.dpk,
+        "rmse_ratio": nm.rmse / bm.rmse, "dpk_ratio": nm.dpk / bm.dpk,
+    });
+    (Some(figures), flag)
+}
+
+/// Step 1: each output's test on every row of the new runs (and the
+/// baseline rule with `--baseline`).
+fn test_outputs(
+    a: &RefitArgs,
+    old: &ValidModel,
+    (runs, baseline): (&[RunFile], &[RunFile]),
+    preds: &[runner::Prediction],
+    ys: &[Vec<&[Option<f64>]>],
+) -> Result<Vec<Verdict>> {
     let whole = |rs: &[RunFile]| -> Result<Vec<TargetScore>> {
         let pairs: Vec<(&RunFile, usize)> = rs.iter().map(|r| (r, r.len())).collect();
-        score(&old, &pairs)
+        score(old, &pairs)
     };
-    let (base_scores, new_scores) = if baseline.is_empty() {
-        (None, None)
+    let scores = if baseline.is_empty() {
+        None
     } else {
-        (Some(whole(&baseline)?), Some(whole(&runs)?))
+        Some((whole(baseline)?, whole(runs)?))
     };
-    let mut verdicts = Vec::new();
-    for k in 0..outputs.len() {
-        let samples: Vec<Vec<Sample>> = runs
-            .iter()
-            .zip(&preds)
-            .zip(&ys)
-            .map(|((run, p), y)| {
-                let t0 = run.t_s.first().copied().unwrap_or(0.0);
-                (0..run.len())
-                    .filter_map(|row| match (y[k][row], p.values[k][row]) {
-                        (Some(y), Some(yhat)) => Some(Sample {
-                            tau_h: (run.t_s[row] - t0) / 3600.0,
-                            yhat,
-                            r: y - yhat,
-                        }),
-                        _ => None,
-                    })
-                    .collect()
-            })
-            .collect();
-        let test = drift_test(&samples);
-        let significant = test.as_ref().is_some_and(|t| t.p_value < a.alpha);
-        let relevant = test
-            .as_ref()
-            .is_some_and(|t| t.effect_um >= a.min_effect_um);
-        let (mut baseline_json, mut baseline_flag) = (None, false);
-        if let (Some(b), Some(n)) = (&base_scores, &new_scores) {
-            if let (Some(bm), Some(nm)) = (&b[k].calibration, &n[k].calibration) {
-                let exceeds =
-                    |new: f64, base: f64| new > a.tolerance * base && new - base >= a.min_effect_um;
-                baseline_flag = exceeds(nm.rmse, bm.rmse) || exceeds(nm.dpk, bm.dpk);
-                baseline_json = Some(json!({
-                    "rmse_um": bm.rmse, "dpk_um": bm.dpk,
-                    "new_rmse_um": nm.rmse, "new_dpk_um": nm.dpk,
-                    "rmse_ratio": nm.rmse / bm.rmse, "dpk_ratio": nm.dpk / bm.dpk,
-                }));
+    let verdicts = (0..old.outputs().len())
+        .map(|k| {
+            let test = drift_test(&residual_samples(runs, preds, ys, k));
+            let significant = test.as_ref().is_some_and(|t| t.p_value < a.alpha);
+            let relevant = test
+                .as_ref()
+                .is_some_and(|t| t.effect_um >= a.min_effect_um);
+            let (baseline, baseline_flag) = match &scores {
+                Some((b, n)) => baseline_rule(a, &b[k], &n[k]),
+                None => (None, false),
+            };
+            Verdict {
+                changed: (significant && relevant) || baseline_flag,
+                test,
+                significant,
+                relevant,
+                baseline,
+                baseline_flag,
             }
-        }
-        verdicts.push(Verdict {
-            changed: (significant && relevant) || baseline_flag,
-            test,
-            significant,
-            relevant,
-            baseline: baseline_json,
-            baseline_flag,
-        });
-    }
-    let changed = verdicts.iter().any(|v| v.changed);
-    let pairs: Vec<(&RunFile, usize)> = runs.iter().zip(&split).map(|(r, s)| (r, *s)).collect();
-    let before = score(&old, &pairs)?;
+        })
+        .collect();
+    Ok(verdicts)
+}
 
-    // 2. The update, of the changed targets only.
-    let dt_s = {
-        let dts: Vec<f64> = runs
-            .iter()
-            .filter_map(|r| r.sampling().dt_median_s)
-            .collect();
-        if dts.is_empty() {
-            bail!("the new runs need at least two rows each");
-        }
-        dts.iter().sum::<f64>() / dts.len() as f64
-    };
+/// The runs' mean sample time, s, and the update settings it resolves
+/// (the default forgetting factor, the prior's weight in samples).
+fn update_settings(a: &RefitArgs, runs: &[RunFile]) -> Result<(f64, UpdateSettings)> {
+    let dts: Vec<f64> = runs
+        .iter()
+        .filter_map(|r| r.sampling().dt_median_s)
+        .collect();
+    if dts.is_empty() {
+        bail!("the new runs need at least two rows each");
+    }
+    let dt_s = dts.iter().sum::<f64>() / dts.len() as f64;
     let settings = UpdateSettings {
         method: a.method,
         lambda: a
@@ -657,137 +744,267 @@ pub fn run(a: &RefitArgs) -> Result<()> {
         n_prior: a.prior_h * 3600.0 / dt_s,
         window_s: a.window_h * 3600.0,
     };
-    let mut notes: Vec<String> = Vec::new();
-    let mut update_json = Map::new();
-    let mut after = before.clone();
-    let mut kept_targets: Vec<String> = Vec::new();
-    let mut final_model: Option<ValidModel> = None;
-    if changed {
-        let sts = structures(&old, &runs)?;
-        let ys_k = |k: usize| -> Vec<&[Option<f64>]> { ys.iter().map(|y| y[k]).collect() };
-        let mut candidates: Vec<(usize, Coefs)> = Vec::new();
-        for (k, v) in verdicts.iter().enumerate() {
-            if !v.changed {
-                continue;
-            }
-            match update_one(&sts[k], &runs, &ys_k(k), &split, &settings) {
-                Ok(c) => candidates.push((k, c)),
-                Err(e) => notes.push(format!("{}: no update: {e:#}", outputs[k])),
-            }
+    Ok((dt_s, settings))
+}
+
+/// The data an update works on: the new runs, their measured outputs and
+/// where each run's held-out tail starts.
+struct UpdateData<'r> {
+    runs: &'r [RunFile],
+    ys: &'r [Vec<&'r [Option<f64>]>],
+    split: &'r [usize],
+}
+
+/// Steps 2 and 3: what the update did.
+struct Update {
+    /// Why an output was not updated or not kept.
+    notes: Vec<String>,
+    /// Per updated output: old and new coefficients, held-out rmse, kept.
+    entries: Map<String, Value>,
+    /// The kept model's scores (the old model's if none is kept).
+    after: Vec<TargetScore>,
+    /// The outputs whose update was kept.
+    kept_targets: Vec<String>,
+    /// The updated model, if any output's update was kept.
+    model: Option<ValidModel>,
+}
+
+/// Step 2: new coefficients for every changed output (a note for those
+/// that cannot be updated).
+fn candidates(
+    sts: &[Structure],
+    data: &UpdateData,
+    verdicts: &[Verdict],
+    outputs: &[String],
+    settings: &UpdateSettings,
+    notes: &mut Vec<String>,
+) -> Vec<(usize, Coefs)> {
+    let ys_k = |k: usize| -> Vec<&[Option<f64>]> { data.ys.iter().map(|y| y[k]).collect() };
+    let mut out = Vec::new();
+    for (k, v) in verdicts.iter().enumerate() {
+        if !v.changed {
+            continue;
         }
-        let cand_model = if candidates.is_empty() {
-            None
-        } else {
-            match with_updates(&old, &sts, &candidates) {
-                Ok(m) => Some(m),
-                Err(e) => {
-                    notes.push(format!("{e:#}"));
-                    None
-                }
-            }
-        };
-        if let Some(cand) = cand_model {
-            let cand_scores = score(&cand, &pairs)?;
-            let mut keep: Vec<(usize, Coefs)> = Vec::new();
-            for (k, c) in &candidates {
-                let (o, n) = (holdout_rmse(&before[*k]), holdout_rmse(&cand_scores[*k]));
-                let better = matches!((o, n), (Some(o), Some(n)) if n < o);
-                let (old_b0, old_b) = &sts[*k].old;
-                let (old_j, new_j) = match &sts[*k].tf_entries {
-                    Some(idx) => (
-                        json!({"tf_entries": idx, "gains": old_b}),
-                        json!({"tf_entries": idx, "gains": c.1}),
-                    ),
-                    None => (
-                        json!({"intercept": old_b0, "coef": old_b}),
-                        json!({"intercept": c.0, "coef": c.1}),
-                    ),
-                };
-                let entry = json!({
-                    "old": old_j,
-                    "new": new_j,
-                    "holdout_rmse_old_um": o,
-                    "holdout_rmse_new_um": n,
-                    "kept": if better { "new" } else { "old" },
-                });
-                update_json.insert(outputs[*k].clone(), entry);
-                if better {
-                    keep.push((*k, c.clone()));
-                    kept_targets.push(outputs[*k].clone());
-                } else {
-                    notes.push(format!(
-                        "{}: the update does not lower the held-out rmse; the old equation is kept",
-                        outputs[*k]
-                    ));
-                }
-            }
-            if !keep.is_empty() {
-                let m = with_updates(&old, &sts, &keep)?;
-                after = score(&m, &pairs)?;
-                final_model = Some(m);
-            }
+        match update_one(&sts[k], data.runs, &ys_k(k), data.split, settings) {
+            Ok(c) => out.push((k, c)),
+            Err(e) => notes.push(format!("{}: no update: {e:#}", outputs[k])),
         }
     }
-    let out_bytes = match &final_model {
+    out
+}
+
+/// `update`'s entry for one output: old and new equation, their held-out
+/// rmse, which is kept.
+fn update_entry(
+    st: &Structure,
+    new: &Coefs,
+    rmse: (Option<f64>, Option<f64>),
+    better: bool,
+) -> Value {
+    let (old_b0, old_b) = &st.old;
+    let (old_j, new_j) = match &st.tf_entries {
+        Some(idx) => (
+            json!({"tf_entries": idx, "gains": old_b}),
+            json!({"tf_entries": idx, "gains": new.1}),
+        ),
+        None => (
+            json!({"intercept": old_b0, "coef": old_b}),
+            json!({"intercept": new.0, "coef": new.1}),
+        ),
+    };
+    json!({
+        "old": old_j,
+        "new": new_j,
+        "holdout_rmse_old_um": rmse.0,
+        "holdout_rmse_new_um": rmse.1,
+        "kept": if better { "new" } else { "old" },
+    })
+}
+
+/// Steps 2 and 3 for the changed outputs: update each, keep an update
+/// only if it lowers that output's held-out rmse.
+fn update_changed(
+    old: &ValidModel,
+    data: &UpdateData,
+    verdicts: &[Verdict],
+    settings: &UpdateSettings,
+    before: &[TargetScore],
+) -> Result<Update> {
+    let outputs: Vec<String> = old.outputs().iter().map(|o| o.to_string()).collect();
+    let pairs: Vec<(&RunFile, usize)> = data
+        .runs
+        .iter()
+        .zip(data.split)
+        .map(|(r, s)| (r, *s))
+        .collect();
+    let mut u = Update {
+        notes: Vec::new(),
+        entries: Map::new(),
+        after: before.to_vec(),
+        kept_targets: Vec::new(),
+        model: None,
+    };
+    let sts = structures(old, data.runs)?;
+    let candidates = candidates(&sts, data, verdicts, &outputs, settings, &mut u.notes);
+    if candidates.is_empty() {
+        return Ok(u);
+    }
+    let cand = match with_updates(old, &sts, &candidates) {
+        Ok(m) => m,
+        Err(e) => {
+            u.notes.push(format!("{e:#}"));
+            return Ok(u);
+        }
+    };
+    let cand_scores = score(&cand, &pairs)?;
+    let mut keep: Vec<(usize, Coefs)> = Vec::new();
+    for (k, c) in &candidates {
+        let (o, n) = (holdout_rmse(&before[*k]), holdout_rmse(&cand_scores[*k]));
+        let better = matches!((o, n), (Some(o), Some(n)) if n < o);
+        u.entries.insert(
+            outputs[*k].clone(),
+            update_entry(&sts[*k], c, (o, n), better),
+        );
+        if better {
+            keep.push((*k, c.clone()));
+            u.kept_targets.push(outputs[*k].clone());
+        } else {
+            u.notes.push(format!(
+                "{}: the update does not lower the held-out rmse; the old equation is kept",
+                outputs[*k]
+            ));
+        }
+    }
+    if !keep.is_empty() {
+        let m = with_updates(old, &sts, &keep)?;
+        u.after = score(&m, &pairs)?;
+        u.model = Some(m);
+    }
+    Ok(u)
+}
+
+/// `refit --json`'s object.
+#[allow(clippy::too_many_arguments)]
+fn report_json(
+    a: &RefitArgs,
+    outputs: &[String],
+    verdicts: &[Verdict],
+    (dt_s, settings): (f64, &UpdateSettings),
+    before: &[TargetScore],
+    u: &Update,
+    skipped_rows: usize,
+    bytes: usize,
+) -> Value {
+    let changed = verdicts.iter().any(|v| v.changed);
+    let targets: Map<String, Value> = outputs
+        .iter()
+        .zip(verdicts)
+        .map(|(o, v)| (o.clone(), verdict_json(v)))
+        .collect();
+    json!({
+        "changed": changed,
+        "test": {
+            "rule": "per target: changed if (HAC Wald p < alpha on r ~ c0 + c1 tau_h + c2 yhat, and max|fitted| >= min_effect_um) or (baseline given and new rmse or dpk > tolerance x baseline and >= min_effect_um above it)",
+            "alpha": a.alpha,
+            "min_effect_um": a.min_effect_um,
+            "tolerance": a.tolerance,
+            "baseline_runs": a.baseline.len(),
+            "targets": targets,
+            "decision": if changed { "changed" } else { "unchanged" },
+        },
+        "method": a.method.name(),
+        "settings": {
+            "dt_s": dt_s,
+            "forgetting": settings.lambda,
+            "memory_h": dt_s / (1.0 - settings.lambda).max(f64::MIN_POSITIVE) / 3600.0,
+            "prior_h": a.prior_h,
+            "window_h": (a.method == Method::Window).then_some(a.window_h),
+            "holdout_fraction": a.holdout_fraction,
+        },
+        "update": u.entries,
+        "before": parts_json(before),
+        "after": parts_json(&u.after),
+        "kept": if u.model.is_some() { "new" } else { "old" },
+        "targets_updated": u.kept_targets,
+        "notes": u.notes,
+        "skipped_rows": skipped_rows,
+        "out": a.out.display().to_string(),
+        "bytes": bytes,
+    })
+}
+
+/// Runs `thermcomp refit`.
+pub fn run(a: &RefitArgs) -> Result<()> {
+    check_args(a)?;
+    let RefitInputs {
+        old,
+        old_bytes,
+        runs,
+        baseline,
+    } = read_inputs(a)?;
+    let outputs: Vec<String> = old.outputs().iter().map(|o| o.to_string()).collect();
+    let ys = measured_outputs(&runs, &outputs)?;
+    let split = holdout_starts(&runs, a.holdout_fraction);
+
+    // 1. The test, on every row of the new runs.
+    let preds = predictions(&old, &runs)?;
+    let verdicts = test_outputs(a, &old, (&runs, &baseline), &preds, &ys)?;
+    let changed = verdicts.iter().any(|v| v.changed);
+    let pairs: Vec<(&RunFile, usize)> = runs.iter().zip(&split).map(|(r, s)| (r, *s)).collect();
+    let before = score(&old, &pairs)?;
+
+    // 2. and 3. The update of the changed targets only, kept if better.
+    let (dt_s, settings) = update_settings(a, &runs)?;
+    let u = if changed {
+        let data = UpdateData {
+            runs: &runs,
+            ys: &ys,
+            split: &split,
+        };
+        update_changed(&old, &data, &verdicts, &settings, &before)?
+    } else {
+        Update {
+            notes: Vec::new(),
+            entries: Map::new(),
+            after: before.clone(),
+            kept_targets: Vec::new(),
+            model: None,
+        }
+    };
+    let out_bytes = match &u.model {
         Some(m) => crate::data::blobfile::write(m, &a.out)?,
         None => {
             crate::data::fsio::write_bytes_atomic(&a.out, &old_bytes)?;
             old_bytes.clone()
         }
     };
-    let kept = if final_model.is_some() { "new" } else { "old" };
-    for n in &notes {
+    for n in &u.notes {
         eprintln!("note: {n}");
     }
-    let decision = if changed { "changed" } else { "unchanged" };
     if a.json {
-        let targets: Map<String, Value> = outputs
-            .iter()
-            .zip(&verdicts)
-            .map(|(o, v)| (o.clone(), verdict_json(v)))
-            .collect();
-        crate::data::fsio::print_line(
-            &json!({
-                "changed": changed,
-                "test": {
-                    "rule": "per target: changed if (HAC Wald p < alpha on r ~ c0 + c1 tau_h + c2 yhat, and max|fitted| >= min_effect_um) or (baseline given and new rmse or dpk > tolerance x baseline and >= min_effect_um above it)",
-                    "alpha": a.alpha,
-                    "min_effect_um": a.min_effect_um,
-                    "tolerance": a.tolerance,
-                    "baseline_runs": a.baseline.len(),
-                    "targets": targets,
-                    "decision": decision,
-                },
-                "method": a.method.name(),
-                "settings": {
-                    "dt_s": dt_s,
-                    "forgetting": settings.lambda,
-                    "memory_h": dt_s / (1.0 - settings.lambda).max(f64::MIN_POSITIVE) / 3600.0,
-                    "prior_h": a.prior_h,
-                    "window_h": (a.method == Method::Window).then_some(a.window_h),
-                    "holdout_fraction": a.holdout_fraction,
-                },
-                "update": update_json,
-                "before": parts_json(&before),
-                "after": parts_json(&after),
-                "kept": kept,
-                "targets_updated": kept_targets,
-                "notes": notes,
-                "skipped_rows": crate::data::source::skipped_rows(runs.iter().chain(&baseline)),
-                "out": a.out.display().to_string(),
-                "bytes": out_bytes.len(),
-            })
-            .to_string(),
-        )?;
+        let skipped = crate::data::source::skipped_rows(runs.iter().chain(&baseline));
+        let report = report_json(
+            a,
+            &outputs,
+            &verdicts,
+            (dt_s, &settings),
+            &before,
+            &u,
+            skipped,
+            out_bytes.len(),
+        );
+        crate::data::fsio::print_line(&report.to_string())?;
     } else {
+        let kept = if u.model.is_some() { "new" } else { "old" };
+        let decision = if changed { "changed" } else { "unchanged" };
         crate::data::fsio::print(&text_report(
             &outputs,
             &verdicts,
             decision,
             &before,
-            &after,
+            &u.after,
             kept,
-            &kept_targets,
+            &u.kept_targets,
         ))?;
         eprintln!(
             "wrote {} ({} bytes, {} model)",

@@ -2,9 +2,15 @@
 //! what validation derived (TF poles, cancellations, steady-state gains, the
 //! collapsed linear form of a PCR).
 
+use model_core::arma::Arma;
 use model_core::blob::{crc32, HEADER_LEN, TRAILER_LEN};
+use model_core::bp::BpNet;
+use model_core::fbank::FilterBank;
+use model_core::linear::Linear;
+use model_core::pcr::Pcr;
 use model_core::poly::{self, Complex};
 use model_core::position::PositionTerm;
+use model_core::tf::TfEntry;
 use model_core::{Params, Reference, ValidModel};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -120,100 +126,133 @@ fn input_of(model: &ValidModel, i: u8) -> &str {
         .map_or("?", |c| c.name.as_str())
 }
 
+/// A TF bank's entries: coefficients, poles and zeros, the realised transfer function.
+fn tf_json(model: &ValidModel, entries: &[TfEntry]) -> Value {
+    Value::Array(
+        entries
+            .iter()
+            .zip(model.realised_tfs())
+            .map(|(e, r)| {
+                json!({
+                    "output": name_of(model.outputs(), e.output),
+                    "input": input_of(model, e.input),
+                    "a": e.a.as_slice(),
+                    "b": e.b.as_slice(),
+                    "poles": complex_json(&roots(&e.b)),
+                    "zeros": complex_json(&roots(&e.a)),
+                    "cancelled_pairs": r.cancelled(),
+                    "realised_num": r.numerator(),
+                    "realised_den": r.denominator(),
+                    "steady_state_gain": r.dc_gain(),
+                })
+            })
+            .collect(),
+    )
+}
+
+/// A linear model's equations, a coefficient per input name.
+fn linear_json(model: &ValidModel, lin: &Linear) -> Value {
+    Value::Array(
+        lin.outputs
+            .iter()
+            .map(|eq| {
+                let coef: serde_json::Map<String, Value> = eq
+                    .coef
+                    .iter()
+                    .map(|c| (input_of(model, c.channel).to_string(), json!(c.value)))
+                    .collect();
+                json!({
+                    "output": name_of(model.outputs(), eq.output),
+                    "intercept": eq.intercept,
+                    "coef": coef,
+                    "position": eq.position.as_ref().map(|p| position_json(model, p)),
+                })
+            })
+            .collect(),
+    )
+}
+
+/// A PCR model: inputs, components, and each output's equation on the components and as the equivalent linear one.
+fn pcr_json(model: &ValidModel, pcr: &Pcr) -> Value {
+    let inputs: Vec<&str> = pcr.inputs.iter().map(|c| input_of(model, *c)).collect();
+    json!({
+        "inputs": inputs,
+        "components": pcr.components.iter().map(|c| json!({
+            "intercept": c.intercept, "weights": c.weights.as_slice()})).collect::<Vec<_>>(),
+        "outputs": pcr.outputs.iter().map(|eq| {
+            let (d0, d) = pcr.equivalent_linear(eq);
+            let collapsed: serde_json::Map<String, Value> = inputs
+                .iter()
+                .zip(&d)
+                .map(|(n, v)| ((*n).to_string(), json!(v)))
+                .collect();
+            json!({
+                "output": name_of(model.outputs(), eq.output),
+                "intercept": eq.intercept,
+                "beta": eq.beta.as_slice(),
+                "equivalent_linear": {"intercept": d0, "coef": collapsed},
+                "position": eq.position.as_ref().map(|p| position_json(model, p)),
+            })
+        }).collect::<Vec<_>>(),
+    })
+}
+
+/// A BP network's layers and scaling.
+fn bp_json(model: &ValidModel, net: &BpNet) -> Value {
+    json!({
+        "inputs": net.inputs.iter().map(|c| input_of(model, *c)).collect::<Vec<_>>(),
+        "outputs": net.outputs.iter().map(|o| name_of(model.outputs(), *o)).collect::<Vec<_>>(),
+        "hidden": net.hidden(),
+        "hidden_activation": net.hidden_activation.name(),
+        "output_activation": net.output_activation.name(),
+        "w1": net.w1.as_slice(), "b1": net.b1.as_slice(),
+        "w2": net.w2.as_slice(), "b2": net.b2.as_slice(),
+        "x_min": net.x_min.as_slice(), "x_max": net.x_max.as_slice(),
+        "y_min": net.y_min.as_slice(), "y_max": net.y_max.as_slice(),
+    })
+}
+
+/// An ARMA model's order, standardisation and coefficients.
+fn arma_json(model: &ValidModel, a: &Arma) -> Value {
+    json!({
+        "series": input_of(model, a.channel),
+        "output": name_of(model.outputs(), a.output),
+        "p": a.phi.len(), "d": a.diff, "q": a.theta.len(),
+        "mean": a.mean, "std": a.std, "constant": a.constant,
+        "phi": a.phi.as_slice(), "theta": a.theta.as_slice(),
+    })
+}
+
+/// A filter bank's features (with their poles) and output equations.
+fn fbank_json(model: &ValidModel, bank: &FilterBank) -> Value {
+    json!({
+        "features": bank.features.iter().zip(model.fbank_poles()).map(|(f, p)| json!({
+            "input": input_of(model, f.input), "power": f.power, "tau_s": f.tau_s,
+            "pole": p})).collect::<Vec<_>>(),
+        "outputs": bank.outputs.iter().map(|eq| json!({
+            "output": name_of(model.outputs(), eq.output),
+            "intercept": eq.intercept,
+            "coef": eq.coef.as_slice(),
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// The coefficients of the blob's kind, as JSON (one shape per kind).
+fn coefficients_json(model: &ValidModel) -> Value {
+    match &model.model().params {
+        Params::Tf(entries) => tf_json(model, entries),
+        Params::Linear(lin) => linear_json(model, lin),
+        Params::Pcr(pcr) => pcr_json(model, pcr),
+        Params::Bp(net) => bp_json(model, net),
+        Params::Arma(a) => arma_json(model, a),
+        Params::Fbank(bank) => fbank_json(model, bank),
+    }
+}
+
 /// The blob as one JSON object.
 pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
     let m = model.model();
-    let coefficients = match &m.params {
-        Params::Tf(entries) => Value::Array(
-            entries
-                .iter()
-                .zip(model.realised_tfs())
-                .map(|(e, r)| {
-                    json!({
-                        "output": name_of(model.outputs(), e.output),
-                        "input": input_of(model, e.input),
-                        "a": e.a.as_slice(),
-                        "b": e.b.as_slice(),
-                        "poles": complex_json(&roots(&e.b)),
-                        "zeros": complex_json(&roots(&e.a)),
-                        "cancelled_pairs": r.cancelled(),
-                        "realised_num": r.numerator(),
-                        "realised_den": r.denominator(),
-                        "steady_state_gain": r.dc_gain(),
-                    })
-                })
-                .collect(),
-        ),
-        Params::Linear(lin) => Value::Array(
-            lin.outputs
-                .iter()
-                .map(|eq| {
-                    let coef: serde_json::Map<String, Value> = eq
-                        .coef
-                        .iter()
-                        .map(|c| (input_of(model, c.channel).to_string(), json!(c.value)))
-                        .collect();
-                    json!({
-                        "output": name_of(model.outputs(), eq.output),
-                        "intercept": eq.intercept,
-                        "coef": coef,
-                        "position": eq.position.as_ref().map(|p| position_json(model, p)),
-                    })
-                })
-                .collect(),
-        ),
-        Params::Pcr(pcr) => {
-            let inputs: Vec<&str> = pcr.inputs.iter().map(|c| input_of(model, *c)).collect();
-            json!({
-                "inputs": inputs,
-                "components": pcr.components.iter().map(|c| json!({
-                    "intercept": c.intercept, "weights": c.weights.as_slice()})).collect::<Vec<_>>(),
-                "outputs": pcr.outputs.iter().map(|eq| {
-                    let (d0, d) = pcr.equivalent_linear(eq);
-                    let collapsed: serde_json::Map<String, Value> = inputs
-                        .iter()
-                        .zip(&d)
-                        .map(|(n, v)| ((*n).to_string(), json!(v)))
-                        .collect();
-                    json!({
-                        "output": name_of(model.outputs(), eq.output),
-                        "intercept": eq.intercept,
-                        "beta": eq.beta.as_slice(),
-                        "equivalent_linear": {"intercept": d0, "coef": collapsed},
-                        "position": eq.position.as_ref().map(|p| position_json(model, p)),
-                    })
-                }).collect::<Vec<_>>(),
-            })
-        }
-        Params::Bp(net) => json!({
-            "inputs": net.inputs.iter().map(|c| input_of(model, *c)).collect::<Vec<_>>(),
-            "outputs": net.outputs.iter().map(|o| name_of(model.outputs(), *o)).collect::<Vec<_>>(),
-            "hidden": net.hidden(),
-            "hidden_activation": net.hidden_activation.name(),
-            "output_activation": net.output_activation.name(),
-            "w1": net.w1.as_slice(), "b1": net.b1.as_slice(),
-            "w2": net.w2.as_slice(), "b2": net.b2.as_slice(),
-            "x_min": net.x_min.as_slice(), "x_max": net.x_max.as_slice(),
-            "y_min": net.y_min.as_slice(), "y_max": net.y_max.as_slice(),
-        }),
-        Params::Arma(a) => json!({
-            "series": input_of(model, a.channel),
-            "output": name_of(model.outputs(), a.output),
-            "p": a.phi.len(), "d": a.diff, "q": a.theta.len(),
-            "mean": a.mean, "std": a.std, "constant": a.constant,
-            "phi": a.phi.as_slice(), "theta": a.theta.as_slice(),
-        }),
-        Params::Fbank(bank) => json!({
-            "features": bank.features.iter().zip(model.fbank_poles()).map(|(f, p)| json!({
-                "input": input_of(model, f.input), "power": f.power, "tau_s": f.tau_s,
-                "pole": p})).collect::<Vec<_>>(),
-            "outputs": bank.outputs.iter().map(|eq| json!({
-                "output": name_of(model.outputs(), eq.output),
-                "intercept": eq.intercept,
-                "coef": eq.coef.as_slice(),
-            })).collect::<Vec<_>>(),
-        }),
-    };
+    let coefficients = coefficients_json(model);
     json!({
         "kind": model.kind().name(),
         "format_version": format_version(bytes),
@@ -265,142 +304,159 @@ fn list(v: &[f64]) -> String {
     format!("[{}]", parts.join(", "))
 }
 
+/// A TF bank's entries: coefficients, poles and zeros, the realised transfer function.
+fn tf_text(s: &mut String, model: &ValidModel, entries: &[TfEntry]) {
+    for (i, (e, r)) in entries.iter().zip(model.realised_tfs()).enumerate() {
+        let _ = writeln!(
+            s,
+            "  tf {}: {} <- {}",
+            i + 1,
+            name_of(model.outputs(), e.output),
+            input_of(model, e.input)
+        );
+        let _ = writeln!(s, "    a = {}", list(&e.a));
+        let _ = writeln!(s, "    b = {}", list(&e.b));
+        let _ = writeln!(s, "    poles {}", complex_text(&roots(&e.b)));
+        let _ = writeln!(s, "    zeros {}", complex_text(&roots(&e.a)));
+        if r.cancelled() > 0 {
+            let _ = writeln!(
+                s,
+                "    {} pole/zero pair(s) on the unit circle cancelled; runs as num {} / den {}",
+                r.cancelled(),
+                list(r.numerator()),
+                list(r.denominator())
+            );
+        }
+        let _ = writeln!(s, "    steady-state gain {:.6}", r.dc_gain());
+    }
+}
+
+/// A linear model's equations.
+fn linear_text(s: &mut String, model: &ValidModel, lin: &Linear) {
+    for eq in &lin.outputs {
+        let mut line = format!("{}", eq.intercept);
+        for c in &eq.coef {
+            let _ = write!(line, " {:+} {}", c.value, input_of(model, c.channel));
+        }
+        let lhs = name_of(model.outputs(), eq.output);
+        regression_text(s, model, lhs, &line, eq.position.as_ref());
+    }
+}
+
+/// A PCR model's components and each output's equation on them and as the equivalent linear one.
+fn pcr_text(s: &mut String, model: &ValidModel, pcr: &Pcr) {
+    let inputs: Vec<&str> = pcr.inputs.iter().map(|c| input_of(model, *c)).collect();
+    for (j, c) in pcr.components.iter().enumerate() {
+        let mut line = format!("{}", c.intercept);
+        for (w, n) in c.weights.iter().zip(&inputs) {
+            let _ = write!(line, " {w:+} {n}");
+        }
+        let _ = writeln!(s, "  C{} = {line}", j + 1);
+    }
+    for eq in &pcr.outputs {
+        let lhs = name_of(model.outputs(), eq.output);
+        let mut line = format!("{}", eq.intercept);
+        for (j, b) in eq.beta.iter().enumerate() {
+            let _ = write!(line, " {b:+} C{}", j + 1);
+        }
+        let (d0, d) = pcr.equivalent_linear(eq);
+        let mut collapsed = format!("{d0:.6}");
+        for (v, n) in d.iter().zip(&inputs) {
+            let _ = write!(collapsed, " {v:+.6} {n}");
+        }
+        let _ = write!(line, "\n    = {collapsed}");
+        regression_text(s, model, lhs, &line, eq.position.as_ref());
+    }
+}
+
+/// A BP network's shape, scaling and weights.
+fn bp_text(s: &mut String, net: &BpNet) {
+    let _ = writeln!(
+        s,
+        "  network {}-{}-{}, hidden {}, output {}, mapminmax scaling to [-1, 1]",
+        net.inputs.len(),
+        net.hidden(),
+        net.outputs.len(),
+        net.hidden_activation.name(),
+        net.output_activation.name()
+    );
+    let _ = writeln!(
+        s,
+        "    x_min {}  x_max {}",
+        list(&net.x_min),
+        list(&net.x_max)
+    );
+    let _ = writeln!(
+        s,
+        "    y_min {}  y_max {}",
+        list(&net.y_min),
+        list(&net.y_max)
+    );
+    let _ = writeln!(s, "    w1 {}", list(&net.w1));
+    let _ = writeln!(s, "    b1 {}", list(&net.b1));
+    let _ = writeln!(s, "    w2 {}", list(&net.w2));
+    let _ = writeln!(s, "    b2 {}", list(&net.b2));
+}
+
+/// An ARMA model's order, standardisation and coefficients.
+fn arma_text(s: &mut String, a: &Arma) {
+    let _ = writeln!(
+        s,
+        "  ARMA({}, {}) on the {}-times differenced series, standardised by mean {} std {}",
+        a.phi.len(),
+        a.theta.len(),
+        a.diff,
+        a.mean,
+        a.std
+    );
+    let _ = writeln!(
+        s,
+        "    constant {}  phi {}  theta {}",
+        a.constant,
+        list(&a.phi),
+        list(&a.theta)
+    );
+}
+
+/// A filter bank's features and output equations.
+fn fbank_text(s: &mut String, model: &ValidModel, bank: &FilterBank) {
+    let _ = writeln!(s, "  features ({}):", bank.features.len());
+    for (j, (f, p)) in bank.features.iter().zip(model.fbank_poles()).enumerate() {
+        let x = input_of(model, f.input);
+        let v = if f.power == 2 {
+            format!("{x}^2")
+        } else {
+            x.to_string()
+        };
+        if f.tau_s == 0.0 {
+            let _ = writeln!(s, "    s{} = {v} ({})", j + 1, tau_text(f.tau_s));
+        } else {
+            let _ = writeln!(
+                s,
+                "    s{} = low-pass({v}), {}, pole {p:.8}",
+                j + 1,
+                tau_text(f.tau_s)
+            );
+        }
+    }
+    for eq in &bank.outputs {
+        let mut line = format!("{}", eq.intercept);
+        for (j, c) in eq.coef.iter().enumerate() {
+            let _ = write!(line, " {c:+} s{}", j + 1);
+        }
+        let _ = writeln!(s, "  {} = {line}", name_of(model.outputs(), eq.output));
+    }
+}
+
 /// The coefficients of the blob's kind, as text (one section per kind).
 fn params_text(s: &mut String, model: &ValidModel) {
-    let m = model.model();
-    match &m.params {
-        Params::Tf(entries) => {
-            for (i, (e, r)) in entries.iter().zip(model.realised_tfs()).enumerate() {
-                let _ = writeln!(
-                    s,
-                    "  tf {}: {} <- {}",
-                    i + 1,
-                    name_of(model.outputs(), e.output),
-                    input_of(model, e.input)
-                );
-                let _ = writeln!(s, "    a = {}", list(&e.a));
-                let _ = writeln!(s, "    b = {}", list(&e.b));
-                let _ = writeln!(s, "    poles {}", complex_text(&roots(&e.b)));
-                let _ = writeln!(s, "    zeros {}", complex_text(&roots(&e.a)));
-                if r.cancelled() > 0 {
-                    let _ = writeln!(
-                        s,
-                        "    {} pole/zero pair(s) on the unit circle cancelled; runs as num {} / den {}",
-                        r.cancelled(),
-                        list(r.numerator()),
-                        list(r.denominator())
-                    );
-                }
-                let _ = writeln!(s, "    steady-state gain {:.6}", r.dc_gain());
-            }
-        }
-        Params::Linear(lin) => {
-            for eq in &lin.outputs {
-                let mut line = format!("{}", eq.intercept);
-                for c in &eq.coef {
-                    let _ = write!(line, " {:+} {}", c.value, input_of(model, c.channel));
-                }
-                let lhs = name_of(model.outputs(), eq.output);
-                regression_text(s, model, lhs, &line, eq.position.as_ref());
-            }
-        }
-        Params::Pcr(pcr) => {
-            let inputs: Vec<&str> = pcr.inputs.iter().map(|c| input_of(model, *c)).collect();
-            for (j, c) in pcr.components.iter().enumerate() {
-                let mut line = format!("{}", c.intercept);
-                for (w, n) in c.weights.iter().zip(&inputs) {
-                    let _ = write!(line, " {w:+} {n}");
-                }
-                let _ = writeln!(s, "  C{} = {line}", j + 1);
-            }
-            for eq in &pcr.outputs {
-                let lhs = name_of(model.outputs(), eq.output);
-                let mut line = format!("{}", eq.intercept);
-                for (j, b) in eq.beta.iter().enumerate() {
-                    let _ = write!(line, " {b:+} C{}", j + 1);
-                }
-                let (d0, d) = pcr.equivalent_linear(eq);
-                let mut collapsed = format!("{d0:.6}");
-                for (v, n) in d.iter().zip(&inputs) {
-                    let _ = write!(collapsed, " {v:+.6} {n}");
-                }
-                let _ = write!(line, "\n    = {collapsed}");
-                regression_text(s, model, lhs, &line, eq.position.as_ref());
-            }
-        }
-        Params::Bp(net) => {
-            let _ = writeln!(
-                s,
-                "  network {}-{}-{}, hidden {}, output {}, mapminmax scaling to [-1, 1]",
-                net.inputs.len(),
-                net.hidden(),
-                net.outputs.len(),
-                net.hidden_activation.name(),
-                net.output_activation.name()
-            );
-            let _ = writeln!(
-                s,
-                "    x_min {}  x_max {}",
-                list(&net.x_min),
-                list(&net.x_max)
-            );
-            let _ = writeln!(
-                s,
-                "    y_min {}  y_max {}",
-                list(&net.y_min),
-                list(&net.y_max)
-            );
-            let _ = writeln!(s, "    w1 {}", list(&net.w1));
-            let _ = writeln!(s, "    b1 {}", list(&net.b1));
-            let _ = writeln!(s, "    w2 {}", list(&net.w2));
-            let _ = writeln!(s, "    b2 {}", list(&net.b2));
-        }
-        Params::Arma(a) => {
-            let _ = writeln!(
-                s,
-                "  ARMA({}, {}) on the {}-times differenced series, standardised by mean {} std {}",
-                a.phi.len(),
-                a.theta.len(),
-                a.diff,
-                a.mean,
-                a.std
-            );
-            let _ = writeln!(
-                s,
-                "    constant {}  phi {}  theta {}",
-                a.constant,
-                list(&a.phi),
-                list(&a.theta)
-            );
-        }
-        Params::Fbank(bank) => {
-            let _ = writeln!(s, "  features ({}):", bank.features.len());
-            for (j, (f, p)) in bank.features.iter().zip(model.fbank_poles()).enumerate() {
-                let x = input_of(model, f.input);
-                let v = if f.power == 2 {
-                    format!("{x}^2")
-                } else {
-                    x.to_string()
-                };
-                if f.tau_s == 0.0 {
-                    let _ = writeln!(s, "    s{} = {v} ({})", j + 1, tau_text(f.tau_s));
-                } else {
-                    let _ = writeln!(
-                        s,
-                        "    s{} = low-pass({v}), {}, pole {p:.8}",
-                        j + 1,
-                        tau_text(f.tau_s)
-                    );
-                }
-            }
-            for eq in &bank.outputs {
-                let mut line = format!("{}", eq.intercept);
-                for (j, c) in eq.coef.iter().enumerate() {
-                    let _ = write!(line, " {c:+} s{}", j + 1);
-                }
-                let _ = writeln!(s, "  {} = {line}", name_of(model.outputs(), eq.output));
-            }
-        }
+    match &model.model().params {
+        Params::Tf(entries) => tf_text(s, model, entries),
+        Params::Linear(lin) => linear_text(s, model, lin),
+        Params::Pcr(pcr) => pcr_text(s, model, pcr),
+        Params::Bp(net) => bp_text(s, net),
+        Params::Arma(a) => arma_text(s, a),
+        Params::Fbank(bank) => fbank_text(s, model, bank),
     }
 }
 

@@ -223,6 +223,42 @@ fn select_maxtree_json_is_unchanged() {
     );
 }
 
+/// `select --method grey` and `--method wgrey`: captured with the release
+/// binary of commit 65798c0, the last before `select` became a typed job
+/// (`SelectOutcome`), so they pin that the typed outcomes serialise to what
+/// the JSON-building code printed.
+#[test]
+fn select_grey_json_is_unchanged() {
+    pinned(
+        &debug_bin(),
+        &[
+            "select", "--data", SPINDLE, "--target", "dz_um", "--method", "grey", "--json",
+        ],
+        "select_grey.json",
+    );
+}
+
+/// See [`select_grey_json_is_unchanged`].
+#[test]
+fn select_wgrey_json_is_unchanged() {
+    pinned(
+        &debug_bin(),
+        &[
+            "select",
+            "--data",
+            SPINDLE,
+            "--target",
+            "dx_um,dz_um",
+            "--method",
+            "wgrey",
+            "--top",
+            "3",
+            "--json",
+        ],
+        "select_wgrey.json",
+    );
+}
+
 #[test]
 fn diagnose_json_is_unchanged() {
     let (sim, real) = (fixture("sim.csv"), fixture("real.csv"));

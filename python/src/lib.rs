@@ -208,8 +208,10 @@ fn select(runs: Vec<Bound<'_, PyAny>>, options: Vec<(String, String)>) -> PyResu
         pairs.extend(options);
         let args: host_tools::select::SelectArgs =
             host_tools::cli::pairs::args_from_pairs("select", &pairs)?;
+        let params = args.params().check()?;
         let runs = runs_from(&runs)?;
-        Ok(host_tools::select::select(&args, &runs)?.json.to_string())
+        let out = host_tools::select::select(&params, &runs)?;
+        Ok(serde_json::to_value(&out)?.to_string())
     };
     job().map_err(py_err)
 }

@@ -10,11 +10,12 @@
 mod fivepoint;
 mod hub;
 pub mod pairs;
+pub mod select;
 pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, demo, diagnose, eval, fit, predict, refit, replay, select, show};
+use crate::{bench, demo, diagnose, eval, fit, predict, refit, replay, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -89,7 +90,7 @@ enum Command {
     /// (Eq. 1), top-k per target and their intersection. maxtree:
     /// maximal-tree clustering, the level by R^2, F test and collinearity.
     /// Formulas and rules: docs/select.md.
-    Select(select::SelectArgs),
+    Select(crate::select::SelectArgs),
     /// Run the thermal twin (a lumped model of a motorized spindle) and
     /// write a run file; effects from CONTRACT.md section 3 can be switched
     /// on (docs/twin.md).

@@ -542,6 +542,103 @@ fn linear_params(
     Ok(Params::Linear(Linear { outputs }))
 }
 
+/// One `[[pcr]]` entry: its inputs (channels), where its components start
+/// among all entries' components, and its equation on its own components.
+struct PcrEntry {
+    inputs: Vec<u8>,
+    first_component: usize,
+    eq: PcrOutput,
+}
+
+/// A `[[pcr]]` entry's numbers are finite and no input is listed twice
+/// (each input has one weight per component; a repeat would silently keep
+/// only the last one).
+fn check_pcr_values(p: &PcrSpec) -> Result<()> {
+    finite_ref(p.reference)?;
+    finite(&[p.intercept], "intercept")?;
+    finite(&p.beta, "beta")?;
+    finite_position(&p.position)?;
+    for (j, c) in p.components.iter().enumerate() {
+        finite(&[c.intercept], &format!("component {} intercept", j + 1))?;
+        finite(&c.weights, &format!("component {} weights", j + 1))?;
+    }
+    for (i, col) in p.inputs.iter().enumerate() {
+        if p.inputs[..i].contains(col) {
+            bail!("input {col} is listed twice");
+        }
+    }
+    Ok(())
+}
+
+/// Each component of a `[[pcr]]` entry has a weight per input, and the
+/// output a beta per component.
+fn check_pcr_shapes(p: &PcrSpec) -> Result<()> {
+    for (j, c) in p.components.iter().enumerate() {
+        if c.weights.len() != p.inputs.len() {
+            bail!(
+                "component {} has {} weights for {} inputs",
+                j + 1,
+                c.weights.len(),
+                p.inputs.len()
+            );
+        }
+    }
+    if p.beta.len() != p.components.len() {
+        bail!(
+            "{} beta values for {} components",
+            p.beta.len(),
+            p.components.len()
+        );
+    }
+    Ok(())
+}
+
+/// The merged components: each entry's, with weight 0 on the inputs of
+/// `union` it lacks. `raw` holds `(entry, intercept, weights)`.
+fn merged_components(
+    raw: &[(usize, f64, Vec<f64>)],
+    entries: &[PcrEntry],
+    union: &[u8],
+) -> Result<heapless::Vec<Component, MAX_COMPONENTS>> {
+    let mut components = heapless::Vec::new();
+    for (owner, intercept, weights) in raw {
+        let mut w = vec![0.0; union.len()];
+        for (ch, v) in entries[*owner].inputs.iter().zip(weights) {
+            if let Some(pos) = union.iter().position(|u| u == ch) {
+                w[pos] = *v;
+            }
+        }
+        let _ = components.push(Component {
+            intercept: *intercept,
+            weights: vec_of(&w, "weights")?,
+        });
+    }
+    Ok(components)
+}
+
+/// Each entry's equation on all `n_components` merged components (beta 0
+/// on the other entries').
+fn merged_outputs(
+    entries: Vec<PcrEntry>,
+    n_components: usize,
+    file: &str,
+) -> Result<heapless::Vec<PcrOutput, MAX_OUTPUTS>> {
+    let mut outputs = heapless::Vec::new();
+    for entry in entries {
+        let mut beta = vec![0.0; n_components];
+        for (j, v) in entry.eq.beta.iter().enumerate() {
+            beta[entry.first_component + j] = *v;
+        }
+        outputs
+            .push(PcrOutput {
+                beta: vec_of(&beta, "beta")?,
+                ..entry.eq
+            })
+            .map_err(|_| anyhow!("{file}: more than {MAX_OUTPUTS} [[pcr]] entries"))?;
+    }
+    Ok(outputs)
+}
+
 /// The `pcr` kind's parameters from its spec entries (their spans go to
 /// `spans`, so a model error can point at its entry).
 fn pcr_params(
@@ -558,12 +655,7 @@ fn pcr_params(
     // shares one set, so entries are merged exactly: the union of
     // inputs (weight 0 where an entry lacks one) and all components
     // (each output's beta 0 on the others' components).
-    struct Entry {
-        inputs: Vec<u8>,
-        first_component: usize,
-        eq: PcrOutput,
-    }
-    let mut entries: Vec<Entry> = Vec::new();
+    let mut entries: Vec<PcrEntry> = Vec::new();
     let mut union: Vec<u8> = Vec::new();
     let mut raw_components: Vec<(usize, f64, Vec<f64>)> = Vec::new();
     let mut seen: Vec<(&str, String)> = Vec::new();
@@ -572,23 +664,9 @@ fn pcr_params(
         let at = b.at(&span);
         let p = e.get_ref();
         once_per_output(&mut seen, &p.output, &at, "pcr")?;
-        let entry = (|| -> Result<Entry> {
+        let entry = (|| -> Result<PcrEntry> {
             let reference = p.reference.map_or(Reference::Absolute, RefSpec::reference);
-            finite_ref(p.reference)?;
-            finite(&[p.intercept], "intercept")?;
-            finite(&p.beta, "beta")?;
-            finite_position(&p.position)?;
-            for (j, c) in p.components.iter().enumerate() {
-                finite(&[c.intercept], &format!("component {} intercept", j + 1))?;
-                finite(&c.weights, &format!("component {} weights", j + 1))?;
-            }
-            // Each input has one weight per component; a repeat
-            // would silently keep only the last one.
-            for (i, col) in p.inputs.iter().enumerate() {
-                if p.inputs[..i].contains(col) {
-                    bail!("input {col} is listed twice");
-                }
-            }
+            check_pcr_values(p)?;
             let inputs = p
                 .inputs
                 .iter()
@@ -599,28 +677,12 @@ fn pcr_params(
                     union.push(*ch);
                 }
             }
-            for (j, c) in p.components.iter().enumerate() {
-                if c.weights.len() != p.inputs.len() {
-                    bail!(
-                        "component {} has {} weights for {} inputs",
-                        j + 1,
-                        c.weights.len(),
-                        p.inputs.len()
-                    );
-                }
-            }
-            if p.beta.len() != p.components.len() {
-                bail!(
-                    "{} beta values for {} components",
-                    p.beta.len(),
-                    p.components.len()
-                );
-            }
+            check_pcr_shapes(p)?;
             let first_component = raw_components.len();
             for c in &p.components {
                 raw_components.push((entries.len(), c.intercept, c.weights.clone()));
             }
-            Ok(Entry {
+            Ok(PcrEntry {
                 inputs,
                 first_component,
                 eq: PcrOutput {
@@ -641,32 +703,8 @@ fn pcr_params(
             raw_components.len()
         );
     }
-    let mut components = heapless::Vec::new();
-    for (owner, intercept, weights) in &raw_components {
-        let mut w = vec![0.0; union.len()];
-        for (ch, v) in entries[*owner].inputs.iter().zip(weights) {
-            if let Some(pos) = union.iter().position(|u| u == ch) {
-                w[pos] = *v;
-            }
-        }
-        let _ = components.push(Component {
-            intercept: *intercept,
-            weights: vec_of(&w, "weights")?,
-        });
-    }
-    let mut outputs = heapless::Vec::new();
-    for entry in entries {
-        let mut beta = vec![0.0; raw_components.len()];
-        for (j, v) in entry.eq.beta.iter().enumerate() {
-            beta[entry.first_component + j] = *v;
-        }
-        outputs
-            .push(PcrOutput {
-                beta: vec_of(&beta, "beta")?,
-                ..entry.eq
-            })
-            .map_err(|_| anyhow!("{file}: more than {MAX_OUTPUTS} [[pcr]] entries"))?;
-    }
+    let components = merged_components(&raw_components, &entries, &union)?;
+    let outputs = merged_outputs(entries, raw_components.len(), file)?;
     Ok(Params::Pcr(Pcr {
         inputs: vec_of(&union, "inputs")?,
         components,

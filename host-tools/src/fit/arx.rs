@@ -923,6 +923,123 @@ pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
     fit_inputs(&subset(ds, &idx), args, scheme, dt, &cands, selection)
 }
 
+/// Every candidate order at every ridge penalty of `lambdas`, scored by
+/// `scheme` (candidates in parallel, rows in grid order).
+fn order_search(
+    ds: &Dataset,
+    grid: &[GridRun],
+    dt: f64,
+    (cands, lambdas): (&[Orders], &[f64]),
+    scheme: SearchScheme,
+) -> Vec<SearchRow> {
+    let n_t = ds.targets.len();
+    let check = |p: &[ArxPoly]| bank(ds, dt, export(p)?).map(|_| ());
+    let pb = progress(cands.len(), "arx order search");
+    // Candidates are independent: one per core (rayon keeps their order).
+    let table: Vec<SearchRow> = cands
+        .par_iter()
+        .map(|&o| {
+            let rows = eval_orders(grid, n_t, o, scheme, lambdas, &check);
+            pb.inc(1);
+            rows
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .flatten()
+        .collect();
+    pb.finish_and_clear();
+    table
+}
+
+/// The search row kept, re-estimated on every calibration sample.
+struct Refitted<'t> {
+    row: &'t SearchRow,
+    /// Its mean simulation fit in the search.
+    score: f64,
+    polys: Vec<ArxPoly>,
+    model: ValidModel,
+    /// Better rows whose re-estimate was refused, with why.
+    refused: Vec<Value>,
+}
+
+/// The best stable row of the search, re-estimated on every calibration
+/// sample (should that come out unstable, the next).
+fn refit_best<'t>(
+    ds: &Dataset,
+    grid: &[GridRun],
+    dt: f64,
+    table: &'t [SearchRow],
+) -> Result<Refitted<'t>> {
+    // Best first; on a tie the smaller penalty (rows are in grid order).
+    let mut ranked: Vec<(&SearchRow, f64)> = table
+        .iter()
+        .filter(|r| r.stable)
+        .filter_map(|r| r.mean().map(|m| (r, m)))
+        .collect();
+    ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut refused = Vec::new();
+    for (row, score) in ranked {
+        let polys: Result<Vec<ArxPoly>> = (0..ds.targets.len())
+            .map(|t| estimate_ridge(grid, t, row.orders, |g| g.calib_end, row.ridge))
+            .collect();
+        let polys = polys?;
+        match bank(ds, dt, export(&polys)?) {
+            Ok(model) => {
+                return Ok(Refitted {
+                    row,
+                    score,
+                    polys,
+                    model,
+                    refused,
+                })
+            }
+            Err(e) => refused.push(
+                json!({"orders": row.orders.json(), "ridge": row.ridge, "error": e.to_string()}),
+            ),
+        }
+    }
+    bail!("arx: no candidate order gave a stable model (try other --na/--nb/--nk or inputs)");
+}
+
+/// The search table as JSON: orders, penalty, fit per target, stability.
+fn search_table_json(ds: &Dataset, table: &[SearchRow]) -> Vec<Value> {
+    table
+        .iter()
+        .map(|r| {
+            let fits: Map<String, Value> = ds
+                .targets
+                .iter()
+                .zip(&r.fit)
+                .map(|(n, f)| (n.clone(), json!(f)))
+                .collect();
+            json!({"na": r.orders.na, "nb": r.orders.nb, "nk": r.orders.nk, "ridge": r.ridge,
+                   "sim_fit_pct": fits, "mean_sim_fit_pct": r.mean(), "stable": r.stable,
+                   "note": r.note})
+        })
+        .collect()
+}
+
+/// Each target's equation: its denominator and, per input, the numerator
+/// and the entry's step response.
+fn equations_json(ds: &Dataset, polys: &[ArxPoly], dt: f64) -> Map<String, Value> {
+    let mut per_target = Map::new();
+    for (t, p) in polys.iter().enumerate() {
+        let mut per_input = Map::new();
+        for (i, name) in ds.inputs.iter().enumerate() {
+            per_input.insert(
+                name.clone(),
+                json!({"b": p.num[i], "a_entry": p.entry_num(i),
+                       "step": step_info(&p.entry_num(i), &p.den, dt)}),
+            );
+        }
+        per_target.insert(
+            ds.targets[t].clone(),
+            json!({"denominator": p.den, "inputs": per_input}),
+        );
+    }
+    per_target
+}
+
 /// The joint search over orders and ridge penalties, then the final
 /// estimate on `ds`'s inputs.
 fn fit_inputs(
@@ -945,85 +1062,21 @@ fn fit_inputs(
         Ridge::Auto => RIDGE_GRID.to_vec(),
         Ridge::Fixed(v) => vec![v],
     };
-    let check = |p: &[ArxPoly]| bank(ds, dt, export(p)?).map(|_| ());
-    let pb = progress(cands.len(), "arx order search");
-    // Candidates are independent: one per core (rayon keeps their order).
-    let table: Vec<SearchRow> = cands
-        .par_iter()
-        .map(|&o| {
-            let rows = eval_orders(&grid, n_t, o, scheme, &lambdas, &check);
-            pb.inc(1);
-            rows
-        })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .flatten()
-        .collect();
-    pb.finish_and_clear();
-    // Best first; on a tie the smaller penalty (rows are in grid order).
-    let mut ranked: Vec<(&SearchRow, f64)> = table
-        .iter()
-        .filter(|r| r.stable)
-        .filter_map(|r| r.mean().map(|m| (r, m)))
-        .collect();
-    ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
-    // Re-estimate the best on every calibration sample; should that one come
-    // out unstable, fall back to the next.
-    let mut chosen = None;
-    let mut refused = Vec::new();
-    for (row, score) in &ranked {
-        let polys: Result<Vec<ArxPoly>> = (0..n_t)
-            .map(|t| estimate_ridge(&grid, t, row.orders, |g| g.calib_end, row.ridge))
-            .collect();
-        let polys = polys?;
-        match bank(ds, dt, export(&polys)?) {
-            Ok(model) => {
-                chosen = Some((row.orders, *score, row.ridge, polys, model));
-                break;
-            }
-            Err(e) => refused.push(
-                json!({"orders": row.orders.json(), "ridge": row.ridge, "error": e.to_string()}),
-            ),
-        }
-    }
-    let Some((orders, score, ridge, polys, model)) = chosen else {
-        bail!("arx: no candidate order gave a stable model (try other --na/--nb/--nk or inputs)");
-    };
-    let table_json: Vec<Value> = table
-        .iter()
-        .map(|r| {
-            let fits: Map<String, Value> = ds
-                .targets
-                .iter()
-                .zip(&r.fit)
-                .map(|(n, f)| (n.clone(), json!(f)))
-                .collect();
-            json!({"na": r.orders.na, "nb": r.orders.nb, "nk": r.orders.nk, "ridge": r.ridge,
-                   "sim_fit_pct": fits, "mean_sim_fit_pct": r.mean(), "stable": r.stable,
-                   "note": r.note})
-        })
-        .collect();
-    let mut per_target = Map::new();
-    for (t, p) in polys.iter().enumerate() {
-        let mut per_input = Map::new();
-        for (i, name) in ds.inputs.iter().enumerate() {
-            per_input.insert(
-                name.clone(),
-                json!({"b": p.num[i], "a_entry": p.entry_num(i),
-                       "step": step_info(&p.entry_num(i), &p.den, dt)}),
-            );
-        }
-        per_target.insert(
-            ds.targets[t].clone(),
-            json!({"denominator": p.den, "inputs": per_input}),
-        );
-    }
+    let table = order_search(ds, &grid, dt, (cands, &lambdas), scheme);
+    let Refitted {
+        row,
+        score,
+        polys,
+        model,
+        refused,
+    } = refit_best(ds, &grid, dt, &table)?;
+    let (orders, ridge) = (row.orders, row.ridge);
     let details = json!({
         "dt_s": dt,
         "selection": selection,
         "search": {
             "validation": scheme.json(),
-            "table": table_json,
+            "table": search_table_json(ds, &table),
         },
         "ridge": {
             "setting": match args.ridge { Ridge::Auto => json!("auto"), Ridge::Fixed(v) => json!(v) },
@@ -1035,7 +1088,7 @@ fn fit_inputs(
         "refused_after_refit": refused,
         "solver": "blocked QR of [X | y], SVD of the column-scaled R (ridge rows appended when > 0)",
         "gain_unit": "target unit per input unit (um/K for temperatures)",
-        "equations": per_target,
+        "equations": equations_json(ds, &polys, dt),
     });
     Ok(Fitted { model, details })
 }

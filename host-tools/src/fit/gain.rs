@@ -19,6 +19,7 @@ use crate::score::score;
 use anyhow::{anyhow, bail, Result};
 use model_core::{Model, Params, ValidModel};
 use serde_json::{json, Map, Value};
+use std::path::Path;
 
 /// The input `seed 004` does not scale.
 const AMBIENT: &str = "ambient_c";
@@ -37,22 +38,10 @@ fn part(model: &ValidModel, keep: &dyn Fn(usize) -> bool) -> Result<ValidModel> 
     m.validate().map_err(|e| anyhow!("part of the model: {e}"))
 }
 
-/// Fits `--model gain`.
-pub fn fit(ds: &Dataset, args: &ArxArgs, runs: &[RunFile], validate: &[RunFile]) -> Result<Fitted> {
-    let path = args
-        .gain_from
-        .as_ref()
-        .ok_or_else(|| anyhow!("--model gain needs --gain-from MODEL.bin"))?;
-    let (old, _) = crate::data::blobfile::read(path)?;
-    let Params::Tf(entries) = &old.model().params else {
-        bail!(
-            "{}: a {} model; --gain-from needs a TF bank (kind tf)",
-            path.display(),
-            old.kind().name()
-        );
-    };
-    let names: Vec<String> = old.inputs().iter().map(|c| c.name.to_string()).collect();
-    for n in &names {
+/// The model `path` reads only inputs the dataset has and computes only
+/// its targets.
+fn check_matches(ds: &Dataset, old: &ValidModel, names: &[String], path: &Path) -> Result<()> {
+    for n in names {
         if !ds.inputs.contains(n) {
             bail!(
                 "{}: the model reads {n}; pass --inputs {} (the model's inputs)",
@@ -69,34 +58,41 @@ pub fn fit(ds: &Dataset, args: &ArxArgs, runs: &[RunFile], validate: &[RunFile])
             );
         }
     }
-    let scaled_inputs: Vec<String> = if args.gain_inputs.is_empty() {
-        names.iter().filter(|n| *n != AMBIENT).cloned().collect()
-    } else {
-        for n in &args.gain_inputs {
-            if !names.contains(n) {
-                bail!(
-                    "--gain-inputs {n}: not an input of {} ({})",
-                    path.display(),
-                    names.join(", ")
-                );
-            }
-        }
-        args.gain_inputs.clone()
-    };
-    let scaled: Vec<bool> = entries
-        .iter()
-        .map(|e| scaled_inputs.contains(&names[usize::from(e.input)]))
-        .collect();
-    if !scaled.iter().any(|s| *s) {
-        bail!("--model gain: no entry of the model has an input in {scaled_inputs:?}");
+    Ok(())
+}
+
+/// The inputs whose entries the gain scales: `--gain-inputs` (each an input
+/// of the model), or every input but [`AMBIENT`].
+fn gain_inputs(args: &ArxArgs, names: &[String], path: &Path) -> Result<Vec<String>> {
+    if args.gain_inputs.is_empty() {
+        return Ok(names.iter().filter(|n| *n != AMBIENT).cloned().collect());
     }
-    let spindle = part(&old, &|e| scaled[e])?;
-    let rest = part(&old, &|e| !scaled[e])?;
+    for n in &args.gain_inputs {
+        if !names.contains(n) {
+            bail!(
+                "--gain-inputs {n}: not an input of {} ({})",
+                path.display(),
+                names.join(", ")
+            );
+        }
+    }
+    Ok(args.gain_inputs.clone())
+}
+
+/// The least-squares gain `g = sum s (y - r) / sum s^2` of the scaled part
+/// `spindle` given the rest, over every output and calibration row; and
+/// the number of samples.
+fn least_squares_gain(
+    ds: &Dataset,
+    runs: &[RunFile],
+    old: &ValidModel,
+    (spindle, rest): (&ValidModel, &ValidModel),
+) -> Result<(f64, usize)> {
     let map = ColumnMap::default();
     let (mut sxy, mut sxx, mut n) = (0.0, 0.0, 0usize);
     for (run, data) in runs.iter().zip(&ds.runs) {
-        let s = runner::predict(&spindle, run, &map)?;
-        let r = runner::predict(&rest, run, &map)?;
+        let s = runner::predict(spindle, run, &map)?;
+        let r = runner::predict(rest, run, &map)?;
         for (k, name) in old.outputs().iter().enumerate() {
             let y = run
                 .column(name)
@@ -113,18 +109,51 @@ pub fn fit(ds: &Dataset, args: &ArxArgs, runs: &[RunFile], validate: &[RunFile])
     if n == 0 || sxx == 0.0 {
         bail!("--model gain: the scaled part of the model is zero on every calibration row: no gain can be fitted");
     }
-    let g = sxy / sxx;
+    Ok((sxy / sxx, n))
+}
+
+/// `old` with the numerators of the `scaled` entries multiplied by `g`.
+fn scaled_model(old: &ValidModel, scaled: &[bool], g: f64) -> Result<ValidModel> {
     let mut m = old.model().clone();
     if let Params::Tf(entries) = &mut m.params {
-        for (en, s) in entries.iter_mut().zip(&scaled) {
+        for (en, s) in entries.iter_mut().zip(scaled) {
             if *s {
                 en.a.iter_mut().for_each(|c| *c *= g);
             }
         }
     }
-    let model = m
-        .validate()
-        .map_err(|e| anyhow!("scaled model refused: {e}"))?;
+    m.validate()
+        .map_err(|e| anyhow!("scaled model refused: {e}"))
+}
+
+/// Fits `--model gain`.
+pub fn fit(ds: &Dataset, args: &ArxArgs, runs: &[RunFile], validate: &[RunFile]) -> Result<Fitted> {
+    let path = args
+        .gain_from
+        .as_ref()
+        .ok_or_else(|| anyhow!("--model gain needs --gain-from MODEL.bin"))?;
+    let (old, _) = crate::data::blobfile::read(path)?;
+    let Params::Tf(entries) = &old.model().params else {
+        bail!(
+            "{}: a {} model; --gain-from needs a TF bank (kind tf)",
+            path.display(),
+            old.kind().name()
+        );
+    };
+    let names: Vec<String> = old.inputs().iter().map(|c| c.name.to_string()).collect();
+    check_matches(ds, &old, &names, path)?;
+    let scaled_inputs = gain_inputs(args, &names, path)?;
+    let scaled: Vec<bool> = entries
+        .iter()
+        .map(|e| scaled_inputs.contains(&names[usize::from(e.input)]))
+        .collect();
+    if !scaled.iter().any(|s| *s) {
+        bail!("--model gain: no entry of the model has an input in {scaled_inputs:?}");
+    }
+    let spindle = part(&old, &|e| scaled[e])?;
+    let rest = part(&old, &|e| !scaled[e])?;
+    let (g, n) = least_squares_gain(ds, runs, &old, (&spindle, &rest))?;
+    let model = scaled_model(&old, &scaled, g)?;
     let split = ds.scoring_split(runs, validate);
     let before: Map<String, Value> = score(&old, &split)?
         .iter()

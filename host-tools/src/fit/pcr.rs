@@ -12,6 +12,7 @@ use crate::data::dataset::Dataset;
 use crate::num::linalg;
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
+use model_core::model::MAX_OUTPUTS;
 use model_core::pcr::{Component, Pcr, PcrOutput, MAX_COMPONENTS};
 use model_core::{Model, Params};
 use nalgebra::DMatrix;
@@ -29,28 +30,19 @@ pub struct PcrArgs {
     pub components: Option<usize>,
 }
 
-/// Fits a PCR per target on shared components.
-pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
-    if !(args.variance > 0.0 && args.variance <= 1.0) {
-        bail!("--variance {} must be in (0, 1]", args.variance);
-    }
-    let (x, y) = ds.calibration_rows();
-    let (n, m) = (x.len(), ds.inputs.len());
-    if n <= m {
-        bail!("pcr: {n} calibration rows for {m} inputs: not enough data");
-    }
-    let (mean, std) = linalg::moments(&x, m);
-    let z = linalg::standardised(&x, &mean, &std);
-    let corr = (z.transpose() * &z) / (n as f64 - 1.0);
-    let eig = linalg::symmetric_eigen(corr)?;
+/// The components of the standardised inputs, largest variance first:
+/// eigenvalues (clipped at 0) and the matching eigenvector columns of `eig`.
+fn ranked_components(eig: &nalgebra::SymmetricEigen<f64, nalgebra::Dyn>) -> (Vec<usize>, Vec<f64>) {
+    let m = eig.eigenvalues.len();
     let mut order: Vec<usize> = (0..m).collect();
     order.sort_by(|a, b| eig.eigenvalues[*b].total_cmp(&eig.eigenvalues[*a]));
     let values: Vec<f64> = order.iter().map(|&j| eig.eigenvalues[j].max(0.0)).collect();
-    let total: f64 = values.iter().sum();
-    if total <= 0.0 {
-        bail!("pcr: every input is constant over the calibration rows");
-    }
-    let share: Vec<f64> = values.iter().map(|v| v / total).collect();
+    (order, values)
+}
+
+/// How many components to keep (of `m`): `--components`, or the fewest
+/// whose cumulative `share` reaches `--variance`.
+fn components_kept(args: &PcrArgs, share: &[f64], m: usize) -> Result<usize> {
     let k = match args.components {
         Some(0) => bail!("--components must be at least 1"),
         Some(k) if k > m => bail!("--components {k} exceeds the {m} inputs"),
@@ -69,11 +61,18 @@ pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
     if k > MAX_COMPONENTS {
         bail!("pcr: {k} components needed, the model holds at most {MAX_COMPONENTS} (use --components)");
     }
-    let v = DMatrix::from_fn(m, k, |i, j| eig.eigenvectors[(i, order[j])]);
-    let scores = &z * &v;
-    let score_rows: Vec<Vec<f64>> = (0..n)
-        .map(|r| scores.row(r).iter().copied().collect())
-        .collect();
+    Ok(k)
+}
+
+/// The kept eigenvectors `v` (`m x k`) as blob components on raw inputs:
+/// the standardisation folded in, `w_ji = v_ij / s_i`,
+/// `c_j = -sum_i w_ji m_i`.
+fn folded_components(
+    v: &DMatrix<f64>,
+    mean: &[f64],
+    std: &[f64],
+) -> Result<heapless::Vec<Component, MAX_COMPONENTS>> {
+    let (m, k) = (v.nrows(), v.ncols());
     let mut components = heapless::Vec::<Component, MAX_COMPONENTS>::new();
     for j in 0..k {
         let mut weights = heapless::Vec::new();
@@ -92,11 +91,24 @@ pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
             .push(Component { intercept, weights })
             .map_err(|_| anyhow!("too many components"))?;
     }
+    Ok(components)
+}
+
+/// Each target regressed on the component scores: the equations and, per
+/// target, `{"intercept", "beta"}`.
+fn regress_targets(
+    ds: &Dataset,
+    y: &[Vec<f64>],
+    score_rows: &[Vec<f64>],
+) -> Result<(
+    heapless::Vec<PcrOutput, MAX_OUTPUTS>,
+    serde_json::Map<String, Value>,
+)> {
     let mut equations = heapless::Vec::new();
     let mut per_target = serde_json::Map::new();
     for (t, target) in ds.targets.iter().enumerate() {
         let yt: Vec<f64> = y.iter().map(|r| r[t]).collect();
-        let (b0, beta) = linalg::least_squares(&score_rows, &yt)?;
+        let (b0, beta) = linalg::least_squares(score_rows, &yt)?;
         let eq = PcrOutput {
             output: u8::try_from(t)?,
             intercept: b0,
@@ -108,6 +120,37 @@ pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
             .map_err(|_| anyhow!("too many targets"))?;
         per_target.insert(target.clone(), json!({"intercept": b0, "beta": beta}));
     }
+    Ok((equations, per_target))
+}
+
+/// Fits a PCR per target on shared components.
+pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
+    if !(args.variance > 0.0 && args.variance <= 1.0) {
+        bail!("--variance {} must be in (0, 1]", args.variance);
+    }
+    let (x, y) = ds.calibration_rows();
+    let (n, m) = (x.len(), ds.inputs.len());
+    if n <= m {
+        bail!("pcr: {n} calibration rows for {m} inputs: not enough data");
+    }
+    let (mean, std) = linalg::moments(&x, m);
+    let z = linalg::standardised(&x, &mean, &std);
+    let corr = (z.transpose() * &z) / (n as f64 - 1.0);
+    let eig = linalg::symmetric_eigen(corr)?;
+    let (order, values) = ranked_components(&eig);
+    let total: f64 = values.iter().sum();
+    if total <= 0.0 {
+        bail!("pcr: every input is constant over the calibration rows");
+    }
+    let share: Vec<f64> = values.iter().map(|v| v / total).collect();
+    let k = components_kept(args, &share, m)?;
+    let v = DMatrix::from_fn(m, k, |i, j| eig.eigenvectors[(i, order[j])]);
+    let scores = &z * &v;
+    let score_rows: Vec<Vec<f64>> = (0..n)
+        .map(|r| scores.row(r).iter().copied().collect())
+        .collect();
+    let components = folded_components(&v, &mean, &std)?;
+    let (equations, mut per_target) = regress_targets(ds, &y, &score_rows)?;
     let pcr = Pcr {
         inputs: (0..m).map(u8::try_from).collect::<Result<_, _>>()?,
         components,

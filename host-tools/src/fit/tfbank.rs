@@ -247,6 +247,85 @@ fn backfit(
     Ok(())
 }
 
+/// The output error's Jacobian and residual `[J | r]` of target `t` at
+/// `models` (simulated outputs `sims`), reduced by blocked QR: each row's
+/// derivatives are the inputs and simulated outputs filtered by `1/A`.
+fn linearised(
+    models: &[Siso],
+    sims: &[Vec<Vec<f64>>],
+    grid: &[GridRun],
+    t: usize,
+    end: &impl Fn(&GridRun) -> usize,
+) -> Tsqr {
+    let p: usize = models.iter().map(Siso::n_params).sum();
+    let mut ls = Tsqr::new(p);
+    let mut row = vec![0.0; p];
+    for (g, sim) in grid.iter().zip(sims) {
+        let n = end(g);
+        let filtered: Vec<(Vec<f64>, Vec<f64>)> = models
+            .iter()
+            .zip(&g.x)
+            .zip(sim)
+            .map(|((m, u), yi)| (filter(&m.den, &u[..n]), filter(&m.den, yi)))
+            .collect();
+        for k in 0..n {
+            let mut c = 0;
+            for (m, (wu, wy)) in models.iter().zip(&filtered) {
+                for j in 1..=m.orders.na {
+                    row[c] = k.checked_sub(j).map_or(0.0, |i| -wy[i]);
+                    c += 1;
+                }
+                for l in 0..m.orders.nb {
+                    row[c] = k.checked_sub(m.orders.nk + l).map_or(0.0, |i| wu[i]);
+                    c += 1;
+                }
+            }
+            let yhat: f64 = sim.iter().map(|v| v[k]).sum();
+            ls.push(&row, g.y[t][k] - yhat);
+        }
+    }
+    ls
+}
+
+/// The Levenberg-Marquardt step with damping `lambda` and scaling `d`:
+/// the least-squares solution of `[R11; sqrt(lambda) D] delta = [z; 0]`
+/// (`None` if the SVD fails).
+fn damped_step(
+    r11: &DMatrix<f64>,
+    z: &DVector<f64>,
+    d: &[f64],
+    lambda: f64,
+) -> Option<DVector<f64>> {
+    let (k, p) = (r11.nrows(), d.len());
+    let sl = lambda.sqrt();
+    let a = DMatrix::from_fn(k + p, p, |i, j| {
+        if i < k {
+            r11[(i, j)]
+        } else if i - k == j {
+            sl * d[j]
+        } else {
+            0.0
+        }
+    });
+    let b = DVector::from_fn(k + p, |i, _| if i < k { z[i] } else { 0.0 });
+    let svd = crate::num::linalg::svd(a).ok()?;
+    let tol = 1e-13 * svd.singular_values.max();
+    svd.solve(&b, tol).ok()
+}
+
+/// The bank with all its parameters `theta` (in `models`' order) replaced.
+fn with_all_params(models: &[Siso], theta: &[f64]) -> Vec<Siso> {
+    let mut off = 0;
+    models
+        .iter()
+        .map(|m| {
+            let s = m.with_params(&theta[off..off + m.n_params()]);
+            off += m.n_params();
+            s
+        })
+        .collect()
+}
+
 /// Fits target `t` on samples `..end(run)` of every run with the given
 /// per-input structures: backfitting, then Levenberg-Marquardt.
 pub fn fit_target(
@@ -279,34 +358,7 @@ pub fn fit_target(
     let p: usize = models.iter().map(Siso::n_params).sum();
     let mut lambda: f64 = 1e-3;
     'outer: while report.accepted < args.lm_iterations && cost > 0.0 {
-        // [J | r] by blocked QR.
-        let mut ls = Tsqr::new(p);
-        let mut row = vec![0.0; p];
-        for (g, sim) in grid.iter().zip(&sims) {
-            let n = end(g);
-            let filtered: Vec<(Vec<f64>, Vec<f64>)> = models
-                .iter()
-                .zip(&g.x)
-                .zip(sim)
-                .map(|((m, u), yi)| (filter(&m.den, &u[..n]), filter(&m.den, yi)))
-                .collect();
-            for k in 0..n {
-                let mut c = 0;
-                for (m, (wu, wy)) in models.iter().zip(&filtered) {
-                    for j in 1..=m.orders.na {
-                        row[c] = k.checked_sub(j).map_or(0.0, |i| -wy[i]);
-                        c += 1;
-                    }
-                    for l in 0..m.orders.nb {
-                        row[c] = k.checked_sub(m.orders.nk + l).map_or(0.0, |i| wu[i]);
-                        c += 1;
-                    }
-                }
-                let yhat: f64 = sim.iter().map(|v| v[k]).sum();
-                ls.push(&row, g.y[t][k] - yhat);
-            }
-        }
-        let Some((r11, z)) = ls.triangle() else {
+        let Some((r11, z)) = linearised(&models, &sims, grid, t, &end).triangle() else {
             break;
         };
         let d: Vec<f64> = (0..p).map(|j| r11.column(j).norm().max(1e-300)).collect();
@@ -316,35 +368,11 @@ pub fn fit_target(
             if report.iterations > 4 * args.lm_iterations.max(1) || lambda > 1e12 {
                 break 'outer;
             }
-            let k = r11.nrows();
-            let sl = lambda.sqrt();
-            let a = DMatrix::from_fn(k + p, p, |i, j| {
-                if i < k {
-                    r11[(i, j)]
-                } else if i - k == j {
-                    sl * d[j]
-                } else {
-                    0.0
-                }
-            });
-            let b = DVector::from_fn(k + p, |i, _| if i < k { z[i] } else { 0.0 });
-            let Ok(svd) = crate::num::linalg::svd(a) else {
-                break 'outer;
-            };
-            let tol = 1e-13 * svd.singular_values.max();
-            let Ok(delta) = svd.solve(&b, tol) else {
+            let Some(delta) = damped_step(&r11, &z, &d, lambda) else {
                 break 'outer;
             };
             let new_theta: Vec<f64> = theta.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
-            let mut off = 0;
-            let trial: Vec<Siso> = models
-                .iter()
-                .map(|m| {
-                    let s = m.with_params(&new_theta[off..off + m.n_params()]);
-                    off += m.n_params();
-                    s
-                })
-                .collect();
+            let trial = with_all_params(&models, &new_theta);
             if !trial.iter().all(Siso::stable) {
                 report.unstable_rejected += 1;
                 lambda *= 10.0;

@@ -89,56 +89,84 @@ fn pinv_sym(a: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
     Some((inv, rank))
 }
 
-/// Runs the test over `runs` (each run's samples in time order).
-pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
-    let all = || runs.iter().flatten();
-    let n = all().count();
-    if n < 10 {
-        return None;
+/// The auxiliary regression's data: the regressors `1, tau, yhat`, centred
+/// and scaled (the Wald test of "all zero" is invariant to this
+/// reparametrisation; a constant column is dropped), and the residual.
+struct Design {
+    /// `n x p` regressors.
+    x: DMatrix<f64>,
+    /// The old model's residual.
+    r: DVector<f64>,
+    /// Mean and standard deviation of `tau_h`, if its column is used.
+    tau: Option<(f64, f64)>,
+    /// Mean and standard deviation of `yhat`, if its column is used.
+    yhat: Option<(f64, f64)>,
+}
+
+impl Design {
+    /// The design over every sample of `runs` (`n` of them).
+    fn new(runs: &[Vec<Sample>], n: usize) -> Self {
+        let all = || runs.iter().flatten();
+        let (m_tau, s_tau) = mean_std(all().map(|s| s.tau_h));
+        let (m_yh, s_yh) = mean_std(all().map(|s| s.yhat));
+        let tau = (s_tau > 1e-12 * m_tau.abs().max(1.0)).then_some((m_tau, s_tau));
+        let yhat = (s_yh > 1e-12 * m_yh.abs().max(1.0)).then_some((m_yh, s_yh));
+        let p = 1 + usize::from(tau.is_some()) + usize::from(yhat.is_some());
+        let row = |s: &Sample| -> Vec<f64> {
+            let mut v = vec![1.0];
+            if let Some((m, sd)) = tau {
+                v.push((s.tau_h - m) / sd);
+            }
+            if let Some((m, sd)) = yhat {
+                v.push((s.yhat - m) / sd);
+            }
+            v
+        };
+        let mut x = DMatrix::<f64>::zeros(n, p);
+        let mut r = DVector::zeros(n);
+        for (i, s) in all().enumerate() {
+            for (j, v) in row(s).into_iter().enumerate() {
+                x[(i, j)] = v;
+            }
+            r[i] = s.r;
+        }
+        Self { x, r, tau, yhat }
     }
-    let (m_tau, s_tau) = mean_std(all().map(|s| s.tau_h));
-    let (m_yh, s_yh) = mean_std(all().map(|s| s.yhat));
-    // Centred, scaled columns (the Wald test of "all zero" is invariant to
-    // this reparametrisation); a constant column is dropped.
-    let use_tau = s_tau > 1e-12 * m_tau.abs().max(1.0);
-    let use_yh = s_yh > 1e-12 * m_yh.abs().max(1.0);
-    let p = 1 + usize::from(use_tau) + usize::from(use_yh);
-    let row = |s: &Sample| -> Vec<f64> {
-        let mut v = vec![1.0];
-        if use_tau {
-            v.push((s.tau_h - m_tau) / s_tau);
-        }
-        if use_yh {
-            v.push((s.yhat - m_yh) / s_yh);
-        }
-        v
-    };
-    let mut x = DMatrix::<f64>::zeros(n, p);
-    let mut r = DVector::zeros(n);
-    for (i, s) in all().enumerate() {
-        for (j, v) in row(s).into_iter().enumerate() {
-            x[(i, j)] = v;
-        }
-        r[i] = s.r;
+
+    /// The coefficients `c` of the scaled regressors back in raw units:
+    /// `(c0 um, c1 um/h, c2)`.
+    fn raw_coefficients(&self, c: &DVector<f64>) -> (f64, f64, f64) {
+        let mut it = c.iter().skip(1);
+        let c1 = match self.tau {
+            Some((_, s_tau)) => it.next().copied().unwrap_or(0.0) / s_tau,
+            None => 0.0,
+        };
+        let c2 = match self.yhat {
+            Some((_, s_yh)) => it.next().copied().unwrap_or(0.0) / s_yh,
+            None => 0.0,
+        };
+        let c0 =
+            c[0] - c1 * self.tau.map_or(0.0, |(m, _)| m) - c2 * self.yhat.map_or(0.0, |(m, _)| m);
+        (c0, c1, c2)
     }
-    let nf = n as f64;
-    let q = x.transpose() * &x / nf;
-    let (q_inv, _) = pinv_sym(&q)?;
-    let c = &q_inv * (x.transpose() * &r / nf);
-    let fitted = &x * &c;
-    let u = &r - &fitted;
-    // Lag-1 autocorrelation within runs.
-    let (mut num, mut den) = (0.0, 0.0);
+}
+
+/// Each run's `[start, end)` among the concatenated samples.
+fn run_bounds(runs: &[Vec<Sample>]) -> Vec<(usize, usize)> {
     let mut start = 0;
-    let bounds: Vec<(usize, usize)> = runs
-        .iter()
+    runs.iter()
         .map(|run| {
             let b = (start, start + run.len());
             start += run.len();
             b
         })
-        .collect();
-    for &(a, b) in &bounds {
+        .collect()
+}
+
+/// Lag-1 autocorrelation of `u` within runs, clamped to +-0.999.
+fn lag1_autocorrelation(u: &DVector<f64>, bounds: &[(usize, usize)]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for &(a, b) in bounds {
         for k in a..b {
             den += u[k] * u[k];
             if k > a {
@@ -146,10 +174,26 @@ pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
             }
         }
     }
-    let rho = if den > 0.0 { num / den } else { 0.0 }.clamp(-0.999, 0.999);
+    if den > 0.0 { num / den } else { 0.0 }.clamp(-0.999, 0.999)
+}
+
+/// Andrews' AR(1) plug-in bandwidth for the Bartlett kernel,
+/// `1.1447 (alpha n)^(1/3)`, at most `n / 2`.
+fn andrews_lags(rho: f64, n: usize) -> usize {
     let alpha = 4.0 * rho * rho / ((1.0 - rho).powi(2) * (1.0 + rho).powi(2));
-    let lags = ((1.1447 * (alpha * nf).cbrt()).floor() as usize).min(n / 2);
-    // Scores g_k = x_k u_k; Omega = Gamma_0 + sum_j w_j (Gamma_j + Gamma_j').
+    ((1.1447 * (alpha * n as f64).cbrt()).floor() as usize).min(n / 2)
+}
+
+/// Newey-West long-run covariance of the scores `g_k = x_k u_k`:
+/// `Omega = Gamma_0 + sum_j w_j (Gamma_j + Gamma_j')` with Bartlett
+/// weights, lags within runs only, divided by `n`.
+fn newey_west(
+    x: &DMatrix<f64>,
+    u: &DVector<f64>,
+    bounds: &[(usize, usize)],
+    lags: usize,
+) -> DMatrix<f64> {
+    let (n, p) = (x.nrows(), x.ncols());
     let g: Vec<f64> = (0..n)
         .flat_map(|i| (0..p).map(move |j| (i, j)))
         .map(|(i, j)| x[(i, j)] * u[i])
@@ -162,7 +206,7 @@ pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
             1.0 - j as f64 / (lags as f64 + 1.0)
         };
         let mut gamma = [[0.0; 3]; 3];
-        for &(a, b) in &bounds {
+        for &(a, b) in bounds {
             for k in (a + j)..b {
                 let (lead, lag) = (&g[k * p..k * p + p], &g[(k - j) * p..(k - j) * p + p]);
                 for (row, gl) in gamma.iter_mut().zip(lead) {
@@ -179,24 +223,33 @@ pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
             }
         }
     }
-    omega /= nf;
+    omega /= n as f64;
+    omega
+}
+
+/// Runs the test over `runs` (each run's samples in time order).
+pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
+    let n = runs.iter().flatten().count();
+    if n < 10 {
+        return None;
+    }
+    let d = Design::new(runs, n);
+    let (x, r) = (&d.x, &d.r);
+    let nf = n as f64;
+    let q = x.transpose() * x / nf;
+    let (q_inv, _) = pinv_sym(&q)?;
+    let c = &q_inv * (x.transpose() * r / nf);
+    let fitted = x * &c;
+    let u = r - &fitted;
+    let bounds = run_bounds(runs);
+    let rho = lag1_autocorrelation(&u, &bounds);
+    let lags = andrews_lags(rho, n);
+    let omega = newey_west(x, &u, &bounds, lags);
     let v = &q_inv * omega * &q_inv / nf;
     let (v_inv, dof) = pinv_sym(&v)?;
     let wald = (c.transpose() * v_inv * &c)[(0, 0)].max(0.0);
     let p_value = chi2_sf(wald, dof);
-    // Back to raw units.
-    let mut it = c.iter().skip(1);
-    let c1 = if use_tau {
-        it.next().copied().unwrap_or(0.0) / s_tau
-    } else {
-        0.0
-    };
-    let c2 = if use_yh {
-        it.next().copied().unwrap_or(0.0) / s_yh
-    } else {
-        0.0
-    };
-    let c0 = c[0] - c1 * if use_tau { m_tau } else { 0.0 } - c2 * if use_yh { m_yh } else { 0.0 };
+    let (c0, c1, c2) = d.raw_coefficients(&c);
     let rmse = |v: &DVector<f64>| (v.norm_squared() / nf).sqrt();
     Some(DriftTest {
         n,
@@ -210,7 +263,7 @@ pub fn drift_test(runs: &[Vec<Sample>]) -> Option<DriftTest> {
         rho1: rho,
         n_eff: nf * (1.0 - rho) / (1.0 + rho),
         effect_um: fitted.iter().fold(0.0_f64, |m, v| m.max(v.abs())),
-        rmse_reduction_um: rmse(&r) - rmse(&u),
-        rmse_um: rmse(&r),
+        rmse_reduction_um: rmse(r) - rmse(&u),
+        rmse_um: rmse(r),
     })
 }

@@ -662,43 +662,48 @@ pub const BOUNDARY_MIN_C: f64 = -50.0;
 /// Highest nominal ambient or coolant temperature a machine file may give, C.
 pub const BOUNDARY_MAX_C: f64 = 100.0;
 
-/// Range checks on the numbers, naming the field.
-fn validate(m: &Machine) -> Result<()> {
-    let positive = |v: f64, what: &str| -> Result<()> {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            bail!("{what} must be finite and > 0 (got {v})")
-        }
-    };
-    let non_negative = |v: f64, what: &str| -> Result<()> {
-        if v.is_finite() && v >= 0.0 {
-            Ok(())
-        } else {
-            bail!("{what} must be finite and >= 0 (got {v})")
-        }
-    };
-    let finite = |v: f64, what: &str| -> Result<()> {
-        if v.is_finite() {
-            Ok(())
-        } else {
-            bail!("{what} must be finite (got {v})")
-        }
-    };
-    positive(m.max_rpm, "max_rpm")?;
-    non_negative(m.tool_mm, "tool_mm")?;
-    // Air and coolant around a machine tool: a shop floor in winter to a
-    // coolant at a boil. Beyond that a value is a typo (-300 C is below
-    // absolute zero), and the twin would model it without a word.
-    let boundary_c = |v: f64, what: &str| -> Result<()> {
-        if v.is_finite() && (BOUNDARY_MIN_C..=BOUNDARY_MAX_C).contains(&v) {
-            Ok(())
-        } else {
-            bail!("{what} must be in {BOUNDARY_MIN_C}..={BOUNDARY_MAX_C} C (got {v})")
-        }
-    };
-    boundary_c(m.boundary.ambient_c, "boundary.ambient_c")?;
-    boundary_c(m.boundary.coolant_c, "boundary.coolant_c")?;
+/// `v` is finite and > 0, or an error naming the field `what`.
+fn positive(v: f64, what: &str) -> Result<()> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        bail!("{what} must be finite and > 0 (got {v})")
+    }
+}
+
+/// `v` is finite and >= 0, or an error naming the field `what`.
+fn non_negative(v: f64, what: &str) -> Result<()> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        bail!("{what} must be finite and >= 0 (got {v})")
+    }
+}
+
+/// `v` is finite, or an error naming the field `what`.
+fn finite(v: f64, what: &str) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        bail!("{what} must be finite (got {v})")
+    }
+}
+
+/// A nominal ambient or coolant temperature within
+/// [`BOUNDARY_MIN_C`]..=[`BOUNDARY_MAX_C`]: air and coolant around a
+/// machine tool, a shop floor in winter to a coolant at a boil. Beyond that
+/// a value is a typo (-300 C is below absolute zero), and the twin would
+/// model it without a word.
+fn boundary_c(v: f64, what: &str) -> Result<()> {
+    if v.is_finite() && (BOUNDARY_MIN_C..=BOUNDARY_MAX_C).contains(&v) {
+        Ok(())
+    } else {
+        bail!("{what} must be in {BOUNDARY_MIN_C}..={BOUNDARY_MAX_C} C (got {v})")
+    }
+}
+
+/// Each node's heat capacity and boundary conductances.
+fn check_nodes(m: &Machine) -> Result<()> {
     for n in Node::ALL {
         let p = m.nodes.get(n);
         let name = n.name();
@@ -712,9 +717,12 @@ fn validate(m: &Machine) -> Result<()> {
             &format!("nodes.{name}.g_coolant_w_per_k"),
         )?;
     }
-    // Every node needs a path of positive conductances to a boundary, or
-    // its temperature grows without bound and the network has no
-    // equilibrium.
+    Ok(())
+}
+
+/// Every node has a path of positive conductances to a boundary, or its
+/// temperature grows without bound and the network has no equilibrium.
+fn check_grounded(m: &Machine) -> Result<()> {
     let mut grounded = [false; N_NODES];
     for n in Node::ALL {
         let p = m.nodes.get(n);
@@ -740,6 +748,11 @@ fn validate(m: &Machine) -> Result<()> {
             n.name()
         );
     }
+    Ok(())
+}
+
+/// The heat sources' reference values and exponents.
+fn check_heat(m: &Machine) -> Result<()> {
     let h = &m.heat;
     positive(h.bearing_ref_rpm, "heat.bearing_ref_rpm")?;
     non_negative(h.front_bearing_w_at_ref, "heat.front_bearing_w_at_ref")?;
@@ -747,7 +760,11 @@ fn validate(m: &Machine) -> Result<()> {
     positive(h.bearing_exponent, "heat.bearing_exponent")?;
     non_negative(h.motor_idle_w, "heat.motor_idle_w")?;
     non_negative(h.motor_iron_w_at_ref, "heat.motor_iron_w_at_ref")?;
-    positive(h.motor_iron_exponent, "heat.motor_iron_exponent")?;
+    positive(h.motor_iron_exponent, "heat.motor_iron_exponent")
+}
+
+/// The expansion coefficients (any sign) and lengths.
+fn check_expansion(m: &Machine) -> Result<()> {
     let x = &m.expansion;
     for (v, what) in [
         (x.shaft_alpha_um_per_m_k, "expansion.shaft_alpha_um_per_m_k"),
@@ -777,7 +794,11 @@ fn validate(m: &Machine) -> Result<()> {
     }
     non_negative(x.shaft_length_mm, "expansion.shaft_length_mm")?;
     non_negative(x.housing_length_mm, "expansion.housing_length_mm")?;
-    non_negative(x.structure_length_mm, "expansion.structure_length_mm")?;
+    non_negative(x.structure_length_mm, "expansion.structure_length_mm")
+}
+
+/// The probes' geometry and noise, the sensors' noise, one sensor at least.
+fn check_probes_and_sensors(m: &Machine) -> Result<()> {
     positive(m.probes.spacing_mm, "probes.spacing_mm")?;
     non_negative(m.probes.l_defl_mm, "probes.l_defl_mm")?;
     non_negative(m.probes.noise_um, "probes.noise_um")?;
@@ -785,7 +806,11 @@ fn validate(m: &Machine) -> Result<()> {
     if m.sensors.sites.is_empty() {
         bail!("sensors.site: at least one sensor site is needed");
     }
-    let e = &m.effects;
+    Ok(())
+}
+
+/// The ambient and coolant effects' parameters.
+fn check_boundary_effects(e: &EffectParams) -> Result<()> {
     non_negative(e.ambient.day_amplitude_c, "effects.ambient.day_amplitude_c")?;
     finite(e.ambient.warmest_clock_h, "effects.ambient.warmest_clock_h")?;
     finite(e.ambient.start_clock_h, "effects.ambient.start_clock_h")?;
@@ -799,7 +824,11 @@ fn validate(m: &Machine) -> Result<()> {
         bail!("effects.coolant: high_c must be above low_c");
     }
     positive(e.coolant.warm_c_per_min, "effects.coolant.warm_c_per_min")?;
-    positive(e.coolant.cool_c_per_min, "effects.coolant.cool_c_per_min")?;
+    positive(e.coolant.cool_c_per_min, "effects.coolant.cool_c_per_min")
+}
+
+/// The cutting, motor-loss and sensor-lag effects' parameters.
+fn check_load_effects(e: &EffectParams) -> Result<()> {
     non_negative(e.cutting.load_kw, "effects.cutting.load_kw")?;
     positive(e.cutting.cycle_s, "effects.cutting.cycle_s")?;
     for (v, what) in [
@@ -822,8 +851,23 @@ fn validate(m: &Machine) -> Result<()> {
         "effects.motor_loss.extra_w_at_zero_rpm",
     )?;
     positive(e.motor_loss.knee_rpm, "effects.motor_loss.knee_rpm")?;
-    positive(e.sensor_lag.tau_s, "effects.sensor_lag.tau_s")?;
-    Ok(())
+    positive(e.sensor_lag.tau_s, "effects.sensor_lag.tau_s")
+}
+
+/// Range checks on the numbers, naming the field (the first error in
+/// file order).
+fn validate(m: &Machine) -> Result<()> {
+    positive(m.max_rpm, "max_rpm")?;
+    non_negative(m.tool_mm, "tool_mm")?;
+    boundary_c(m.boundary.ambient_c, "boundary.ambient_c")?;
+    boundary_c(m.boundary.coolant_c, "boundary.coolant_c")?;
+    check_nodes(m)?;
+    check_grounded(m)?;
+    check_heat(m)?;
+    check_expansion(m)?;
+    check_probes_and_sensors(m)?;
+    check_boundary_effects(&m.effects)?;
+    check_load_effects(&m.effects)
 }
 
 #[cfg(test)]

@@ -78,6 +78,182 @@ fn initial_covariance(phi: &[f64], rvec: &[f64]) -> Option<Vec<f64>> {
     }
 }
 
+/// The ARMA in state-space form: `T = [phi | I_{r-1}; 0]`, `R = [1, theta]'`.
+struct StateSpace<'a> {
+    phi: &'a [f64],
+    /// `R`, zero-padded to the state size `r`.
+    rvec: Vec<f64>,
+    /// State size `max(p, q + 1)`.
+    r: usize,
+}
+
+impl<'a> StateSpace<'a> {
+    /// The state-space form of ARMA(`phi`, `theta`).
+    fn new(phi: &'a [f64], theta: &[f64]) -> Self {
+        let r = phi.len().max(theta.len() + 1);
+        let mut rvec = vec![0.0; r];
+        rvec[0] = 1.0;
+        for (j, th) in theta.iter().enumerate() {
+            rvec[j + 1] = *th;
+        }
+        Self { phi, rvec, r }
+    }
+
+    /// `phi_i`, 0 past the AR order.
+    fn ph(&self, i: usize) -> f64 {
+        self.phi.get(i).copied().unwrap_or(0.0)
+    }
+
+    /// `T x` for a state vector, into `out`.
+    fn tmul(&self, x: &[f64], out: &mut [f64]) {
+        let r = self.r;
+        for i in 0..r {
+            out[i] = self.ph(i) * x[0] + if i + 1 < r { x[i + 1] } else { 0.0 };
+        }
+    }
+
+    /// The gain `K = T P[:,0] / F` into `k`; returns `F = P_00`.
+    fn gain(&self, p: &[f64], k: &mut [f64]) -> f64 {
+        let f = p[0];
+        let col: Vec<f64> = (0..self.r).map(|i| p[i * self.r]).collect();
+        self.tmul(&col, k);
+        for v in k.iter_mut() {
+            *v /= f;
+        }
+        f
+    }
+
+    /// The state's update `a <- T a + K e` (`next` is scratch).
+    fn update_state(&self, a: &mut [f64], k: &[f64], e: f64, next: &mut [f64]) {
+        self.tmul(a, next);
+        for i in 0..self.r {
+            a[i] = next[i] + k[i] * e;
+        }
+    }
+
+    /// One covariance step `P <- T P T' + R R' - K K' F` (`pn`, `tp` are
+    /// scratch); true once `P` has stopped changing (to 1e-13).
+    fn step_covariance(
+        &self,
+        p: &mut Vec<f64>,
+        pn: &mut Vec<f64>,
+        tp: &mut [f64],
+        k: &[f64],
+        f: f64,
+    ) -> bool {
+        let (r, rvec) = (self.r, &self.rvec);
+        // TP_{ij} = phi_i P_0j + P_{i+1,j};  (TP T')_{ij} = TP_i0 phi_j + TP_{i,j+1}.
+        for i in 0..r {
+            for j in 0..r {
+                tp[i * r + j] =
+                    self.ph(i) * p[j] + if i + 1 < r { p[(i + 1) * r + j] } else { 0.0 };
+            }
+        }
+        let mut change: f64 = 0.0;
+        let mut scale: f64 = 1.0;
+        for i in 0..r {
+            for j in 0..r {
+                let v = tp[i * r] * self.ph(j)
+                    + if j + 1 < r { tp[i * r + j + 1] } else { 0.0 }
+                    + rvec[i] * rvec[j]
+                    - k[i] * k[j] * f;
+                pn[i * r + j] = v;
+                change = change.max((v - p[i * r + j]).abs());
+                scale = scale.max(v.abs());
+            }
+        }
+        std::mem::swap(p, pn);
+        change <= 1e-13 * scale
+    }
+}
+
+/// The augmented filter's innovations: on `w` (`vw`), on the constant 1
+/// (`v1`), and their variances `fs` (with `sigma^2 = 1`).
+struct Innovations {
+    vw: Vec<f64>,
+    v1: Vec<f64>,
+    fs: Vec<f64>,
+}
+
+impl Innovations {
+    /// The GLS mean `sum v^1 v^w / F / sum (v^1)^2 / F`.
+    fn gls_mean(&self) -> Option<f64> {
+        let (mut num, mut den) = (0.0, 0.0);
+        for ((a, b), f) in self.vw.iter().zip(&self.v1).zip(&self.fs) {
+            num += a * b / f;
+            den += b * b / f;
+        }
+        if den.is_nan() || den <= 0.0 {
+            return None;
+        }
+        Some(num / den)
+    }
+
+    /// The log-likelihood at the mean `mu` and the MLE of `sigma^2`, and
+    /// that `sigma^2`; `None` if it is not finite.
+    fn concentrated_llf(&self, mu: f64) -> Option<(f64, f64)> {
+        let (mut ssr, mut logf) = (0.0, 0.0);
+        for ((a, b), f) in self.vw.iter().zip(&self.v1).zip(&self.fs) {
+            let v = a - mu * b;
+            ssr += v * v / f;
+            logf += f.ln();
+        }
+        let nf = self.fs.len() as f64;
+        let sigma2 = ssr / nf;
+        let llf = -nf / 2.0 * ((2.0 * std::f64::consts::PI).ln() + sigma2.ln() + 1.0) - 0.5 * logf;
+        llf.is_finite().then_some((llf, sigma2))
+    }
+
+    /// One-step predictions of `w` at the mean `mu`.
+    fn predictions(&self, w: &[f64], mu: f64) -> Vec<f64> {
+        w.iter()
+            .zip(self.vw.iter().zip(&self.v1))
+            .map(|(wt, (a, b))| wt - (a - mu * b))
+            .collect()
+    }
+}
+
+/// Runs the Kalman filter over `w` from the state covariance `p`, on `w`
+/// and on the constant 1 with the same gains; freezes the gains once `P`
+/// is steady. `None` if an innovation variance is not positive and finite.
+fn innovations(ss: &StateSpace, w: &[f64], mut p: Vec<f64>) -> Option<Innovations> {
+    let (n, r) = (w.len(), ss.r);
+    let mut aw = vec![0.0; r];
+    let mut a1 = vec![0.0; r];
+    let mut inn = Innovations {
+        vw: Vec::with_capacity(n),
+        v1: Vec::with_capacity(n),
+        fs: Vec::with_capacity(n),
+    };
+    let mut steady = false;
+    let mut k = vec![0.0; r];
+    let mut f = p[0];
+    let mut tp = vec![0.0; r * r];
+    let mut pn = vec![0.0; r * r];
+    let mut next = vec![0.0; r];
+    for &wt in w {
+        if !steady {
+            f = p[0];
+            if !(f > 0.0 && f.is_finite()) {
+                return None;
+            }
+            ss.gain(&p, &mut k);
+        }
+        let ew = wt - aw[0];
+        let e1 = 1.0 - a1[0];
+        inn.vw.push(ew);
+        inn.v1.push(e1);
+        inn.fs.push(f);
+        ss.update_state(&mut aw, &k, ew, &mut next);
+        ss.update_state(&mut a1, &k, e1, &mut next);
+        if !steady && ss.step_covariance(&mut p, &mut pn, &mut tp, &k, f) {
+            steady = true;
+            f = ss.gain(&p, &mut k);
+        }
+    }
+    Some(inn)
+}
+
 /// Runs the filter on `w` for the given coefficients. `mu = None` estimates
 /// the mean (GLS); `Some(mu)` uses it. Returns `None` if the covariance
 /// recursion breaks down (non-stationary input, non-finite numbers).
@@ -88,124 +264,19 @@ pub fn filter(
     mu: Option<f64>,
     keep_predictions: bool,
 ) -> Option<Filtered> {
-    let n = w.len();
-    if n == 0 {
+    if w.is_empty() {
         return None;
     }
-    let r = phi.len().max(theta.len() + 1);
-    let mut rvec = vec![0.0; r];
-    rvec[0] = 1.0;
-    for (j, th) in theta.iter().enumerate() {
-        rvec[j + 1] = *th;
-    }
-    let ph = |i: usize| phi.get(i).copied().unwrap_or(0.0);
-    let mut p = initial_covariance(phi, &rvec)?;
-    let mut aw = vec![0.0; r];
-    let mut a1 = vec![0.0; r];
-    let mut vw = Vec::with_capacity(n);
-    let mut v1 = Vec::with_capacity(n);
-    let mut fs = Vec::with_capacity(n);
-    let mut steady = false;
-    let mut k = vec![0.0; r];
-    let mut f = p[0];
-    let mut tp = vec![0.0; r * r];
-    let mut pn = vec![0.0; r * r];
-    // T x for a state vector, in place into `out`.
-    let tmul = |x: &[f64], out: &mut [f64]| {
-        for i in 0..r {
-            out[i] = ph(i) * x[0] + if i + 1 < r { x[i + 1] } else { 0.0 };
-        }
-    };
-    let mut next = vec![0.0; r];
-    for &wt in w {
-        if !steady {
-            f = p[0];
-            if !(f > 0.0 && f.is_finite()) {
-                return None;
-            }
-            // K = T P[:,0] / F.
-            let col: Vec<f64> = (0..r).map(|i| p[i * r]).collect();
-            tmul(&col, &mut k);
-            for v in &mut k {
-                *v /= f;
-            }
-        }
-        let ew = wt - aw[0];
-        let e1 = 1.0 - a1[0];
-        vw.push(ew);
-        v1.push(e1);
-        fs.push(f);
-        tmul(&aw, &mut next);
-        for i in 0..r {
-            aw[i] = next[i] + k[i] * ew;
-        }
-        tmul(&a1, &mut next);
-        for i in 0..r {
-            a1[i] = next[i] + k[i] * e1;
-        }
-        if !steady {
-            // TP_{ij} = phi_i P_0j + P_{i+1,j};  (TP T')_{ij} = TP_i0 phi_j + TP_{i,j+1}.
-            for i in 0..r {
-                for j in 0..r {
-                    tp[i * r + j] = ph(i) * p[j] + if i + 1 < r { p[(i + 1) * r + j] } else { 0.0 };
-                }
-            }
-            let mut change: f64 = 0.0;
-            let mut scale: f64 = 1.0;
-            for i in 0..r {
-                for j in 0..r {
-                    let v = tp[i * r] * ph(j)
-                        + if j + 1 < r { tp[i * r + j + 1] } else { 0.0 }
-                        + rvec[i] * rvec[j]
-                        - k[i] * k[j] * f;
-                    pn[i * r + j] = v;
-                    change = change.max((v - p[i * r + j]).abs());
-                    scale = scale.max(v.abs());
-                }
-            }
-            std::mem::swap(&mut p, &mut pn);
-            if change <= 1e-13 * scale {
-                steady = true;
-                f = p[0];
-                let col: Vec<f64> = (0..r).map(|i| p[i * r]).collect();
-                tmul(&col, &mut k);
-                for v in &mut k {
-                    *v /= f;
-                }
-            }
-        }
-    }
+    let ss = StateSpace::new(phi, theta);
+    let p = initial_covariance(phi, &ss.rvec)?;
+    let inn = innovations(&ss, w, p)?;
     let mu = match mu {
         Some(m) => m,
-        None => {
-            let (mut num, mut den) = (0.0, 0.0);
-            for ((a, b), f) in vw.iter().zip(&v1).zip(&fs) {
-                num += a * b / f;
-                den += b * b / f;
-            }
-            if den.is_nan() || den <= 0.0 {
-                return None;
-            }
-            num / den
-        }
+        None => inn.gls_mean()?,
     };
-    let (mut ssr, mut logf) = (0.0, 0.0);
-    for ((a, b), f) in vw.iter().zip(&v1).zip(&fs) {
-        let v = a - mu * b;
-        ssr += v * v / f;
-        logf += f.ln();
-    }
-    let nf = n as f64;
-    let sigma2 = ssr / nf;
-    let llf = -nf / 2.0 * ((2.0 * std::f64::consts::PI).ln() + sigma2.ln() + 1.0) - 0.5 * logf;
-    if !llf.is_finite() {
-        return None;
-    }
+    let (llf, sigma2) = inn.concentrated_llf(mu)?;
     let predictions = if keep_predictions {
-        w.iter()
-            .zip(vw.iter().zip(&v1))
-            .map(|(wt, (a, b))| wt - (a - mu * b))
-            .collect()
+        inn.predictions(w, mu)
     } else {
         Vec::new()
     };

@@ -31,7 +31,7 @@ pub mod transform;
 pub mod yule_walker;
 
 use super::{channels, outputs, Fitted};
-use crate::data::dataset::Dataset;
+use crate::data::dataset::{Dataset, GridRun, RunData};
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use estimate::Estimate;
@@ -171,9 +171,8 @@ fn blob_forecasts(arma: &Arma, y: &[f64], from: usize) -> (Vec<f64>, Vec<f64>) {
     (one, free)
 }
 
-/// Fits `--model arma`.
-/// `dt_s` is `--dt-s` (shared with arx and tf); default the run's median step.
-pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
+/// `--max-p`, `--max-q`, `--max-diff` and `--adf-alpha` in their ranges.
+fn check_args(args: &ArmaArgs) -> Result<()> {
     if args.max_p > MAX_ARMA_ORDER || args.max_q > MAX_ARMA_ORDER {
         bail!("arma: --max-p and --max-q are at most {MAX_ARMA_ORDER}");
     }
@@ -183,18 +182,12 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
     if !(args.adf_alpha > 0.0 && args.adf_alpha < 1.0) {
         bail!("arma: --adf-alpha must lie in (0, 1)");
     }
-    let target = ds
-        .targets
-        .first()
-        .ok_or_else(|| anyhow!("arma: no target"))?
-        .clone();
-    let calib_runs: Vec<_> = ds.runs.iter().filter(|r| r.calib_end > 0).collect();
-    let [run] = calib_runs.as_slice() else {
-        bail!(
-            "arma: fits one calibration run, got {}; give one --data (more runs can be --validate)",
-            calib_runs.len()
-        );
-    };
+    Ok(())
+}
+
+/// The calibration run's native step (median over its calibration part)
+/// and the step the fit uses: `--dt-s`, or the native one.
+fn sample_time(run: &RunData, dt_s: Option<f64>) -> Result<(Option<f64>, f64)> {
     let native = median_step(&run.t_s[..run.calib_end.max(2).min(run.t_s.len())]);
     let dt = match (dt_s, native) {
         (Some(dt), _) if dt.is_finite() && dt > 0.0 => dt,
@@ -202,11 +195,17 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
         (None, Some(dt)) if dt > 0.0 => dt,
         _ => bail!("arma: {}: too few rows to tell the sample time", run.name),
     };
-    let grids = ds.on_grid(dt)?;
-    let grid = grids
-        .iter()
-        .find(|g| g.name == run.name)
-        .ok_or_else(|| anyhow!("arma: {}: no span where the series has values", run.name))?;
+    Ok((native, dt))
+}
+
+/// The run `name` on the grid of step `dt`, with at least 20 finite
+/// calibration samples of its target.
+fn target_on_grid(ds: &Dataset, name: &str, target: &str, dt: f64) -> Result<GridRun> {
+    let grid = ds
+        .on_grid(dt)?
+        .into_iter()
+        .find(|g| g.name == name)
+        .ok_or_else(|| anyhow!("arma: {name}: no span where the series has values"))?;
     let y_all = grid
         .y
         .first()
@@ -219,15 +218,39 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
     if n < 20 {
         bail!("arma: {n} calibration samples at dt {dt} s are too few (need at least 20)");
     }
-    // 1. Gaussian standardisation.
+    Ok(grid)
+}
+
+/// Step 1, Gaussian standardisation: `(mean, std, z)` of `y`; fails on a
+/// constant series.
+fn standardise(y: &[f64], target: &str) -> Result<(f64, f64, Vec<f64>)> {
+    let n = y.len();
     let mean = y.iter().sum::<f64>() / n as f64;
     let std = (y.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1) as f64).sqrt();
     if std.is_nan() || std <= 1e-12 * mean.abs().max(1.0) {
         bail!("arma: {target} is constant over the calibration part: nothing to model");
     }
     let z: Vec<f64> = y.iter().map(|v| (v - mean) / std).collect();
-    // 2. ADF and differencing.
-    let mut w = z.clone();
+    Ok((mean, std, z))
+}
+
+/// The series differenced until the ADF test rejects a unit root.
+struct Stationary {
+    /// The differenced series.
+    w: Vec<f64>,
+    /// Differences taken.
+    d: usize,
+    /// Each ADF test's figures, `d` = 0 first.
+    steps: Vec<Value>,
+    /// The last test rejected the unit root (else `--max-diff` stopped it).
+    stationary: bool,
+}
+
+/// Step 2, ADF and differencing: differences `z` until the ADF test at
+/// `--adf-alpha` rejects a unit root, at most `--max-diff` times (a
+/// warning on stderr if it never does).
+fn difference_to_stationary(z: &[f64], args: &ArmaArgs) -> Result<Stationary> {
+    let mut w = z.to_vec();
     let mut d = 0;
     let mut steps = Vec::new();
     let stationary = loop {
@@ -258,12 +281,18 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
             args.adf_alpha
         );
     }
-    // 3. Identification figures.
-    let lags = REPORTED_LAGS.min(w.len().saturating_sub(1));
-    let acf = acf::acf(&w, lags);
-    let pacf = acf::pacf(&w, lags);
-    // 4. AIC over (p, q).
-    let (table, best) = order::search(&w, args.max_p, args.max_q, true);
+    Ok(Stationary {
+        w,
+        d,
+        steps,
+        stationary,
+    })
+}
+
+/// Step 4, the order by AIC over `(p, q)`: the table of every cell and the
+/// best cell's estimate; the Yule-Walker AR estimate beside it.
+fn choose_order(w: &[f64], args: &ArmaArgs) -> Result<(Vec<order::Cell>, Estimate, Value)> {
+    let (table, best) = order::search(w, args.max_p, args.max_q, true);
     let Some(best) = best else {
         let why = table
             .first()
@@ -273,12 +302,76 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
     };
     let est = table[best].fit.clone().map_err(|e| anyhow!("arma: {e}"))?;
     let yw = if est.p > 0 {
-        let y = yule_walker::yule_walker(&w, est.p, args.yw_method)?;
+        let y = yule_walker::yule_walker(w, est.p, args.yw_method)?;
         json!({"method": args.yw_method, "order": est.p, "phi": y.phi, "sigma": y.sigma})
     } else {
         Value::Null
     };
-    let fitted = ArmaFit { mean, std, d, est };
+    Ok((table, est, yw))
+}
+
+/// Step 5, what the forecasts do on the grid `y_all` (calibration part
+/// `..ce`, step `dt`): the trainer's and the blob's one-step forecasts, the
+/// blob's free run from the end of calibration and at fixed horizons, and
+/// persistence.
+fn forecasts_json(fitted: &ArmaFit, arma: &Arma, y_all: &[f64], ce: usize, dt: f64) -> Value {
+    let y = &y_all[..ce];
+    let trainer = fitted.one_step_forecasts(y_all);
+    let (blob_one, free) = blob_forecasts(arma, y_all, ce);
+    let held = y_all.len() - ce;
+    let horizon = |steps: usize| -> Value {
+        if steps == 0 || steps > held {
+            return Value::Null;
+        }
+        json!({"steps": steps, "minutes": steps as f64 * dt / 60.0,
+               "abs_error_um": (free[steps - 1] - y_all[ce + steps - 1]).abs()})
+    };
+    let horizons: Vec<Value> = [1usize, 4, 40, 240, 960]
+        .iter()
+        .map(|h| horizon(*h))
+        .collect();
+    json!({
+        "trainer_one_step_rmse_calibration_um": rmse(trainer[..ce].iter().copied().zip(y.iter().copied())),
+        "blob_one_step_rmse_calibration_um": rmse(blob_one[..ce].iter().copied().zip(y.iter().copied())),
+        "blob_one_step_rmse_held_out_um": rmse(blob_one[ce..].iter().copied().zip(y_all[ce..].iter().copied())),
+        "free_run_from_calibration_end_rmse_held_out_um": rmse(free.iter().copied().zip(y_all[ce..].iter().copied())),
+        "free_run_horizons": horizons,
+        "persistence_rmse_held_out_um": rmse(y_all[ce.max(1) - 1..y_all.len() - 1].iter().copied().zip(y_all[ce.max(1)..].iter().copied())),
+    })
+}
+
+/// Fits `--model arma`.
+/// `dt_s` is `--dt-s` (shared with arx and tf); default the run's median step.
+pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
+    check_args(args)?;
+    let target = ds
+        .targets
+        .first()
+        .ok_or_else(|| anyhow!("arma: no target"))?
+        .clone();
+    let calib_runs: Vec<_> = ds.runs.iter().filter(|r| r.calib_end > 0).collect();
+    let [run] = calib_runs.as_slice() else {
+        bail!(
+            "arma: fits one calibration run, got {}; give one --data (more runs can be --validate)",
+            calib_runs.len()
+        );
+    };
+    let (native, dt) = sample_time(run, dt_s)?;
+    let grid = target_on_grid(ds, &run.name, &target, dt)?;
+    let (y_all, ce) = (&grid.y[0], grid.calib_end);
+    let (mean, std, z) = standardise(&y_all[..ce], &target)?;
+    let s = difference_to_stationary(&z, args)?;
+    // 3. Identification figures.
+    let lags = REPORTED_LAGS.min(s.w.len().saturating_sub(1));
+    let acf = acf::acf(&s.w, lags);
+    let pacf = acf::pacf(&s.w, lags);
+    let (table, est, yw) = choose_order(&s.w, args)?;
+    let fitted = ArmaFit {
+        mean,
+        std,
+        d: s.d,
+        est,
+    };
     let arma = fitted.to_blob()?;
     let model = Model {
         inputs: channels(ds)?,
@@ -292,33 +385,17 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
     .map_err(|e| {
         anyhow!("arma: fitted ARMA({}, {}) refused: {e} (a root on the unit circle? try smaller --max-p/--max-q)", fitted.est.p, fitted.est.q)
     })?;
-    // 5. What the forecasts do, on this grid: trainer vs blob, one step vs free run.
-    let trainer = fitted.one_step_forecasts(y_all);
-    let (blob_one, free) = blob_forecasts(&arma, y_all, grid.calib_end);
-    let ce = grid.calib_end;
-    let held = y_all.len() - ce;
-    let horizon = |steps: usize| -> Value {
-        if steps == 0 || steps > held {
-            return Value::Null;
-        }
-        json!({"steps": steps, "minutes": steps as f64 * dt / 60.0,
-               "abs_error_um": (free[steps - 1] - y_all[ce + steps - 1]).abs()})
-    };
-    let horizons: Vec<Value> = [1usize, 4, 40, 240, 960]
-        .iter()
-        .map(|h| horizon(*h))
-        .collect();
     let e = &fitted.est;
     let details = json!({
         "series": target,
         "dt_s": dt,
         "native_dt_s": native,
-        "calibration_samples": n,
-        "held_out_samples": held,
+        "calibration_samples": ce,
+        "held_out_samples": y_all.len() - ce,
         "standardisation": {"mean": mean, "std": std},
-        "adf": steps,
-        "d": d,
-        "stationary": stationary,
+        "adf": s.steps,
+        "d": s.d,
+        "stationary": s.stationary,
         "acf": acf,
         "pacf": pacf,
         "order": {"p": e.p, "q": e.q},
@@ -332,14 +409,7 @@ pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
         "aic": e.aic,
         "yule_walker": yw,
         "aic_table": table.iter().map(order::Cell::json).collect::<Vec<_>>(),
-        "forecasts": {
-            "trainer_one_step_rmse_calibration_um": rmse(trainer[..ce].iter().copied().zip(y.iter().copied())),
-            "blob_one_step_rmse_calibration_um": rmse(blob_one[..ce].iter().copied().zip(y.iter().copied())),
-            "blob_one_step_rmse_held_out_um": rmse(blob_one[ce..].iter().copied().zip(y_all[ce..].iter().copied())),
-            "free_run_from_calibration_end_rmse_held_out_um": rmse(free.iter().copied().zip(y_all[ce..].iter().copied())),
-            "free_run_horizons": horizons,
-            "persistence_rmse_held_out_um": rmse(y_all[ce.max(1) - 1..y_all.len() - 1].iter().copied().zip(y_all[ce.max(1)..].iter().copied())),
-        },
+        "forecasts": forecasts_json(&fitted, &arma, y_all, ce, dt),
     });
     Ok(Fitted { model, details })
 }

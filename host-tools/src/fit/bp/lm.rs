@@ -14,7 +14,7 @@
 use super::net::{self, Data, Shape};
 use indicatif::ProgressBar;
 use model_core::bp::Activation;
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 use std::time::Instant;
 
 /// `trainlm` settings.
@@ -59,6 +59,72 @@ pub struct LmReport {
     pub seconds: f64,
 }
 
+/// One epoch's step: `(J^T J + mu I) dx = J^T e` with `mu` growing x10
+/// until the training MSE `mse(w + dx)` drops below `perf`; the new
+/// weights and their MSE, `mu` divided by 10 for the next epoch. `None`
+/// once `mu` passes [`MU_MAX`].
+fn damped_step(
+    jj: &DMatrix<f64>,
+    je: &DVector<f64>,
+    (w, perf): (&[f64], f64),
+    mu: &mut f64,
+    mse: impl Fn(&[f64]) -> f64,
+) -> Option<(Vec<f64>, f64)> {
+    while *mu <= MU_MAX {
+        let mut a = jj.clone();
+        for d in 0..a.nrows() {
+            a[(d, d)] += *mu;
+        }
+        let step = a.cholesky().map(|c| c.solve(je));
+        if let Some(dx) = step.filter(|dx: &DVector<f64>| dx.iter().all(|v| v.is_finite())) {
+            let trial: Vec<f64> = w.iter().zip(dx.iter()).map(|(a, b)| a + b).collect();
+            let p = mse(&trial);
+            if p < perf {
+                *mu *= MU_DEC;
+                return Some((trial, p));
+            }
+        }
+        *mu *= MU_INC;
+    }
+    None
+}
+
+/// The weights to return: the best on validation so far, or the last
+/// without validation rows.
+struct BestWeights {
+    w: Vec<f64>,
+    epoch: usize,
+    /// Best validation MSE (infinite without validation).
+    val_mse: f64,
+    /// Epochs in a row without a new best.
+    fails: usize,
+}
+
+impl BestWeights {
+    /// Takes in epoch `epoch`'s weights `w` and validation MSE `vp`; true
+    /// when `max_fail` epochs in a row have brought no new best.
+    fn update(&mut self, epoch: usize, w: &[f64], vp: Option<f64>, max_fail: usize) -> bool {
+        match vp {
+            Some(vp) if vp < self.val_mse => {
+                self.val_mse = vp;
+                self.w = w.to_vec();
+                self.epoch = epoch;
+                self.fails = 0;
+                false
+            }
+            Some(_) => {
+                self.fails += 1;
+                self.fails >= max_fail
+            }
+            None => {
+                self.w = w.to_vec();
+                self.epoch = epoch;
+                false
+            }
+        }
+    }
+}
+
 /// Trains from `w0` on `train`, early-stopping on `val` if given.
 pub fn train(
     shape: Shape,
@@ -74,16 +140,19 @@ pub fn train(
     let mse_of = |w: &[f64], d: &Data| net::sse(shape, act, w, d) / d.errors().max(1) as f64;
     let mut w = w0.to_vec();
     let mut perf = mse_of(&w, train);
-    let mut best = w.clone();
-    let mut best_epoch = 0;
-    let mut best_val = val.map_or(f64::INFINITY, |v| mse_of(&w, v));
+    let mut best = BestWeights {
+        w: w.clone(),
+        epoch: 0,
+        val_mse: val.map_or(f64::INFINITY, |v| mse_of(&w, v)),
+        fails: 0,
+    };
     let mut report = LmReport {
         w: Vec::new(),
         epochs: 0,
         best_epoch: 0,
         stop: "epoch cap",
         train_mse: vec![perf],
-        val_mse: val.map(|_| vec![best_val]).unwrap_or_default(),
+        val_mse: val.map(|_| vec![best.val_mse]).unwrap_or_default(),
         goal_epoch: None,
         goal_seconds: None,
         seconds: 0.0,
@@ -93,7 +162,6 @@ pub fn train(
         report.goal_seconds = Some(0.0);
     }
     let mut mu = MU0;
-    let mut fails = 0;
     for epoch in 1..=opts.epochs {
         let (jt, e) = net::jacobian_t(shape, act, &w, train);
         let je = &jt * &e;
@@ -103,64 +171,30 @@ pub fn train(
         }
         let jj = &jt * jt.transpose();
         drop(jt);
-        let mut accepted = false;
-        while mu <= MU_MAX {
-            let mut a = jj.clone();
-            for d in 0..a.nrows() {
-                a[(d, d)] += mu;
-            }
-            let step = a.cholesky().map(|c| c.solve(&je));
-            if let Some(dx) = step.filter(|dx: &DVector<f64>| dx.iter().all(|v| v.is_finite())) {
-                let trial: Vec<f64> = w.iter().zip(dx.iter()).map(|(a, b)| a + b).collect();
-                let p = mse_of(&trial, train);
-                if p < perf {
-                    w = trial;
-                    perf = p;
-                    mu *= MU_DEC;
-                    accepted = true;
-                    break;
-                }
-            }
-            mu *= MU_INC;
-        }
+        let step = damped_step(&jj, &je, (&w, perf), &mut mu, |t| mse_of(t, train));
         report.epochs = epoch;
         if let Some(pb) = pb {
             pb.inc(1);
         }
-        if !accepted {
+        let Some((trial, p)) = step else {
             report.stop = "mu reached mu_max";
             break;
-        }
+        };
+        (w, perf) = (trial, p);
         report.train_mse.push(perf);
         if report.goal_epoch.is_none() && perf <= opts.goal_mse {
             report.goal_epoch = Some(epoch);
             report.goal_seconds = Some(start.elapsed().as_secs_f64());
         }
-        match val {
-            Some(v) => {
-                let vp = mse_of(&w, v);
-                report.val_mse.push(vp);
-                if vp < best_val {
-                    best_val = vp;
-                    best = w.clone();
-                    best_epoch = epoch;
-                    fails = 0;
-                } else {
-                    fails += 1;
-                    if fails >= opts.max_fail {
-                        report.stop = "validation stop";
-                        break;
-                    }
-                }
-            }
-            None => {
-                best = w.clone();
-                best_epoch = epoch;
-            }
+        let vp = val.map(|v| mse_of(&w, v));
+        report.val_mse.extend(vp);
+        if best.update(epoch, &w, vp, opts.max_fail) {
+            report.stop = "validation stop";
+            break;
         }
     }
-    report.w = best;
-    report.best_epoch = best_epoch;
+    report.w = best.w;
+    report.best_epoch = best.epoch;
     report.seconds = start.elapsed().as_secs_f64();
     report
 }
