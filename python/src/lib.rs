@@ -206,7 +206,7 @@ fn select(runs: Vec<Bound<'_, PyAny>>, options: Vec<(String, String)>) -> PyResu
     let job = || -> Result<String> {
         let mut pairs = vec![("data".to_string(), "(in memory)".to_string())];
         pairs.extend(options);
-        let args: host_tools::select::SelectArgs =
+        let args: host_tools::cli::select::SelectArgs =
             host_tools::cli::pairs::args_from_pairs("select", &pairs)?;
         let params = args.params().check()?;
         let runs = runs_from(&runs)?;

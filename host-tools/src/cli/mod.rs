@@ -90,7 +90,7 @@ enum Command {
     /// (Eq. 1), top-k per target and their intersection. maxtree:
     /// maximal-tree clustering, the level by R^2, F test and collinearity.
     /// Formulas and rules: docs/select.md.
-    Select(crate::select::SelectArgs),
+    Select(select::SelectArgs),
     /// Run the thermal twin (a lumped model of a motorized spindle) and
     /// write a run file; effects from CONTRACT.md section 3 can be switched
     /// on (docs/twin.md).

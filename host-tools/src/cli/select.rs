@@ -1,15 +1,170 @@
-//! `thermcomp select`: runs the typed job ([`select::select_files`]) and
-//! prints its outcome, as one JSON object with `--json` or as the method's
-//! text tables.
+//! `thermcomp select`: the flags, reading the run files, the typed job
+//! ([`crate::select::select`]) and its outcome printed as one JSON object
+//! with `--json` or as the method's text tables.
 
 use crate::data::fsio;
+use crate::data::runfile::{ReadOptions, RunFile};
 use crate::select::outcome::{GreyOutcome, MaxtreeOutcome, WgreyOutcome};
-use crate::select::{self, SelectArgs, SelectOutcome};
-use anyhow::Result;
+use crate::select::{grey, select, Method, SelectOutcome, SelectParams, ValidSelectParams};
+use anyhow::{anyhow, Result};
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+
+/// Dimensionless processing before grey correlation with the target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ScaleArg {
+    /// x(k) / x(1), per run (interval processing for a computation in which
+    /// a series starts at 0).
+    Initial,
+    /// x(k) / mean(x), per run.
+    Mean,
+    /// (x(k) - min) / (max - min), per run.
+    Interval,
+    /// Raw values (only sensible when target and inputs share a unit).
+    None,
+}
+
+impl From<ScaleArg> for grey::Scale {
+    fn from(s: ScaleArg) -> Self {
+        match s {
+            ScaleArg::Initial => grey::Scale::Initial,
+            ScaleArg::Mean => grey::Scale::Mean,
+            ScaleArg::Interval => grey::Scale::Interval,
+            ScaleArg::None => grey::Scale::None,
+        }
+    }
+}
+
+/// Arguments of `thermcomp select`.
+#[derive(Args, Debug)]
+pub struct SelectArgs {
+    /// A run file (CSV); repeatable. Runs are concatenated for correlations;
+    /// differences, initial values and zero-start images restart per run.
+    #[arg(long, required = true)]
+    pub data: Vec<PathBuf>,
+    /// Target column(s), comma-separated (e.g. ch1_um). grey and maxtree take one.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub target: Vec<String>,
+    /// Candidate input columns, comma-separated (default: every column named
+    /// T<number> in the first run, in file order).
+    #[arg(long, value_delimiter = ',')]
+    pub inputs: Vec<String>,
+    /// Selection method.
+    #[arg(long, value_enum)]
+    pub method: Method,
+    /// Print one JSON object instead of tables.
+    #[arg(long)]
+    pub json: bool,
+    /// Skip rows with unparsable cells instead of failing (counted and reported).
+    #[arg(long)]
+    pub skip_bad_rows: bool,
+
+    /// Dimensionless processing of target and inputs before grey correlation
+    /// with the target (grey, wgrey): temperature and displacement have
+    /// different units. With `initial`, a computation in which the target or
+    /// an input starts at exactly 0 (x(1) = 0 in some run) uses interval
+    /// processing for all its series instead, and says so.
+    #[arg(
+        long,
+        value_enum,
+        default_value = "initial",
+        help_heading = "grey and wgrey"
+    )]
+    pub scale: ScaleArg,
+    /// Distinguishing coefficient xi of the grey correlation coefficient.
+    #[arg(long, default_value_t = 0.5, help_heading = "grey and wgrey")]
+    pub xi: f64,
+
+    /// Weight theta of the absolute degree in the comprehensive degree
+    /// (rho = theta * absolute + (1 - theta) * relative).
+    #[arg(long, default_value_t = 0.5, help_heading = "grey")]
+    pub theta: f64,
+    /// Grey clustering level: variables whose comprehensive degree is at
+    /// least this are joined (seed 000 used 0.9).
+    #[arg(long, default_value_t = 0.9, help_heading = "grey")]
+    pub level: f64,
+
+    /// Weight lambda1 of the displacement term of seed 002 Eq. 1.
+    #[arg(long, default_value_t = 0.5, help_heading = "wgrey")]
+    pub lambda1: f64,
+    /// Weight lambda2 of the rate-of-change term of seed 002 Eq. 1.
+    #[arg(long, default_value_t = 0.5, help_heading = "wgrey")]
+    pub lambda2: f64,
+    /// How many of the best inputs to keep per target (seed 002 kept 6).
+    #[arg(long, default_value_t = 6, help_heading = "wgrey")]
+    pub top: usize,
+
+    /// Significance level of the regression F test.
+    #[arg(long, default_value_t = 0.05, help_heading = "maxtree")]
+    pub alpha: f64,
+    /// A larger set of representatives must raise R^2 by at least this much
+    /// over the smallest adequate one (0 = seed 003's rule: the best R^2).
+    #[arg(long, default_value_t = 0.01, help_heading = "maxtree")]
+    pub min_gain: f64,
+    /// Levels with a representative whose tolerance 1/VIF is below this are
+    /// left out (SPSS's default tolerance, 0.0001).
+    #[arg(long, default_value_t = 1e-4, help_heading = "maxtree")]
+    pub min_tolerance: f64,
+}
+
+impl SelectArgs {
+    /// The job's parameters: every flag but the files and the output form.
+    pub fn params(&self) -> SelectParams {
+        SelectParams {
+            target: self.target.clone(),
+            inputs: self.inputs.clone(),
+            method: self.method,
+            scale: self.scale.into(),
+            xi: self.xi,
+            theta: self.theta,
+            level: self.level,
+            lambda1: self.lambda1,
+            lambda2: self.lambda2,
+            top: self.top,
+            alpha: self.alpha,
+            min_gain: self.min_gain,
+            min_tolerance: self.min_tolerance,
+        }
+    }
+}
+
+/// Reads the runs (only the columns the selection uses).
+fn read(a: &SelectArgs, p: &ValidSelectParams) -> Result<Vec<RunFile>> {
+    let first = a
+        .data
+        .first()
+        .ok_or_else(|| anyhow!("--data: give at least one run file"))?;
+    let header_only = ReadOptions {
+        skip_bad_rows: true,
+        only: Some(Vec::new()),
+    };
+    let inputs = if a.inputs.is_empty() {
+        let head = RunFile::read(first, &header_only)?;
+        p.params()
+            .inputs_for(&head.columns, &first.display().to_string())?
+    } else {
+        p.params().inputs_for(&[], "")?
+    };
+    let mut needed = inputs;
+    needed.extend(a.target.iter().cloned());
+    let opts = ReadOptions {
+        skip_bad_rows: a.skip_bad_rows,
+        only: Some(needed),
+    };
+    crate::data::source::read_runs(&a.data, &opts)
+}
+
+/// Checks the arguments, reads the runs and runs the method: everything
+/// `thermcomp select` does but print.
+pub fn select_files(a: &SelectArgs) -> Result<SelectOutcome> {
+    let p = a.params().check()?;
+    let files = read(a, &p)?;
+    select(&p, &files)
+}
 
 /// Runs `thermcomp select`.
 pub fn run(a: &SelectArgs) -> Result<()> {
-    let out = select::select_files(a)?;
+    let out = select_files(a)?;
     if a.json {
         fsio::print_line(&serde_json::to_value(&out)?.to_string())
     } else {
@@ -228,4 +383,29 @@ fn maxtree_text(m: &MaxtreeOutcome) -> String {
         m.selected.join(", ")
     ));
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn new_params_carry_the_cli_defaults() {
+        for (method, name) in [
+            (Method::Grey, "grey"),
+            (Method::Wgrey, "wgrey"),
+            (Method::Maxtree, "maxtree"),
+        ] {
+            let pairs = [
+                ("data".to_string(), "run.csv".to_string()),
+                ("target".to_string(), "dz_um".to_string()),
+                ("method".to_string(), name.to_string()),
+            ];
+            let args: SelectArgs = crate::cli::pairs::args_from_pairs("select", &pairs).unwrap();
+            assert_eq!(
+                format!("{:?}", args.params()),
+                format!("{:?}", SelectParams::new(vec!["dz_um".into()], method))
+            );
+        }
+    }
 }
