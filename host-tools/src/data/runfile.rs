@@ -1449,6 +1449,13 @@ pub fn resample_linear(t: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option
 /// hair after its last sample (where [`resample_linear`] would give `None`).
 /// `t_end == t0` gives the single point `t0`.
 pub fn uniform_grid(t0: f64, t_end: f64, dt: f64) -> Result<Vec<f64>, GridError> {
+    let n = uniform_grid_len(t0, t_end, dt)?;
+    Ok((0..n).map(|k| (t0 + k as f64 * dt).min(t_end)).collect())
+}
+
+/// The number of points of [`uniform_grid`]`(t0, t_end, dt)` (same checks),
+/// for callers that compute point `k` as `(t0 + k dt).min(t_end)` as they go.
+pub fn uniform_grid_len(t0: f64, t_end: f64, dt: f64) -> Result<usize, GridError> {
     if !(t0.is_finite() && t_end.is_finite()) {
         return Err(GridError::NotFinite { t0, t_end });
     }
@@ -1470,8 +1477,7 @@ pub fn uniform_grid(t0: f64, t_end: f64, dt: f64) -> Result<Vec<f64>, GridError>
         return Err(GridError::StepTooSmall { t0, t_end, dt });
     }
     // In range 0..MAX_GRID_POINTS by the checks above, so the cast is exact.
-    let n = last_k as usize + 1;
-    Ok((0..n).map(|k| (t0 + k as f64 * dt).min(t_end)).collect())
+    Ok(last_k as usize + 1)
 }
 
 /// Why [`uniform_grid`] refused to build a grid. These are caller mistakes
