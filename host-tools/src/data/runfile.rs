@@ -11,6 +11,10 @@
 //! running on a real machine. Callers that prefer to carry on over damaged
 //! rows can ask for them to be skipped; skipped rows are recorded, never lost.
 //!
+//! [`RowStream`] is the same reader row by row, in memory bounded by a row
+//! whatever the file's length ([`RunFile::read`] is it collected into
+//! columns); [`SamplingTally`] gives a streamed run's [`Sampling`].
+//!
 //! Besides the reader, this module holds the two helpers every consumer of a
 //! run file needs to put runs on a common time base: [`uniform_grid`] and
 //! [`resample_linear`].
@@ -2275,7 +2279,7 @@ mod tests {
             ]
         );
         let strict = ReadOptions::default();
-        let mut s = RowStream::start("r.csv".into(), csv.as_bytes(), &strict).unwrap();
+        let mut s = RowStream::start("run.csv".into(), csv.as_bytes(), &strict).unwrap();
         let e = loop {
             match s.next_item() {
                 Err(e) => break e.to_string(),
