@@ -40,7 +40,7 @@
 use crate::data::runfile::{ReadOptions, RunFile};
 use crate::eval::MetricsReport;
 use crate::fit::{self, FitKind};
-use crate::replay::{self, ReplayArgs};
+use crate::replay::{self, ReplayParams};
 use crate::runner::{self, ColumnMap};
 use crate::select::{self, grey, Method, SelectParams};
 use crate::simulate;
@@ -49,7 +49,7 @@ use crate::twin::machine::Machine;
 use crate::twin::profile::{self, Profile};
 use crate::twin::sim::SimOptions;
 use anyhow::{anyhow, bail, Context, Result};
-use clap::{Args, FromArgMatches};
+use clap::Args;
 use model_core::ValidModel;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -157,20 +157,6 @@ impl Budget {
             }
         }
     }
-}
-
-/// Parses a subcommand's arguments as a user would type them, so the demo
-/// gets exactly the CLI's defaults.
-fn parse_args<A: Args + FromArgMatches>(name: &'static str, argv: &[String]) -> Result<A> {
-    let cmd = A::augment_args(clap::Command::new(name).no_binary_name(true));
-    let matches = cmd
-        .try_get_matches_from(argv)
-        .map_err(|e| anyhow!("demo: bad {name} arguments: {}", first_line(&e.to_string())))?;
-    A::from_arg_matches(&matches).map_err(|e| anyhow!("demo: {name}: {e}"))
-}
-
-fn first_line(s: &str) -> &str {
-    s.lines().next().unwrap_or("").trim_start_matches("error: ")
 }
 
 /// `thermcomp NAME ARGS..` as a shell line (paths quoted only if needed).
@@ -548,6 +534,16 @@ impl Demo<'_> {
         );
         let candump = dir.join("replay.log");
         let trace = dir.join("replay-trace.csv");
+        let params = ReplayParams {
+            model: model_bin.to_path_buf(),
+            data: vec![val.clone()],
+            map: Vec::new(),
+            skip_bad_rows: false,
+            candump: candump.clone(),
+            interface: "can0".to_string(),
+            trace: Some(trace.clone()),
+        };
+        params.check()?;
         let argv = vec![
             "--model".to_string(),
             path_arg(model_bin),
@@ -558,18 +554,18 @@ impl Demo<'_> {
             "--trace".into(),
             path_arg(&trace),
         ];
-        let args: ReplayArgs = parse_args("replay", &argv)?;
-        let summary = replay::replay_files(&args).context("demo: replay")?;
-        let run0 = summary["runs"]
-            .get(0)
+        let outcome = replay::replay(&params).context("demo: replay")?;
+        let run0 = outcome
+            .runs
+            .first()
             .ok_or_else(|| anyhow!("demo: replay reported no run"))?;
         let agreement = replay_agreement(best_model, &trace, val)?;
         let t = p.end(&format!(
         "{} frames over {} samples; running {} of {}; max |sent - model| {:.3} um on the hub's readings ({} of {} samples, no limiter), {:.3} um on the file",
-        run0["frames"],
-        run0["samples"],
-        run0["states"]["running"],
-        run0["samples"],
+        run0.frames,
+        run0.samples,
+        run0.states.running,
+        run0.samples,
         agreement.max_on_readings_um,
         agreement.compared,
         agreement.samples,
@@ -579,13 +575,13 @@ impl Demo<'_> {
             "model": path_arg(model_bin),
             "candump": path_arg(&candump),
             "trace": path_arg(&trace),
-            "sample_period_s": summary["sample_period_s"],
-            "samples": run0["samples"],
-            "frames": run0["frames"],
-            "states": run0["states"],
-            "sensor_fault_samples": run0["sensor_fault_samples"],
-            "stale_samples": run0["stale_samples"],
-            "max_abs_offset_um": run0["max_abs_offset_um"][TARGET],
+            "sample_period_s": outcome.sample_period_s,
+            "samples": run0.samples,
+            "frames": run0.frames,
+            "states": run0.states,
+            "sensor_fault_samples": run0.sensor_fault_samples,
+            "stale_samples": run0.stale_samples,
+            "max_abs_offset_um": run0.max_abs_offset_um.get(TARGET),
             "limited_samples": agreement.limited,
             "compared_samples": agreement.compared,
             "max_abs_sent_minus_model_um": agreement.max_on_readings_um,

@@ -1,7 +1,7 @@
 //! `thermcomp eval`: a model's predictions scored against the measured
 //! columns, over all runs together and per run (CONTRACT.md section 1).
 
-use crate::data::runfile::RunFile;
+use crate::data::runfile::{ReadOptions, RunFile};
 use crate::data::source::{ModelSource, RunSource};
 use crate::runner;
 use crate::runner::ColumnMap;
@@ -163,6 +163,19 @@ pub fn evaluate(model: &ValidModel, runs: &[RunFile], map: &ColumnMap) -> Result
             per_run[k].push(entry);
         }
     }
+    outcome(&names, n_model, map, &all, per_run, &unscored, skipped_rows)
+}
+
+/// The outcome from the accumulated figures (every run's rows in `all`).
+fn outcome(
+    names: &[String],
+    n_model: usize,
+    map: &ColumnMap,
+    all: &[MetricsAccumulator],
+    mut per_run: Vec<Vec<RunEval>>,
+    unscored: &[usize],
+    skipped_rows: usize,
+) -> Result<EvalOutcome> {
     let mut out = EvalOutcome::new();
     for (k, name) in names.iter().enumerate() {
         if k >= n_model && per_run[k].is_empty() {
@@ -181,6 +194,153 @@ pub fn evaluate(model: &ValidModel, runs: &[RunFile], map: &ColumnMap) -> Result
         out.insert(name.to_string(), entry);
     }
     Ok(out)
+}
+
+/// Scores `model` on the run files at `paths`, each streamed row by row
+/// ([`crate::stream::stream_run`]): [`evaluate`] on the runs read, in
+/// memory bounded by a row, not by a run (except the runs a dynamic model
+/// resamples; see `stream`). The figures are [`evaluate`]'s bit for bit:
+/// the same rows reach the same accumulators in the same order.
+pub fn evaluate_files(
+    model: &ValidModel,
+    paths: &[std::path::PathBuf],
+    opts: &ReadOptions,
+    map: &ColumnMap,
+) -> Result<EvalOutcome> {
+    if model.kind() == model_core::ModelKind::Arma {
+        eprintln!("note: an arma model forecasts one step ahead from the measured series itself: these figures hold only where the error is measured every dt_s on the machine (docs/arma.md)");
+    }
+    let names = runner::prediction_names(model);
+    let n_model = model.outputs().len();
+    let n_out = names.len();
+    let mut all = vec![MetricsAccumulator::new(); n_out];
+    let mut per_run: Vec<Vec<RunEval>> = vec![Vec::new(); n_out];
+    let mut unscored = vec![0usize; n_out];
+    let mut skipped_rows = 0;
+    for path in paths {
+        let mut sink = EvalSink {
+            names: &names,
+            n_model,
+            map,
+            all: &mut all,
+            targets: Vec::new(),
+        };
+        let end = crate::stream::stream_run(model, path, opts, map, &mut sink)?;
+        let targets = std::mem::take(&mut sink.targets);
+        crate::data::source::note_skipped(path, end.skipped, end.first_skipped.as_ref());
+        skipped_rows += end.skipped;
+        let file = path.display().to_string();
+        for note in &end.notes {
+            eprintln!("note: {file}: {note}");
+        }
+        for (k, target) in targets.into_iter().enumerate() {
+            let name = &names[k];
+            let col = map.column(name);
+            let Some(target) = target else {
+                eprintln!("note: {file}: no measured {col}: the tool-tip {name} is not scored");
+                continue;
+            };
+            let entry = run_entry(&file, name, col, end.rows, target.skipped, &target.acc);
+            unscored[k] += target.skipped;
+            per_run[k].push(entry);
+        }
+    }
+    outcome(&names, n_model, map, &all, per_run, &unscored, skipped_rows)
+}
+
+/// One output's tally over one streamed run.
+struct RunTarget {
+    /// The measured column's index in the row.
+    index: usize,
+    acc: MetricsAccumulator,
+    skipped: usize,
+}
+
+/// Scores streamed rows: per output, the run's accumulator and `all`.
+struct EvalSink<'a> {
+    names: &'a [String],
+    n_model: usize,
+    map: &'a ColumnMap,
+    all: &'a mut [MetricsAccumulator],
+    /// Per output: `None` for a tool-tip output the run does not measure.
+    targets: Vec<Option<RunTarget>>,
+}
+
+impl crate::stream::RowSink for EvalSink<'_> {
+    fn begin(&mut self, layout: &crate::stream::Layout<'_>) -> Result<()> {
+        self.targets.clear();
+        for (k, name) in self.names.iter().enumerate() {
+            let col = self.map.column(name);
+            let index = layout.index_of(col);
+            if index.is_none() && k < self.n_model {
+                bail!(
+                    "{}: no measured column \"{col}\" to compare output \"{name}\" with (use --map {name}=COLUMN)",
+                    layout.file
+                );
+            }
+            self.targets.push(index.map(|index| RunTarget {
+                index,
+                acc: MetricsAccumulator::new(),
+                skipped: 0,
+            }));
+        }
+        Ok(())
+    }
+
+    fn row(&mut self, row: &crate::stream::PredictedRow<'_>) -> Result<()> {
+        for (k, target) in self.targets.iter_mut().enumerate() {
+            let Some(target) = target else { continue };
+            let y = row.cells.get(target.index).copied().flatten();
+            match (y, row.values.get(k).copied().flatten()) {
+                (Some(y), Some(yhat)) => {
+                    let name = &self.names[k];
+                    target
+                        .acc
+                        .push(y, yhat)
+                        .map_err(|e| anyhow!("{name}: {e}"))?;
+                    self.all[k]
+                        .push(y, yhat)
+                        .map_err(|e| anyhow!("{name}: {e}"))?;
+                }
+                _ => target.skipped += 1,
+            }
+        }
+        Ok(())
+    }
+
+    fn skipped(&mut self, _: &crate::data::runfile::SkippedRow) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// One run's entry for output `name` (`rows` rows, `skipped` not scored),
+/// with the note on the rows not scored.
+fn run_entry(
+    file: &str,
+    name: &str,
+    col: &str,
+    rows: usize,
+    skipped: usize,
+    acc: &MetricsAccumulator,
+) -> RunEval {
+    let file = file.to_string();
+    if skipped > 0 {
+        eprintln!(
+            "note: {file}: {name}: {skipped} of {rows} rows not scored (no prediction or no measured {col}); n counts the scored rows"
+        );
+    }
+    match acc.clone().finish() {
+        Ok(m) => RunEval::Scored {
+            metrics: MetricsReport::from(&m),
+            file,
+            rows_not_scored: skipped,
+        },
+        Err(e) => RunEval::Failed {
+            error: e.to_string(),
+            file,
+            rows_not_scored: skipped,
+        },
+    }
 }
 
 /// One run's figures for output `name` (also pushed into `all`), and how
@@ -213,24 +373,7 @@ fn score_run(
         }
     }
     let file = run.path.display().to_string();
-    if skipped > 0 {
-        eprintln!(
-            "note: {file}: {name}: {skipped} of {} rows not scored (no prediction or no measured {col}); n counts the scored rows",
-            run.len()
-        );
-    }
-    let entry = match acc.finish() {
-        Ok(m) => RunEval::Scored {
-            metrics: MetricsReport::from(&m),
-            file,
-            rows_not_scored: skipped,
-        },
-        Err(e) => RunEval::Failed {
-            error: e.to_string(),
-            file,
-            rows_not_scored: skipped,
-        },
-    };
+    let entry = run_entry(&file, name, col, run.len(), skipped, &acc);
     Ok((entry, skipped))
 }
 
@@ -239,8 +382,8 @@ fn score_run(
 pub fn run(a: &EvalArgs) -> Result<()> {
     let model = a.model.load()?;
     let map = a.runs.column_map()?;
-    let runs = a.runs.read(map.model_columns(&model, true))?;
-    let out = evaluate(&model, &runs, &map)?;
+    let opts = a.runs.read_options(map.model_columns(&model, true));
+    let out = evaluate_files(&model, &a.runs.data, &opts, &map)?;
     let Value::Object(out) = serde_json::to_value(&out)? else {
         bail!("eval: the outcome is not a JSON object");
     };

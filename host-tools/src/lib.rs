@@ -20,4 +20,5 @@ pub mod score;
 pub mod select;
 pub mod show;
 pub mod simulate;
+pub mod stream;
 pub mod twin;

@@ -1,6 +1,6 @@
 //! `thermcomp predict`: a model's outputs for run files, row for row.
 
-use crate::data::runfile::RunFile;
+use crate::data::runfile::{ReadOptions, RunFile, SkippedRow};
 use crate::data::source::{ModelSource, RunSource};
 use crate::runner::{self, ColumnMap};
 use anyhow::{Context, Result};
@@ -101,16 +101,17 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     let model = a.model.load()?;
     check_interval(&model, a.interval)?;
     let map = a.runs.column_map()?;
-    let runs = a.runs.read(map.model_columns(&model, false))?;
+    let opts = a.runs.read_options(map.model_columns(&model, false));
     let inputs = [a.model.paths(), a.runs.paths()].concat();
     crate::data::fsio::check_distinct(&inputs, &[crate::data::fsio::named("--out", &a.out)])?;
-    let (rows, missing) =
-        crate::data::fsio::write_atomic(&a.out, |w| write_predictions(a, &model, &runs, &map, w))?;
+    let (rows, missing, skipped_rows) =
+        crate::data::fsio::write_atomic(&a.out, |w| write_predictions(a, &model, &opts, &map, w))?;
+    let runs = &a.runs.data;
     if a.json {
         crate::data::fsio::print_line(
             &serde_json::json!({"out": a.out.display().to_string(), "runs": runs.len(), "rows": rows,
                 "outputs": runner::prediction_names(&model),
-                "missing_cells": missing, "skipped_rows": crate::data::source::skipped_rows(&runs)})
+                "missing_cells": missing, "skipped_rows": skipped_rows})
             .to_string(),
         )?;
     } else {
@@ -123,15 +124,17 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     Ok(())
 }
 
-/// Writes the prediction table of `runs` to `w`; returns (rows, missing cells).
+/// Writes the predictions CSV, each run streamed row by row
+/// ([`crate::stream::stream_run`]) and written as it goes: rows written,
+/// empty prediction cells, rows skipped as bad.
 fn write_predictions(
     a: &PredictArgs,
     model: &ValidModel,
-    runs: &[RunFile],
+    opts: &ReadOptions,
     map: &ColumnMap,
     w: &mut dyn Write,
-) -> Result<(usize, usize)> {
-    let several = runs.len() > 1;
+) -> Result<(usize, usize, usize)> {
+    let several = a.runs.data.len() > 1;
     let mut header: Vec<String> = Vec::new();
     if several {
         header.push("run".into());
@@ -145,69 +148,99 @@ fn write_predictions(
             header.push(format!("{o}_hi95"));
         }
     }
-    let write_err = || format!("cannot write {}", a.out.display());
-    writeln!(w, "{}", header.join(",")).with_context(write_err)?;
-    let mut rows = 0usize;
-    let mut missing = 0usize;
-    for run in runs {
-        let p = runner::predict(model, run, map)?;
-        for note in &p.notes {
-            eprintln!("note: {}: {note}", run.path.display());
-        }
-        let name = run.path.display().to_string().replace(',', "_");
-        // A row skipped as bad (--skip-bad-rows) keeps its place: an empty
-        // time and empty predictions, so the output stays row for row.
-        let blank_row = |w: &mut dyn Write| -> Result<()> {
-            let lead = if several {
-                format!("{name},")
-            } else {
-                String::new()
-            };
-            let cols = names.len()
+    writeln!(w, "{}", header.join(",")).with_context(|| write_err(a))?;
+    let (mut rows, mut missing, mut skipped) = (0, 0, 0);
+    for path in &a.runs.data {
+        let mut sink = CsvSink {
+            a,
+            name: several.then(|| path.display().to_string().replace(',', "_")),
+            blank_cells: names.len()
                 + if a.interval {
                     2 * model.outputs().len()
                 } else {
                     0
-                };
-            writeln!(w, "{lead}{}", ",".repeat(cols)).with_context(write_err)
+                },
+            n_values: names.len(),
+            w: &mut *w,
+            line: String::new(),
+            rows: 0,
+            missing: 0,
         };
-        let mut skipped = run.skipped.iter().peekable();
-        for (i, t) in run.t_s.iter().enumerate() {
-            while skipped.next_if(|s| s.before <= i).is_some() {
-                blank_row(w)?;
-                rows += 1;
-                missing += names.len();
-            }
-            let mut line = String::new();
-            if several {
-                line.push_str(&name);
-                line.push(',');
-            }
-            line.push_str(&format!("{t}"));
-            for v in &p.values {
-                let value = v.get(i).copied().flatten();
-                missing += usize::from(value.is_none());
-                line.push(',');
-                line.push_str(&cell(value));
-            }
-            if a.interval {
-                for (v, b) in p.values.iter().zip(&p.bands) {
-                    let (value, half) = (v.get(i).copied().flatten(), b.get(i).copied().flatten());
-                    let pair = value.zip(half);
-                    line.push(',');
-                    line.push_str(&cell(pair.map(|(y, h)| y - h)));
-                    line.push(',');
-                    line.push_str(&cell(pair.map(|(y, h)| y + h)));
-                }
-            }
-            writeln!(w, "{line}").with_context(write_err)?;
-            rows += 1;
-        }
-        for _ in skipped {
-            blank_row(w)?;
-            rows += 1;
-            missing += names.len();
+        let end = crate::stream::stream_run(model, path, opts, map, &mut sink)?;
+        rows += sink.rows;
+        missing += sink.missing;
+        skipped += end.skipped;
+        crate::data::source::note_skipped(path, end.skipped, end.first_skipped.as_ref());
+        for note in &end.notes {
+            eprintln!("note: {}: {note}", path.display());
         }
     }
-    Ok((rows, missing))
+    Ok((rows, missing, skipped))
+}
+
+fn write_err(a: &PredictArgs) -> String {
+    format!("cannot write {}", a.out.display())
+}
+
+/// Writes streamed rows as CSV lines.
+struct CsvSink<'a> {
+    a: &'a PredictArgs,
+    /// The run's name in the `run` column, with several runs.
+    name: Option<String>,
+    /// Cells after `t_s` (the blank row's commas).
+    blank_cells: usize,
+    /// Prediction columns (their empty cells are counted).
+    n_values: usize,
+    w: &'a mut dyn Write,
+    line: String,
+    rows: usize,
+    missing: usize,
+}
+
+impl crate::stream::RowSink for CsvSink<'_> {
+    fn begin(&mut self, _: &crate::stream::Layout<'_>) -> Result<()> {
+        Ok(())
+    }
+
+    fn row(&mut self, row: &crate::stream::PredictedRow<'_>) -> Result<()> {
+        use std::fmt::Write as _;
+        let line = &mut self.line;
+        line.clear();
+        if let Some(name) = &self.name {
+            line.push_str(name);
+            line.push(',');
+        }
+        let _ = write!(line, "{}", row.t_s);
+        for value in row.values {
+            self.missing += usize::from(value.is_none());
+            line.push(',');
+            line.push_str(&cell(*value));
+        }
+        if self.a.interval {
+            for (value, half) in row.values.iter().zip(row.bands) {
+                let pair = value.zip(*half);
+                line.push(',');
+                line.push_str(&cell(pair.map(|(y, h)| y - h)));
+                line.push(',');
+                line.push_str(&cell(pair.map(|(y, h)| y + h)));
+            }
+        }
+        writeln!(self.w, "{line}").with_context(|| write_err(self.a))?;
+        self.rows += 1;
+        Ok(())
+    }
+
+    /// A row skipped as bad (--skip-bad-rows) keeps its place: an empty
+    /// time and empty predictions, so the output stays row for row.
+    fn skipped(&mut self, _: &SkippedRow) -> Result<()> {
+        let lead = self
+            .name
+            .as_ref()
+            .map_or(String::new(), |n| format!("{n},"));
+        writeln!(self.w, "{lead}{}", ",".repeat(self.blank_cells))
+            .with_context(|| write_err(self.a))?;
+        self.rows += 1;
+        self.missing += self.n_values;
+        Ok(())
+    }
 }

@@ -11,7 +11,7 @@
 //! A five-point model's predictions also carry the tool-tip drift from its
 //! outputs and each row's `tool_mm`, as the hub computes it.
 
-use crate::data::runfile::{resample_linear, uniform_grid, RunFile};
+use crate::data::runfile::{resample_linear, uniform_grid, RunFile, Sampling};
 use crate::fivepoint::TOOL_COLUMN;
 use anyhow::{bail, Result};
 use model_core::fivepoint::{TipMap, TIP_OUTPUTS};
@@ -106,6 +106,89 @@ fn input_columns<'r>(
 /// Outputs and band half-widths, `[output][sample]`.
 pub type Stepped = (Vec<Vec<Option<f64>>>, Vec<Vec<Option<f64>>>);
 
+/// The model stepped one row at a time from a fresh state, counting the
+/// rows it could not predict (the notes of [`step_all`]).
+pub struct RowStepper<'m> {
+    model: &'m ValidModel,
+    state: ModelState,
+    x: Vec<f64>,
+    out: [f64; MAX_OUTPUTS],
+    rows: usize,
+    missing: usize,
+    overflow: usize,
+}
+
+impl<'m> RowStepper<'m> {
+    /// A fresh state for `model` (a run starts here).
+    pub fn new(model: &'m ValidModel) -> Self {
+        RowStepper {
+            model,
+            state: ModelState::new(),
+            x: vec![0.0; model.inputs().len()],
+            out: [0.0; MAX_OUTPUTS],
+            rows: 0,
+            missing: 0,
+            overflow: 0,
+        }
+    }
+
+    /// Steps one row of raw inputs (channel order): each output's value in
+    /// `values` and, when the model carries bounds, its band half-width in
+    /// `bands`; `None` where an input is missing or the step was refused.
+    pub fn step(
+        &mut self,
+        inputs: impl IntoIterator<Item = Option<f64>>,
+        values: &mut [Option<f64>],
+        bands: &mut [Option<f64>],
+    ) {
+        self.rows += 1;
+        values.iter_mut().for_each(|v| *v = None);
+        bands.iter_mut().for_each(|b| *b = None);
+        let mut complete = true;
+        for (xi, v) in self.x.iter_mut().zip(inputs) {
+            match v {
+                Some(v) => *xi = v,
+                None => complete = false,
+            }
+        }
+        if !complete {
+            self.missing += 1;
+            return;
+        }
+        match self.model.step(&mut self.state, &self.x, &mut self.out) {
+            Ok(()) => {
+                for (slot, v) in values.iter_mut().zip(&self.out) {
+                    *slot = Some(*v);
+                }
+                // After the step: a `First` reference is captured by then.
+                let d = self.model.extrapolation(&self.state, &self.x);
+                for (k, slot) in bands.iter_mut().enumerate() {
+                    *slot = self.model.band_half_width(k, d);
+                }
+            }
+            Err(StepError::NonFiniteOutput) => self.overflow += 1,
+            // Inputs are finite (the reader rejects the rest) and sized by
+            // construction; count anything else with the overflows.
+            Err(_) => self.overflow += 1,
+        }
+    }
+
+    /// What the user should know about the rows stepped so far.
+    pub fn notes(&self, notes: &mut Vec<String>) {
+        let (missing, overflow, len) = (self.missing, self.overflow, self.rows);
+        if missing > 0 {
+            notes.push(format!(
+                "{missing} of {len} samples lack an input value: no prediction there"
+            ));
+        }
+        if overflow > 0 {
+            notes.push(format!(
+                "{overflow} samples gave a non-finite output and were held out"
+            ));
+        }
+    }
+}
+
 /// Steps the model over aligned input samples (`inputs[channel][sample]`,
 /// raw values in channel order) from a fresh state; `None` where an input
 /// is missing or the step was refused. With bounds, also each output's band.
@@ -116,60 +199,23 @@ pub fn step_all<C: AsRef<[Option<f64>]>>(
     notes: &mut Vec<String>,
 ) -> Stepped {
     let n_out = model.outputs().len();
-    let mut values = vec![vec![None; len]; n_out];
     let with_bands = model.model().bounds.is_some();
-    let mut bands = if with_bands {
-        vec![vec![None; len]; n_out]
-    } else {
-        Vec::new()
-    };
-    let mut state = ModelState::new();
-    let mut x = vec![0.0; inputs.len()];
-    let mut out = [0.0; MAX_OUTPUTS];
-    let (mut missing, mut overflow) = (0usize, 0usize);
+    let n_bands = if with_bands { n_out } else { 0 };
+    let mut values = vec![Vec::with_capacity(len); n_out];
+    let mut bands = vec![Vec::with_capacity(len); n_bands];
+    let mut stepper = RowStepper::new(model);
+    let (mut row_values, mut row_bands) = (vec![None; n_out], vec![None; n_bands]);
     for i in 0..len {
-        let mut complete = true;
-        for (xi, col) in x.iter_mut().zip(inputs) {
-            match col.as_ref().get(i).copied().flatten() {
-                Some(v) => *xi = v,
-                None => complete = false,
-            }
+        let row = inputs.iter().map(|c| c.as_ref().get(i).copied().flatten());
+        stepper.step(row, &mut row_values, &mut row_bands);
+        for (col, v) in values.iter_mut().zip(&row_values) {
+            col.push(*v);
         }
-        if !complete {
-            missing += 1;
-            continue;
-        }
-        match model.step(&mut state, &x, &mut out) {
-            Ok(()) => {
-                for (k, v) in values.iter_mut().enumerate() {
-                    if let Some(slot) = v.get_mut(i) {
-                        *slot = out.get(k).copied();
-                    }
-                }
-                // After the step: a `First` reference is captured by then.
-                let d = model.extrapolation(&state, &x);
-                for (k, b) in bands.iter_mut().enumerate() {
-                    if let Some(slot) = b.get_mut(i) {
-                        *slot = model.band_half_width(k, d);
-                    }
-                }
-            }
-            Err(StepError::NonFiniteOutput) => overflow += 1,
-            // Inputs are finite (the reader rejects the rest) and sized by
-            // construction; count anything else with the overflows.
-            Err(_) => overflow += 1,
+        for (col, b) in bands.iter_mut().zip(&row_bands) {
+            col.push(*b);
         }
     }
-    if missing > 0 {
-        notes.push(format!(
-            "{missing} of {len} samples lack an input value: no prediction there"
-        ));
-    }
-    if overflow > 0 {
-        notes.push(format!(
-            "{overflow} samples gave a non-finite output and were held out"
-        ));
-    }
+    stepper.notes(notes);
     (values, bands)
 }
 
@@ -211,20 +257,38 @@ fn tool_tip_columns(
     len: usize,
 ) -> [Vec<Option<f64>>; 3] {
     let mut cols: [Vec<Option<f64>>; 3] = Default::default();
+    let mut values = Vec::with_capacity(outputs.len());
     for row in 0..len {
-        let values: Option<Vec<f64>> = outputs
-            .iter()
-            .map(|c| c.get(row).copied().flatten())
-            .collect();
+        values.clear();
+        values.extend(outputs.iter().map(|c| c.get(row).copied().flatten()));
         let tool_mm = tool.and_then(|t| t.get(row).copied().flatten());
-        let drift = values
-            .zip(tool_mm)
-            .and_then(|(v, t)| tip.tool_tip(&v, t).ok());
-        for (k, col) in cols.iter_mut().enumerate() {
-            col.push(drift.map(|d| d[k]));
+        let drift = tool_tip_row(tip, &values, tool_mm);
+        for (col, d) in cols.iter_mut().zip(drift) {
+            col.push(d);
         }
     }
     cols
+}
+
+/// One row's tip drift `dx_um`, `dy_um`, `dz_um` from its outputs and tool
+/// length (`None` where either is missing or the tip is refused).
+pub fn tool_tip_row(
+    tip: &TipMap,
+    outputs: &[Option<f64>],
+    tool_mm: Option<f64>,
+) -> [Option<f64>; 3] {
+    let values: Option<Vec<f64>> = outputs.iter().copied().collect();
+    let drift = values
+        .zip(tool_mm)
+        .and_then(|(v, t)| tip.tool_tip(&v, t).ok());
+    [0, 1, 2].map(|k| drift.map(|d| d[k]))
+}
+
+/// Whether a dynamic model of step `dt` runs on a run's own rows (else its
+/// inputs are resampled to the model's grid).
+pub fn on_model_grid(sampling: &Sampling, dt: f64) -> bool {
+    let median = sampling.dt_median_s.unwrap_or(dt);
+    sampling.n < 2 || (sampling.is_uniform && (median - dt).abs() <= 1e-6 * dt.max(1e-9))
 }
 
 /// Runs `model` over one run file: its own outputs only.
@@ -243,8 +307,7 @@ fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result
     }
     let sampling = run.sampling();
     let median = sampling.dt_median_s.unwrap_or(dt);
-    let on_grid =
-        run.len() < 2 || (sampling.is_uniform && (median - dt).abs() <= 1e-6 * dt.max(1e-9));
+    let on_grid = on_model_grid(&sampling, dt);
     let grid: Vec<f64> = if on_grid {
         run.t_s.clone()
     } else {

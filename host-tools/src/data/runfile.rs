@@ -11,6 +11,10 @@
 //! running on a real machine. Callers that prefer to carry on over damaged
 //! rows can ask for them to be skipped; skipped rows are recorded, never lost.
 //!
+//! [`RowStream`] is the same reader row by row, in memory bounded by a row
+//! whatever the file's length ([`RunFile::read`] is it collected into
+//! columns); [`SamplingTally`] gives a streamed run's [`Sampling`].
+//!
 //! Besides the reader, this module holds the two helpers every consumer of a
 //! run file needs to put runs on a common time base: [`uniform_grid`] and
 //! [`resample_linear`].
@@ -157,6 +161,76 @@ impl Sampling {
             dt_median_s: median,
             dt_min_s: steps.iter().copied().reduce(f64::min),
             dt_max_s: steps.iter().copied().reduce(f64::max),
+            is_uniform,
+        }
+    }
+}
+
+/// [`Sampling`] of a run seen one time at a time (a [`RowStream`]), equal
+/// to [`Sampling::of`] on all the times: the steps are kept as counts per
+/// distinct value, so memory grows with the number of distinct steps (a
+/// few for a logger's fixed period), not with the run's length.
+#[derive(Debug, Clone, Default)]
+pub struct SamplingTally {
+    n: usize,
+    first: Option<f64>,
+    last: Option<f64>,
+    /// Steps by their bits (positive finite f64s sort as their bits do).
+    steps: std::collections::BTreeMap<u64, usize>,
+}
+
+impl SamplingTally {
+    /// Adds the next time (after the previous one, as in a run).
+    pub fn push(&mut self, t: f64) {
+        if let Some(last) = self.last {
+            *self.steps.entry((t - last).to_bits()).or_insert(0) += 1;
+        }
+        self.first.get_or_insert(t);
+        self.last = Some(t);
+        self.n += 1;
+    }
+
+    /// The first and last times, if any.
+    pub fn span(&self) -> Option<(f64, f64)> {
+        self.first.zip(self.last)
+    }
+
+    /// The `k`-th smallest step (0-based).
+    fn kth(&self, k: usize) -> Option<f64> {
+        let mut seen = 0;
+        for (&bits, &count) in &self.steps {
+            seen += count;
+            if k < seen {
+                return Some(f64::from_bits(bits));
+            }
+        }
+        None
+    }
+
+    /// The summary [`Sampling::of`] gives for the times pushed.
+    pub fn sampling(&self) -> Sampling {
+        let len = self.n.saturating_sub(1);
+        let mid = len / 2;
+        let median = if len % 2 == 1 {
+            self.kth(mid)
+        } else {
+            match (mid.checked_sub(1).and_then(|i| self.kth(i)), self.kth(mid)) {
+                (Some(a), Some(b)) => Some(a + (b - a) / 2.0),
+                _ => None,
+            }
+        };
+        let min = self.steps.keys().next().map(|&b| f64::from_bits(b));
+        let max = self.steps.keys().next_back().map(|&b| f64::from_bits(b));
+        // |d - m| <= tol holds on an interval of d: the extremes decide.
+        let is_uniform = median.is_some_and(|m| {
+            let tol = Sampling::REL_TOL * m.abs() + Sampling::ABS_TOL_S;
+            [min, max].iter().flatten().all(|d| (d - m).abs() <= tol)
+        });
+        Sampling {
+            n: self.n,
+            dt_median_s: median,
+            dt_min_s: min,
+            dt_max_s: max,
             is_uniform,
         }
     }
@@ -336,6 +410,7 @@ impl RunFile {
         Sampling::of(&self.t_s)
     }
 
+    /// The whole-run reader: a [`RowStream`] collected into columns.
     fn parse<R: io::Read>(
         file: String,
         path: PathBuf,
@@ -343,6 +418,86 @@ impl RunFile {
         opts: &ReadOptions,
         size_hint: Option<u64>,
     ) -> Result<RunFile, RunFileError> {
+        let mut stream = RowStream::start(file, reader, opts)?;
+        let mut t_s = Vec::new();
+        let mut values = vec![Vec::new(); stream.columns().len()];
+        let mut skipped = Vec::new();
+        while let Some(item) = stream.next_item()? {
+            match item {
+                StreamItem::Row(t) => {
+                    t_s.push(t);
+                    stream.push_row_into(&mut values);
+                    if t_s.len() == SIZE_SAMPLE_ROWS {
+                        reserve_for(
+                            size_hint,
+                            stream.offset(),
+                            &mut t_s,
+                            &mut values,
+                            &stream.read,
+                        );
+                    }
+                }
+                StreamItem::Skipped(s) => skipped.push(s),
+            }
+        }
+        stream.finish(skipped.first().map(|s| &s.reason))?;
+        let RowStream { header, read, .. } = stream;
+        Ok(RunFile {
+            path,
+            columns: header.columns,
+            t_s,
+            values,
+            skipped,
+            read,
+        })
+    }
+}
+
+/// One data row of a [`RowStream`]: a kept row (its time; its cells are
+/// [`RowStream::row`]) or a row skipped under [`ReadOptions::skip_bad_rows`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum StreamItem {
+    /// A good row at this time.
+    Row(f64),
+    /// A bad row left out; `before` counts the good rows read before it.
+    Skipped(SkippedRow),
+}
+
+/// A run file read row by row in bounded memory: the same header rules,
+/// row checks (strictly increasing `t_s`, field counts, numbers) and
+/// `file:line:column` errors as [`RunFile::read`], which is this stream
+/// collected into columns. Only the columns of [`ReadOptions::only`] are
+/// parsed; memory is one row, whatever the file's length.
+pub struct RowStream<R> {
+    file: String,
+    rdr: csv::Reader<LineStarts<R>>,
+    record: csv::ByteRecord,
+    header: Header,
+    /// `read[i]`: whether data column `i` is parsed.
+    read: Vec<bool>,
+    max_rows: usize,
+    skip_bad_rows: bool,
+    /// The last kept row's cells, in column order (`None`: empty or unread).
+    row: Vec<Option<f64>>,
+    last_t: Option<f64>,
+    kept: usize,
+    skipped: usize,
+}
+
+impl RowStream<File> {
+    /// Open the run file at `path` (errors name it as given).
+    pub fn open(path: &Path, opts: &ReadOptions) -> Result<Self, RunFileError> {
+        let file = path.display().to_string();
+        match File::open(path) {
+            Ok(reader) => Self::start(file, reader, opts),
+            Err(source) => Err(RunFileError::Io { file, source }),
+        }
+    }
+}
+
+impl<R: io::Read> RowStream<R> {
+    /// Read and check the header of `reader`; `file` names it in errors.
+    pub fn start(file: String, reader: R, opts: &ReadOptions) -> Result<Self, RunFileError> {
         // No header handling, no field-count check and no trimming by csv:
         // all three are done here so that they give this module's messages
         // and so that a wrong field count is a skippable row error.
@@ -351,7 +506,6 @@ impl RunFile {
             .flexible(true)
             .from_reader(LineStarts::new(reader));
         let mut record = csv::ByteRecord::new();
-
         if !next_record(&mut rdr, &mut record, &file)? {
             return Err(RunFileError::EmptyFile { file });
         }
@@ -364,81 +518,143 @@ impl RunFile {
             });
         }
         let max_rows = MAX_ROWS.min(MAX_CELLS / (header.columns.len() + 1));
-
         let read: Vec<bool> = header
             .columns
             .iter()
             .map(|c| opts.only.as_ref().is_none_or(|only| only.contains(c)))
             .collect();
-        let mut t_s = Vec::new();
-        let mut values = vec![Vec::new(); header.columns.len()];
-        let mut row = Vec::with_capacity(header.columns.len());
-        let mut skipped = Vec::new();
-        while next_record(&mut rdr, &mut record, &file)? {
-            // Asked for every row, not only bad ones, so that `LineStarts`
-            // can drop what is behind it.
-            let line = line_of(&mut rdr, &record);
-            if t_s.len() + skipped.len() >= max_rows {
-                return Err(RunFileError::TooLarge {
-                    file,
-                    line,
-                    what: format!(
-                        "more than {max_rows} data rows of {} columns",
-                        header.columns.len() + 1
-                    ),
-                });
-            }
-            match header.parse_row(&record, t_s.last().copied(), &read, &mut row) {
-                Ok(t) => {
-                    t_s.push(t);
-                    for ((column, value), _) in
-                        values.iter_mut().zip(&row).zip(&read).filter(|(_, r)| **r)
-                    {
-                        column.push(*value);
-                    }
-                    if t_s.len() == SIZE_SAMPLE_ROWS {
-                        reserve_for(
-                            size_hint,
-                            rdr.get_ref().offset,
-                            &mut t_s,
-                            &mut values,
-                            &read,
-                        );
-                    }
-                }
-                Err(kind) => {
-                    let error = RowError {
-                        file: file.clone(),
-                        line,
-                        kind,
-                    };
-                    if !opts.skip_bad_rows {
-                        return Err(RunFileError::Row(error));
-                    }
-                    skipped.push(SkippedRow {
-                        line,
-                        before: t_s.len(),
-                        reason: error,
-                    });
-                }
-            }
-        }
-
-        if t_s.is_empty() {
-            return Err(RunFileError::NoDataRows {
-                file,
-                skipped: skipped.len(),
-                first_skipped: skipped.into_iter().next().map(|s| Box::new(s.reason)),
-            });
-        }
-        Ok(RunFile {
-            path,
-            columns: header.columns,
-            t_s,
-            values,
-            skipped,
+        Ok(RowStream {
+            file,
+            rdr,
+            record,
+            row: Vec::with_capacity(header.columns.len()),
+            header,
             read,
+            max_rows,
+            skip_bad_rows: opts.skip_bad_rows,
+            last_t: None,
+            kept: 0,
+            skipped: 0,
         })
+    }
+
+    /// The next data row, `None` at the end of the file. A bad row is an
+    /// error, or, with [`ReadOptions::skip_bad_rows`], a
+    /// [`StreamItem::Skipped`].
+    pub fn next_item(&mut self) -> Result<Option<StreamItem>, RunFileError> {
+        if !next_record(&mut self.rdr, &mut self.record, &self.file)? {
+            return Ok(None);
+        }
+        // Asked for every row, not only bad ones, so that `LineStarts`
+        // can drop what is behind it.
+        let line = line_of(&mut self.rdr, &self.record);
+        self.check_row_limit(line)?;
+        match self
+            .header
+            .parse_row(&self.record, self.last_t, &self.read, &mut self.row)
+        {
+            Ok(t) => {
+                self.last_t = Some(t);
+                self.kept += 1;
+                Ok(Some(StreamItem::Row(t)))
+            }
+            Err(kind) => {
+                let reason = RowError {
+                    file: self.file.clone(),
+                    line,
+                    kind,
+                };
+                if !self.skip_bad_rows {
+                    return Err(RunFileError::Row(reason));
+                }
+                self.skipped += 1;
+                Ok(Some(StreamItem::Skipped(SkippedRow {
+                    line,
+                    before: self.kept,
+                    reason,
+                })))
+            }
+        }
+    }
+
+    fn check_row_limit(&self, line: u64) -> Result<(), RunFileError> {
+        if self.kept + self.skipped < self.max_rows {
+            return Ok(());
+        }
+        Err(RunFileError::TooLarge {
+            file: self.file.clone(),
+            line,
+            what: format!(
+                "more than {} data rows of {} columns",
+                self.max_rows,
+                self.header.columns.len() + 1
+            ),
+        })
+    }
+
+    /// Bytes read so far (header included).
+    fn offset(&self) -> u64 {
+        self.rdr.get_ref().offset
+    }
+
+    /// Appends the last row's read cells to their columns.
+    fn push_row_into(&self, values: &mut [Vec<Option<f64>>]) {
+        for ((column, value), _) in values
+            .iter_mut()
+            .zip(&self.row)
+            .zip(&self.read)
+            .filter(|(_, r)| **r)
+        {
+            column.push(*value);
+        }
+    }
+
+    /// After the last item: the error [`RunFile::read`] gives for a file
+    /// without a good data row (`first_skipped`: the first skipped row's
+    /// error, if the caller kept it).
+    pub fn finish(&self, first_skipped: Option<&RowError>) -> Result<(), RunFileError> {
+        if self.kept > 0 {
+            return Ok(());
+        }
+        Err(RunFileError::NoDataRows {
+            file: self.file.clone(),
+            skipped: self.skipped,
+            first_skipped: first_skipped.map(|e| Box::new(e.clone())),
+        })
+    }
+}
+
+impl<R> RowStream<R> {
+    /// The file name as given, for messages.
+    pub fn file(&self) -> &str {
+        &self.file
+    }
+
+    /// Header names other than `t_s`, in file order.
+    pub fn columns(&self) -> &[String] {
+        &self.header.columns
+    }
+
+    /// Index of the parsed column `name` in [`RowStream::row`]; `None` if
+    /// the file has no such column or it is not read.
+    pub fn index_of(&self, name: &str) -> Option<usize> {
+        let i = self.header.columns.iter().position(|c| c == name)?;
+        self.read.get(i).copied().unwrap_or(false).then_some(i)
+    }
+
+    /// The cells of the last [`StreamItem::Row`], in column order.
+    pub fn row(&self) -> &[Option<f64>] {
+        &self.row
+    }
+
+    /// Good rows so far.
+    pub fn rows(&self) -> usize {
+        self.kept
+    }
+
+    /// Rows skipped so far.
+    pub fn skipped(&self) -> usize {
+        self.skipped
     }
 }
 
@@ -1237,6 +1453,13 @@ pub fn resample_linear(t: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option
 /// hair after its last sample (where [`resample_linear`] would give `None`).
 /// `t_end == t0` gives the single point `t0`.
 pub fn uniform_grid(t0: f64, t_end: f64, dt: f64) -> Result<Vec<f64>, GridError> {
+    let n = uniform_grid_len(t0, t_end, dt)?;
+    Ok((0..n).map(|k| (t0 + k as f64 * dt).min(t_end)).collect())
+}
+
+/// The number of points of [`uniform_grid`]`(t0, t_end, dt)` (same checks),
+/// for callers that compute point `k` as `(t0 + k dt).min(t_end)` as they go.
+pub fn uniform_grid_len(t0: f64, t_end: f64, dt: f64) -> Result<usize, GridError> {
     if !(t0.is_finite() && t_end.is_finite()) {
         return Err(GridError::NotFinite { t0, t_end });
     }
@@ -1258,8 +1481,7 @@ pub fn uniform_grid(t0: f64, t_end: f64, dt: f64) -> Result<Vec<f64>, GridError>
         return Err(GridError::StepTooSmall { t0, t_end, dt });
     }
     // In range 0..MAX_GRID_POINTS by the checks above, so the cast is exact.
-    let n = last_k as usize + 1;
-    Ok((0..n).map(|k| (t0 + k as f64 * dt).min(t_end)).collect())
+    Ok(last_k as usize + 1)
 }
 
 /// Why [`uniform_grid`] refused to build a grid. These are caller mistakes
@@ -2013,6 +2235,61 @@ mod tests {
 
     /// The real recording shipped with the project (`shared/` sits beside the
     /// repository, in development and in CI alike).
+    #[test]
+    fn sampling_tally_agrees_with_sampling_of() {
+        let cases: [&[f64]; 6] = [
+            &[],
+            &[3.0],
+            &[0.0, 1.0, 2.0, 3.0],
+            &[0.0, 15.0, 45.0, 60.0, 75.0],
+            &[0.0, 0.1, 0.2, 0.30000000000000004, 0.4, 0.5],
+            &[1.0, 1.5, 3.5, 3.6, 10.0, 10.5],
+        ];
+        for t in cases {
+            let mut tally = SamplingTally::default();
+            t.iter().for_each(|&x| tally.push(x));
+            assert_eq!(tally.sampling(), Sampling::of(t), "{t:?}");
+        }
+    }
+
+    #[test]
+    fn row_stream_gives_the_rows_and_errors_of_the_reader() {
+        let csv = "t_s,a,b\n0,1,x\n1,,2\n1,3,4\n2,5,6\n";
+        let opts = ReadOptions {
+            skip_bad_rows: true,
+            only: Some(vec!["a".into()]),
+        };
+        let mut s = RowStream::start("r.csv".into(), csv.as_bytes(), &opts).unwrap();
+        let a = s.index_of("a").unwrap();
+        assert_eq!(s.index_of("b"), None);
+        let mut got = Vec::new();
+        while let Some(item) = s.next_item().unwrap() {
+            match item {
+                StreamItem::Row(t) => got.push(format!("{t}:{:?}", s.row()[a])),
+                StreamItem::Skipped(r) => got.push(format!("skip {} {}", r.before, r.reason)),
+            }
+        }
+        assert_eq!(
+            got,
+            [
+                "0:Some(1.0)",
+                "1:None",
+                "skip 2 r.csv:4:1 (t_s): time 1 is not after the previous row's time 1",
+                "2:Some(5.0)"
+            ]
+        );
+        let strict = ReadOptions::default();
+        let mut s = RowStream::start("run.csv".into(), csv.as_bytes(), &strict).unwrap();
+        let e = loop {
+            match s.next_item() {
+                Err(e) => break e.to_string(),
+                Ok(None) => panic!("no error"),
+                Ok(Some(_)) => {}
+            }
+        };
+        assert_eq!(e, error(csv));
+    }
+
     #[test]
     fn reads_the_real_fl_thermal_run() {
         let path =

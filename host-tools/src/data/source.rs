@@ -2,7 +2,7 @@
 //! every subcommand that runs a model (`predict`, `eval`, and later `replay`).
 
 use crate::data::fsio::{named, Named};
-use crate::data::runfile::{ReadOptions, RunFile};
+use crate::data::runfile::{ReadOptions, RowError, RunFile};
 use crate::runner::ColumnMap;
 use anyhow::Result;
 use clap::Args;
@@ -65,11 +65,15 @@ impl RunSource {
     /// Reads every run, parsing only the columns in `needed` (others are kept
     /// by name and ignored), and reports skipped rows on stderr.
     pub fn read(&self, needed: Vec<String>) -> Result<Vec<RunFile>> {
-        let opts = ReadOptions {
+        read_runs(&self.data, &self.read_options(needed))
+    }
+
+    /// The reader's options for these runs, reading only the `needed` columns.
+    pub fn read_options(&self, needed: Vec<String>) -> ReadOptions {
+        ReadOptions {
             skip_bad_rows: self.skip_bad_rows,
             only: Some(needed),
-        };
-        read_runs(&self.data, &opts)
+        }
     }
 }
 
@@ -80,17 +84,21 @@ pub fn read_runs(paths: &[PathBuf], opts: &ReadOptions) -> Result<Vec<RunFile>> 
         .iter()
         .map(|p| {
             let run = RunFile::read(p, opts)?;
-            if let Some(first) = run.skipped.first() {
-                eprintln!(
-                    "note: {}: skipped {} bad rows (--skip-bad-rows); first: {}",
-                    p.display(),
-                    run.skipped.len(),
-                    first.reason
-                );
-            }
+            let first = run.skipped.first().map(|s| &s.reason);
+            note_skipped(p, run.skipped.len(), first);
             Ok(run)
         })
         .collect()
+}
+
+/// The note on the rows of `path` skipped as bad (none if `first` is `None`).
+pub fn note_skipped(path: &std::path::Path, skipped: usize, first: Option<&RowError>) {
+    if let Some(first) = first {
+        eprintln!(
+            "note: {}: skipped {skipped} bad rows (--skip-bad-rows); first: {first}",
+            path.display()
+        );
+    }
 }
 
 /// Rows left out of `runs` under `--skip-bad-rows`, for the `skipped_rows`
