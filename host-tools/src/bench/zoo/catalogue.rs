@@ -786,7 +786,7 @@ mod tests {
         q[7] = 100.0;
         let x = p.net.steady_state(&q, 0.0, 0.0).unwrap();
         assert!(x[4] < 0.05 * x[7] && x[4] > 0.0, "{x:?}");
-        let side = |i: usize| usize::from(i >= 6 && i <= 7);
+        let side = |i: usize| usize::from((6..=7).contains(&i));
         let crossing: Vec<_> = p
             .net
             .links
