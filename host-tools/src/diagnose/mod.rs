@@ -19,6 +19,7 @@ pub mod align;
 pub mod baseline;
 pub mod candidates;
 pub mod deploy;
+pub mod gates;
 pub mod physical;
 pub mod regime;
 pub mod report;
@@ -261,11 +262,18 @@ pub fn diagnose_runs(
     let (gap, snr) = gap_table(&al);
     let first = main_channel(&al, &snr);
     let looks = judge(&al, first, &snr, n_fit)?;
-    let look = decisive(&looks);
+    let decided = decisive(&looks);
+    let any_gap = looks.iter().any(|l| snr[l.channel] >= MIN_GAP_SNR);
+    let sim_cycles = gates::sim_coolant_cycles(sim, &al.t_s);
+    let gated = gates::gate(&al, &looks, &decided.verdict, any_gap, sim_cycles);
+    let look = gated.as_ref().map_or(decided, |g| &looks[g.look]);
     let main = look.channel;
     let (where_, bands) = where_and_bands(&al, main);
     let p = Problem::new(&al, &al.channels[main], n_fit);
-    let (verdict, second) = with_pair(&p, look, snr[main] >= MIN_GAP_SNR);
+    let (verdict, second) = match &gated {
+        Some(g) => (g.verdict.clone(), Value::Null),
+        None => with_pair(&p, look, snr[main] >= MIN_GAP_SNR),
+    };
     let deployment = deploy::deployment(&al, main, n_fit, &verdict);
     let mut v = json!({
         "holdout_from_t_s": round(holdout),
@@ -278,6 +286,7 @@ pub fn diagnose_runs(
         "bands": bands,
         "second": second,
         "looks": looks.iter().map(|l| l.to_json(&al)).collect::<Vec<_>>(),
+        "gate": gated.as_ref().map_or(Value::Null, |g| json!(g.reason)),
         "deployment": deployment,
         "rule": rule_text(),
     });
@@ -330,8 +339,17 @@ fn rule_text() -> String {
          leaves (coolant: in the chiller band), or <= {STRONG_RATIO} x at p <= {STRONG_ALPHA}; the verdict is the channel's whose winner leaves the smallest share \
          of its baseline; else none. If the winner leaves > {MIN_GAP_SNR} noise sigmas and a joint two-effect model \
          leaves <= {PAIR_MAX_RATIO} x its held-out rms, significantly, the pair's more important member is the \
-         verdict and the other is `second`",
-        FALLBACK_RULE.alpha
+         verdict and the other is `second`. Physical gates (JSON `gate`): a logged coolant_c that cycles in the \
+         chiller band (>= {} x its noise and >= {} K rms) makes coolant the verdict of a `none` if its candidate is \
+         significant somewhere leaving < {} x the baseline (unless the sim's coolant_c cycles too); one that does not cycle vetoes coolant; a `none` \
+         becomes motor_loss where motor_loss is a look's best significant candidate leaving <= {} x the baseline \
+         and is significant on another look leaving <= {} x",
+        FALLBACK_RULE.alpha,
+        gates::COOLANT_CYCLE_SNR,
+        gates::MIN_COOLANT_CYCLE_K,
+        gates::COOLANT_RATIO,
+        gates::MOTOR_RATIO,
+        gates::MOTOR_CORROBORATE
     )
 }
 
