@@ -128,8 +128,8 @@ pub fn fit_rows_penalised(
 /// [`fit_rows_penalised`] streamed: the rows go through a blocked QR
 /// ([`Tsqr`]) straight from the borrowed columns, so no `n x k` matrix is
 /// built (memory for one block, one pass per fit), and the target is
-/// `y - fixed` (`fixed`: a part of the prediction with its gain fixed at
-/// 1) without a copy. The prediction returned includes `fixed`, and
+/// `y - fixed` (`fixed`: a part of the prediction whose gain is fixed at
+/// one) without a copy. The prediction returned includes `fixed`, and
 /// `sse_fit` is of `y` minus it on `rows`. The same scaling, rank
 /// tolerance and penalty rows as [`fit_rows_penalised`]; the solutions
 /// agree to rounding (the R factor of a blocked QR equals the one of a
