@@ -203,8 +203,7 @@ impl Design {
     }
 
     /// Fits each variant of the grid (walked once) and keeps the best on
-    /// the fit part: the first of those within rounding ([`TIE_REL`]) of
-    /// the smallest error.
+    /// the fit part (the first of equal ones).
     fn best(
         &self,
         vars: impl IntoIterator<Item = Variant>,
@@ -237,16 +236,10 @@ impl Design {
     }
 }
 
-/// Fit-part errors closer than this (relative) are a tie: grid points
-/// whose regressors span the same space (two knees of the low-speed weight
-/// with one logged speed between them make proportional columns) fit
-/// equally well, and which of them rounding favours depends on the order
-/// of the solver's operations; the first in the grid is kept.
-const TIE_REL: f64 = 1e-9;
-
-/// Whether fit-part error `a` is smaller than `b` beyond a tie.
+/// Whether fit-part error `a` is smaller than `b` (the first of equal
+/// errors is kept, as `min_by` and a stable sort keep it).
 fn below(a: f64, b: f64) -> bool {
-    a < b - TIE_REL * b.abs()
+    a.total_cmp(&b).is_lt()
 }
 
 /// Scores a fit on the hold-out rows of `p`'s channel (p-values unset).
@@ -439,8 +432,8 @@ const PAIR_GRID: usize = 8;
 /// (sign rule applied), best first.
 fn top_variants(d: &Design, vars: Vars, y: &[f64], rows: &Rows) -> Vec<Variant> {
     // The `PAIR_GRID` best so far, in the order a stable sort of the whole
-    // grid would give them (ties within rounding: the earlier variant
-    // first), so only that many grid points are held.
+    // grid would give them (ties: the earlier variant first), so only
+    // that many grid points are held.
     let mut top: Vec<(f64, Variant)> = Vec::with_capacity(PAIR_GRID + 1);
     for v in vars {
         let Some(f) = d.fit(&v, y, rows) else {
