@@ -2,7 +2,7 @@
 """Scale benchmark: thermcomp on runs of 10^4..10^6 rows beside pandas/numpy.
 
     scripts/bench_scale.py [path/to/thermcomp] [--sizes 10000,100000,1000000]
-                           [--repeats 3] [--no-diagnose] [--write]
+                           [--repeats 3] [--no-diagnose] [--only JOB,...] [--write]
 
 Makes synthetic run files shaped like FL_THERMAL (t_s, speed_rpm, 16
 temperatures, five displacements; 6 significant digits; 1 s steps), then
@@ -17,7 +17,8 @@ turn (A B A B ...), and prints the medians and the ratio of medians:
   fit mlr   thermcomp fit --model mlr, 16 inputs                  | pandas + numpy lstsq
   diagnose  thermcomp diagnose of a sim/real pair                 | (none)
 
-`--write` replaces the "Scale" section of docs/benchmarks.md with the table.
+`--only diagnose` (or any comma-separated jobs of the first column) runs
+only those. `--write` replaces the "Scale" section of docs/benchmarks.md with the table.
 Run it on an idle machine; OPENBLAS_NUM_THREADS=1 is set for numpy (a 2-core
 machine under load is slower with more BLAS threads), and the table says so.
 Not run by CI (minutes, and timings need a quiet machine).
@@ -127,12 +128,14 @@ def spec(path, inputs):
 
 def main():
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    for flag in ("--sizes", "--repeats"):
+    for flag in ("--sizes", "--repeats", "--only"):
         if flag in sys.argv:
             args.remove(sys.argv[sys.argv.index(flag) + 1])
     exe = str(Path(args[0]).resolve()) if args else str(ROOT / "target" / "release" / "thermcomp")
     sizes = [int(s) for s in arg("--sizes", "10000,100000,1000000").split(",")]
     repeats = int(arg("--repeats", "3"))
+    only = arg("--only", None)
+    only = set(only.split(",")) if only else None
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -162,6 +165,8 @@ def main():
             ]
             if "--no-diagnose" not in sys.argv:
                 jobs.append(("diagnose", [exe, "diagnose", "--sim", run, "--real", real, "--json"], None))
+            if only:
+                jobs = [j for j in jobs if j[0] in only]
             for name, a, b in jobs:
                 a = [str(x) for x in a]
                 b = [str(x) for x in b] if b else None

@@ -30,6 +30,10 @@
 
 use super::align::{Aligned, Channel};
 use crate::num::lsq;
+use std::sync::Arc;
+
+/// A regressor column, shared (not copied) between the designs that use it.
+pub type Col = Arc<Vec<f64>>;
 
 /// Time constants tried for a channel's own response, s (5 min .. 6 h: the
 /// twin's fastest sensor sites to its structure's 1.9 h and beyond).
@@ -53,7 +57,7 @@ pub const PRIOR_STRENGTH: f64 = 0.3;
 #[derive(Debug, Clone)]
 pub struct Baseline {
     /// Regressors, every row.
-    pub cols: Vec<Vec<f64>>,
+    pub cols: Vec<Col>,
     /// Name of each regressor's coefficient (for `params`).
     pub names: Vec<String>,
     /// Prior standard deviation of each coefficient (`None`: free).
@@ -63,6 +67,11 @@ pub struct Baseline {
 }
 
 impl Baseline {
+    /// The regressors as slices (for the least-squares solvers).
+    pub fn slices(&self) -> Vec<&[f64]> {
+        self.cols.iter().map(|c| c.as_slice()).collect()
+    }
+
     /// Ridge penalties of the baseline's columns for explaining `y` on
     /// `rows`: `PRIOR_STRENGTH n var(y) / sd^2` (0 for free ones).
     pub fn penalties(&self, y: &[f64], rows: std::ops::Range<usize>) -> Vec<f64> {
@@ -103,10 +112,11 @@ pub fn heat_shapes(al: &Aligned) -> [Vec<f64>; 2] {
 pub fn channel_tau_s(t_s: &[f64], sim: &[f64], shapes: &[Vec<f64>; 2]) -> f64 {
     let n = sim.len();
     let mut best = (f64::INFINITY, CHANNEL_TAUS_S[4]);
+    let one = vec![1.0; n];
     for tau in CHANNEL_TAUS_S {
-        let mut cols = vec![vec![1.0; n]];
-        cols.extend(shapes.iter().map(|q| lsq::lowpass(t_s, q, tau, 0.0)));
-        if let Some(f) = lsq::fit(&cols, sim, n) {
+        let [a, b] = shapes.each_ref().map(|q| lsq::lowpass(t_s, q, tau, 0.0));
+        let cols = [&one[..], &a, &b];
+        if let Some(f) = lsq::fit_streamed(&cols, sim, None, 0..n, &[]) {
             if f.sse_fit < best.0 {
                 best = (f.sse_fit, tau);
             }
@@ -117,7 +127,7 @@ pub fn channel_tau_s(t_s: &[f64], sim: &[f64], shapes: &[Vec<f64>; 2]) -> f64 {
 
 /// A load shape: its response, its coefficient's name, and whether it is an
 /// input of its own (not a function of speed).
-type Load = (Vec<f64>, String, bool);
+type Load = (Col, String, bool);
 
 /// Knee of the low-speed loss shape in the baseline, share of the top
 /// speed (the middle of the motor-loss candidate's knees).
@@ -133,7 +143,7 @@ fn load_shapes(al: &Aligned, tau_c: f64, unit: &str) -> Vec<Load> {
     if let Some(pw) = al.power_kw.as_deref() {
         let cut = super::regime::cutting_excess_kw(&al.speed_rpm, pw);
         out.push((
-            lsq::lowpass(t, &cut, tau_c, 0.0),
+            Col::new(lsq::lowpass(t, &cut, tau_c, 0.0)),
             format!("cut_gain_{unit}_per_kw"),
             true,
         ));
@@ -141,7 +151,7 @@ fn load_shapes(al: &Aligned, tau_c: f64, unit: &str) -> Vec<Load> {
     let top = al.speed_rpm.iter().fold(0.0f64, |a, &n| a.max(n.abs()));
     let w = super::variants::low_speed_weight(al, BASE_KNEE_SHARE * top);
     out.push((
-        lsq::lowpass(t, &w, tau_c, 0.0),
+        Col::new(lsq::lowpass(t, &w, tau_c, 0.0)),
         format!("low_speed_gain_{unit}"),
         false,
     ));
@@ -165,23 +175,25 @@ fn load_shapes(al: &Aligned, tau_c: f64, unit: &str) -> Vec<Load> {
 /// function of speed by construction, always nearly spanned by the speed
 /// shapes, and its gain is what the twin says (widening its prior took up
 /// the motor-loss effects: 37 -> 27 of 50 found on the development seed).
-fn load_priors(sim: &[f64], speed: &[Vec<f64>; 2], loads: &[Load], swing: f64) -> Vec<f64> {
+fn load_priors(sim: &[f64], speed: &[Col; 2], loads: &[Load], swing: f64) -> Vec<f64> {
     let n = sim.len();
-    let mut cols = vec![vec![1.0; n], speed[0].clone(), speed[1].clone()];
-    cols.extend(loads.iter().map(|l| l.0.clone()));
-    let coef = lsq::fit(&cols, sim, n).map_or_else(|| vec![0.0; cols.len()], |f| f.coef);
+    let one = vec![1.0; n];
+    let mut cols: Vec<&[f64]> = vec![&one, &speed[0], &speed[1]];
+    cols.extend(loads.iter().map(|l| l.0.as_slice()));
+    let coef = lsq::fit_streamed(&cols, sim, None, 0..n, &[])
+        .map_or_else(|| vec![0.0; cols.len()], |f| f.coef);
     (3..cols.len())
         .map(|j| {
-            let others: Vec<Vec<f64>> = (0..cols.len())
+            let others: Vec<&[f64]> = (0..cols.len())
                 .filter(|&i| i != j)
-                .map(|i| cols[i].clone())
+                .map(|i| cols[i])
                 .collect();
-            let sst = spread(&cols[j]).powi(2) * n as f64;
-            let r2 = lsq::fit(&others, &cols[j], n)
+            let sst = spread(cols[j]).powi(2) * n as f64;
+            let r2 = lsq::fit_streamed(&others, cols[j], None, 0..n, &[])
                 .map_or(0.0, |f| (1.0 - f.sse_fit / sst.max(1e-300)).clamp(0.0, 1.0));
             let own_input = loads[j - 3].2;
             let unidentified = if own_input {
-                r2 * swing / spread(&cols[j]).max(1e-12)
+                r2 * swing / spread(cols[j]).max(1e-12)
             } else {
                 0.0
             };
@@ -190,16 +202,26 @@ fn load_priors(sim: &[f64], speed: &[Vec<f64>; 2], loads: &[Load], swing: f64) -
         .collect()
 }
 
-/// The mismatch baseline of channel `ch` (see the module docs).
+/// The mismatch baseline of channel `ch` (see the module docs). Its time
+/// constant and load priors come from fits over the whole run and depend
+/// on the channel only: they are computed once per channel
+/// ([`super::align::Memo`]), the columns again each time (a few
+/// first-order filters).
 pub fn mismatch_baseline(al: &Aligned, ch: &Channel) -> Baseline {
     let t = &al.t_s;
     let t0 = t[0];
     let unit = ch.unit();
     let shapes = heat_shapes(al);
-    let tau_c = channel_tau_s(t, &ch.sim, &shapes);
+    let tau_c = al.memo.get_or(&format!("tau_c {}", ch.name), || {
+        vec![channel_tau_s(t, &ch.sim, &shapes)]
+    })[0];
     let lagged = lsq::lowpass(t, &ch.sim, tau_c, ch.sim[0]);
-    let tc_error: Vec<f64> = lagged.iter().zip(&ch.sim).map(|(f, s)| f - s).collect();
-    let speed = shapes.map(|q| lsq::lowpass(t, &q, tau_c, 0.0));
+    let tc_error: Vec<f64> = lagged
+        .iter()
+        .zip(ch.sim.iter())
+        .map(|(f, s)| f - s)
+        .collect();
+    let speed = shapes.map(|q| Col::new(lsq::lowpass(t, &q, tau_c, 0.0)));
     let loads = load_shapes(al, tau_c, unit);
     let swing = spread(&ch.sim);
     let span_h = ((t[t.len() - 1] - t0) / 3600.0).max(1e-9);
@@ -212,11 +234,10 @@ pub fn mismatch_baseline(al: &Aligned, ch: &Channel) -> Baseline {
         Some(per_shape(&speed[0])),
         Some(per_shape(&speed[1])),
     ];
-    prior_sd.extend(
+    let load_sd = al.memo.get_or(&format!("load priors {}", ch.name), || {
         load_priors(&ch.sim, &speed, &loads, swing)
-            .into_iter()
-            .map(Some),
-    );
+    });
+    prior_sd.extend(load_sd.into_iter().map(Some));
     let mut names = vec![
         "offset".into(),
         format!("drift_{unit}_per_h"),
@@ -228,10 +249,10 @@ pub fn mismatch_baseline(al: &Aligned, ch: &Channel) -> Baseline {
     names.extend(loads.iter().map(|l| l.1.clone()));
     let [f1, f2] = speed;
     let mut cols = vec![
-        vec![1.0; t.len()],
-        t.iter().map(|t| (t - t0) / 3600.0).collect(),
+        Col::new(vec![1.0; t.len()]),
+        Col::new(t.iter().map(|t| (t - t0) / 3600.0).collect()),
         ch.sim.clone(),
-        tc_error,
+        Col::new(tc_error),
         f1,
         f2,
     ];

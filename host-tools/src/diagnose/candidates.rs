@@ -15,7 +15,7 @@
 use super::align::{Aligned, Channel};
 use super::baseline::{self, Baseline};
 use super::signif;
-use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
+use super::variants::{high_pass, variants, Variant, Vars, CHILLER_BAND_S};
 use crate::num::lsq::{self, LinearFit};
 use serde_json::{json, Map, Value};
 
@@ -172,58 +172,74 @@ impl Design {
 
     /// The baseline fitted alone.
     fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
-        lsq::fit_rows_penalised(&self.base.cols, y, rows.clone(), &self.penalty)
+        lsq::fit_streamed(&self.base.slices(), y, None, rows.clone(), &self.penalty)
     }
 
     /// The baseline and variant `v` fitted on rows `rows`: `v`'s fixed
-    /// part (gain 1) is taken off `y` first and added back to the
-    /// prediction. Returns the fit (coefficients: baseline, then `v`'s
-    /// regressors) and the columns, or `None` if the fit fails or breaks
-    /// `v`'s sign rule.
-    fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<(LinearFit, Vec<Vec<f64>>)> {
-        let mut cols = self.base.cols.clone();
-        cols.extend(v.extra.iter().cloned());
-        let target: Vec<f64> = match &v.fixed_part {
-            Some(fp) => y.iter().zip(fp).map(|(a, b)| a - b).collect(),
-            None => y.to_vec(),
-        };
-        let mut f = lsq::fit_rows_penalised(&cols, &target, rows.clone(), &self.penalty)?;
+    /// part (gain 1) is taken off `y` and added back to the prediction.
+    /// One streamed pass over the shared columns, none copied. Returns the
+    /// fit (coefficients: baseline, then `v`'s regressors), or `None` if
+    /// the fit fails or breaks `v`'s sign rule.
+    fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+        let cols: Vec<&[f64]> = self
+            .base
+            .cols
+            .iter()
+            .chain(&v.extra)
+            .map(|c| c.as_slice())
+            .collect();
+        let f = lsq::fit_streamed(
+            &cols,
+            y,
+            v.fixed_part.as_deref(),
+            rows.clone(),
+            &self.penalty,
+        )?;
         let total: f64 = f.coef[self.len()..].iter().sum();
         if v.sign.is_some_and(|s| s * total <= 0.0) {
             return None;
         }
-        if let Some(fp) = &v.fixed_part {
-            for (q, x) in f.pred.iter_mut().zip(fp) {
-                *q += x;
-            }
-            f.sse_fit = rows.clone().map(|k| (y[k] - f.pred[k]).powi(2)).sum();
-        }
-        Some((f, cols))
+        Some(f)
     }
 
-    /// Fits each variant and keeps the best on the fit part.
+    /// Fits each variant of the grid (walked once) and keeps the best on
+    /// the fit part (the first of equal ones).
     fn best(
         &self,
-        vars: Vec<Variant>,
+        vars: impl IntoIterator<Item = Variant>,
         y: &[f64],
         rows: &Rows,
-    ) -> Option<(LinearFit, Variant, Vec<Vec<f64>>)> {
-        vars.into_iter()
-            .filter_map(|v| {
-                let (f, cols) = self.fit(&v, y, rows)?;
-                Some((f, v, cols))
-            })
-            .min_by(|a, b| a.0.sse_fit.total_cmp(&b.0.sse_fit))
+    ) -> Option<(LinearFit, Variant)> {
+        let mut best: Option<(LinearFit, Variant)> = None;
+        for v in vars {
+            let Some(f) = self.fit(&v, y, rows) else {
+                continue;
+            };
+            if best.as_ref().is_none_or(|b| below(f.sse_fit, b.0.sse_fit)) {
+                best = Some((f, v));
+            }
+        }
+        best
     }
 
     /// What variant `v` fitted as `f` adds on row `k`: its regressors
-    /// (columns `from..to` of `cols`) times their coefficients plus its
+    /// (coefficients from `from` on) times their coefficients plus its
     /// fixed part.
-    fn part(v: &Variant, f: &LinearFit, cols: &[Vec<f64>], from: usize, k: usize) -> f64 {
-        let to = from + v.extra.len();
-        let lin: f64 = (from..to).map(|j| f.coef[j] * cols[j][k]).sum();
+    fn part(v: &Variant, f: &LinearFit, from: usize, k: usize) -> f64 {
+        let lin: f64 = v
+            .extra
+            .iter()
+            .enumerate()
+            .map(|(j, c)| f.coef[from + j] * c[k])
+            .sum();
         lin + v.fixed_part.as_ref().map_or(0.0, |fp| fp[k])
     }
+}
+
+/// Whether fit-part error `a` is smaller than `b` (the first of equal
+/// errors is kept, as `min_by` and a stable sort keep it).
+fn below(a: f64, b: f64) -> bool {
+    a.total_cmp(&b).is_lt()
 }
 
 /// Scores a fit on the hold-out rows of `p`'s channel (p-values unset).
@@ -378,7 +394,7 @@ fn fit_fold(p: &Problem) -> Vec<Scored> {
     for name in NAMES {
         let (vars, model) = variants(name, p, &bf.pred);
         let s = match d.best(vars, y, &p.fit_rows()) {
-            Some((f, v, _)) => {
+            Some((f, v)) => {
                 let params = params_of(&v, &f.coef, d.len());
                 score(name, p, &f, model, params)
             }
@@ -414,13 +430,22 @@ const PAIR_GRID: usize = 8;
 
 /// The `PAIR_GRID` variants with the smallest fit-part error on their own
 /// (sign rule applied), best first.
-fn top_variants(d: &Design, vars: Vec<Variant>, y: &[f64], rows: &Rows) -> Vec<Variant> {
-    let mut scored: Vec<(f64, Variant)> = vars
-        .into_iter()
-        .filter_map(|v| Some((d.fit(&v, y, rows)?.0.sse_fit, v)))
-        .collect();
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    scored.into_iter().take(PAIR_GRID).map(|x| x.1).collect()
+fn top_variants(d: &Design, vars: Vars, y: &[f64], rows: &Rows) -> Vec<Variant> {
+    // The `PAIR_GRID` best so far, in the order a stable sort of the whole
+    // grid would give them (ties: the earlier variant first), so only
+    // that many grid points are held.
+    let mut top: Vec<(f64, Variant)> = Vec::with_capacity(PAIR_GRID + 1);
+    for v in vars {
+        let Some(f) = d.fit(&v, y, rows) else {
+            continue;
+        };
+        let at = top.partition_point(|(e, _)| !below(f.sse_fit, *e));
+        if at < PAIR_GRID {
+            top.insert(at, (f.sse_fit, v));
+            top.truncate(PAIR_GRID);
+        }
+    }
+    top.into_iter().map(|x| x.1).collect()
 }
 
 /// One candidate's grid cut for the pair search: name, variants, model.
@@ -429,7 +454,7 @@ type Grid = (&'static str, Vec<Variant>, String);
 /// `d` with `v`'s regressors appended to the baseline (free) and `v`'s
 /// fixed part returned apart.
 fn with_variant(d: &Design, v: &Variant) -> (Design, Option<Vec<f64>>) {
-    let mut e = d.clone();
+    let mut e = d.clone(); // the columns are shared, not copied
     e.penalty.extend(v.extra.iter().map(|_| 0.0));
     e.base.cols.extend(v.extra.iter().cloned());
     e.base.names.extend(v.gains.iter().cloned());
@@ -458,11 +483,11 @@ fn descend(
     let mut sel_a = None;
     for _ in 0..2 {
         let (db, fb) = with_variant(d, &sel_b);
-        let Some((_, a, _)) = db.best(va.to_vec(), &minus(y, &fb), rows) else {
+        let Some((_, a)) = db.best(va.iter().cloned(), &minus(y, &fb), rows) else {
             break;
         };
         let (da, fa) = with_variant(d, &a);
-        let Some((_, b, _)) = da.best(vb.to_vec(), &minus(y, &fa), rows) else {
+        let Some((_, b)) = da.best(vb.iter().cloned(), &minus(y, &fa), rows) else {
             break;
         };
         sel_a = Some(a);
@@ -493,7 +518,7 @@ fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<(Scored, Strin
     let y = &p.ch.resid;
     let (sel_a, sel_b) = descend(d, &ga.1, &gb.1, y, &p.fit_rows())?;
     let both = merged(&sel_a, &sel_b);
-    let (f, cols) = d.fit(&both, y, &p.fit_rows())?;
+    let f = d.fit(&both, y, &p.fit_rows())?;
     let (ka, kb) = (d.len(), d.len() + sel_a.extra.len());
     let mut params = Map::new();
     for (prefix, v, from) in [(ga.0, &sel_a, ka), (gb.0, &sel_b, kb)] {
@@ -511,7 +536,7 @@ fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<(Scored, Strin
     let without = |v: &Variant, from: usize| -> f64 {
         let left: Vec<f64> = p
             .test_rows()
-            .map(|k| y[k] - (f.pred[k] - Design::part(v, &f, &cols, from, k)))
+            .map(|k| y[k] - (f.pred[k] - Design::part(v, &f, from, k)))
             .collect();
         lsq::rms(&left)
     };
@@ -575,11 +600,11 @@ pub fn effect_part(name: &str, p: &Problem) -> Option<EffectPart> {
     let y = &p.ch.resid;
     let bf = d.fit_alone(y, &p.fit_rows())?;
     let (vars, _) = variants(name, p, &bf.pred);
-    let (f, v, cols) = d.best(vars, y, &p.fit_rows())?;
+    let (f, v) = d.best(vars, y, &p.fit_rows())?;
     let n_fit = p.fit_rows().len().max(1) as f64;
     Some(EffectPart {
         values: (0..y.len())
-            .map(|k| Design::part(&v, &f, &cols, d.len(), k))
+            .map(|k| Design::part(&v, &f, d.len(), k))
             .collect(),
         fit_rms_base: (bf.sse_fit / n_fit).sqrt(),
         fit_rms_with: (f.sse_fit / n_fit).sqrt(),

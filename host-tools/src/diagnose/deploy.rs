@@ -44,13 +44,26 @@ fn target(al: &Aligned, main: usize) -> Option<usize> {
         .or_else(|| al.channels.iter().position(Channel::is_displacement))
 }
 
-/// Trains `y ~ b0 + sum b_i x_i` on rows `0..n_fit` of the given columns;
-/// `None` if the solver refuses (too few rows, SVD failure).
-fn train(xs: &[&[f64]], y: &[f64], n_fit: usize) -> Option<(f64, Vec<f64>)> {
-    let rows: Vec<Vec<f64>> = (0..n_fit)
-        .map(|k| xs.iter().map(|x| x[k]).collect())
-        .collect();
-    linalg::least_squares(&rows, &y[..n_fit]).ok()
+/// Trains `y ~ b0 + sum b_i x_i` on rows `0..n_fit`, the inputs and the
+/// target streamed from `value(channel, row)` ([`linalg::least_squares_visit`]:
+/// the rows are not copied); `None` if the solver refuses (too few rows,
+/// SVD failure).
+fn train(
+    value: &dyn Fn(usize, usize) -> f64,
+    inputs: &[usize],
+    tgt: usize,
+    n_fit: usize,
+) -> Option<(f64, Vec<f64>)> {
+    let mut x = vec![0.0; inputs.len()];
+    linalg::least_squares_visit(inputs.len(), &mut |f| {
+        for k in 0..n_fit {
+            for (v, &i) in x.iter_mut().zip(inputs) {
+                *v = value(i, k);
+            }
+            f(&x, value(tgt, k));
+        }
+    })
+    .ok()
 }
 
 /// Scores a trained model on the real run's held-out rows: rmse and the
@@ -62,16 +75,17 @@ fn score(
     tgt: usize,
     n_fit: usize,
 ) -> Value {
-    let y = &al.channels[tgt].real;
+    let n = al.t_s.len();
     let (b0, b) = model;
-    let mut r = Vec::with_capacity(y.len() - n_fit);
+    let mut r = Vec::with_capacity(n - n_fit);
     let (mut abs_r, mut abs_y) = (0.0, 0.0);
-    for (k, yk) in y.iter().enumerate().skip(n_fit) {
+    for k in n_fit..n {
+        let yk = al.channels[tgt].real_at(k);
         let yhat = b0
             + inputs
                 .iter()
                 .zip(b)
-                .map(|(&i, w)| w * al.channels[i].real[k])
+                .map(|(&i, w)| w * al.channels[i].real_at(k))
                 .sum::<f64>();
         r.push(yk - yhat);
         abs_r += (yk - yhat).abs();
@@ -100,18 +114,15 @@ pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Val
         .iter()
         .map(|&i| al.channels[i].name.as_str())
         .collect();
-    let held_out_rms = lsq::rms(&al.channels[tgt].real[n_fit..]);
-    let col = |i: usize, f: &dyn Fn(&Channel) -> Vec<f64>| f(&al.channels[i]);
-    let fit_on = |get: &dyn Fn(&Channel) -> Vec<f64>| -> Value {
-        let xs: Vec<Vec<f64>> = inputs.iter().map(|&i| col(i, get)).collect();
-        let xr: Vec<&[f64]> = xs.iter().map(Vec::as_slice).collect();
-        match train(&xr, &col(tgt, get), n_fit) {
+    let held_out_rms = lsq::rms(&al.channels[tgt].real()[n_fit..]);
+    let fit_on = |value: &dyn Fn(usize, usize) -> f64| -> Value {
+        match train(value, &inputs, tgt, n_fit) {
             Some(m) => score(&m, al, &inputs, tgt, n_fit),
             None => json!({"error": "least squares failed"}),
         }
     };
-    let on_sim = fit_on(&|c: &Channel| c.sim.clone());
-    let on_real = fit_on(&|c: &Channel| c.real.clone());
+    let on_sim = fit_on(&|i, k| al.channels[i].sim[k]);
+    let on_real = fit_on(&|i, k| al.channels[i].real_at(k));
     let mut out = json!({
         "model": "mlr",
         "target": al.channels[tgt].name,
@@ -127,16 +138,23 @@ pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Val
             json!("verdict none: no effect to add; only the model trained on the nominal sim");
         return out;
     }
-    let plus_effect = |c: &Channel| -> Vec<f64> {
-        let p = Problem::new(al, c, n_fit);
-        match candidates::effect_part(verdict, &p) {
-            Some(e) if e.fit_rms_with <= (1.0 - MIN_FIT_SHRINK) * e.fit_rms_base => {
-                c.sim.iter().zip(&e.values).map(|(s, e)| s + e).collect()
+    // The effect's part of each channel used, where it is added (else the
+    // sim alone).
+    let effect: Vec<Option<Vec<f64>>> = (0..al.channels.len())
+        .map(|i| {
+            if i != tgt && !inputs.contains(&i) {
+                return None;
             }
-            _ => c.sim.clone(),
-        }
-    };
-    let on_eff = fit_on(&plus_effect);
+            let p = Problem::new(al, &al.channels[i], n_fit);
+            candidates::effect_part(verdict, &p)
+                .filter(|e| e.fit_rms_with <= (1.0 - MIN_FIT_SHRINK) * e.fit_rms_base)
+                .map(|e| e.values)
+        })
+        .collect();
+    let on_eff = fit_on(&|i, k| {
+        let s = al.channels[i].sim[k];
+        effect[i].as_ref().map_or(s, |e| s + e[k])
+    });
     let gain = match (on_sim["rmse_um"].as_f64(), on_eff["rmse_um"].as_f64()) {
         (Some(a), Some(b)) if a > 0.0 => json!(round(100.0 * (1.0 - b / a))),
         _ => Value::Null,

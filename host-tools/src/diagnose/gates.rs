@@ -248,7 +248,9 @@ mod tests {
             power_kw: None,
             ambient_c: None,
             coolant_c: coolant,
+            sim_coolant_cycles: false,
             channels: Vec::new(),
+            memo: Default::default(),
         }
     }
 

@@ -230,10 +230,8 @@ pub fn diagnose_with_machine(
     machine: Option<&Path>,
 ) -> Result<Value> {
     let twin = machine.map(physical::Twin::load).transpose()?;
-    let opts = crate::data::runfile::ReadOptions::default();
-    let sim = crate::data::runfile::RunFile::read(sim, &opts)?;
-    let real = crate::data::runfile::RunFile::read(real, &opts)?;
-    diagnose_runs(&sim, &real, holdout_from_s, report, twin.as_ref())
+    let al = align::read(sim, real)?;
+    diagnose_aligned(al, real, holdout_from_s, report, twin.as_ref())
 }
 
 /// The diagnosis of runs in memory: [`diagnose_with_machine`] without the
@@ -247,6 +245,19 @@ pub fn diagnose_runs(
     twin: Option<&physical::Twin>,
 ) -> Result<Value> {
     let al = align::align(sim, real)?;
+    diagnose_aligned(al, &real.path, holdout_from_s, report, twin)
+}
+
+/// [`diagnose_runs`] of runs already aligned ([`align::read`] reads only
+/// what it needs); `real_path` is the real run's file (the physical
+/// diagnosis re-reads it).
+pub fn diagnose_aligned(
+    al: align::Aligned,
+    real_path: &Path,
+    holdout_from_s: Option<f64>,
+    report: Option<&Path>,
+    twin: Option<&physical::Twin>,
+) -> Result<Value> {
     let t = &al.t_s;
     let n = t.len();
     let holdout = holdout_from_s.unwrap_or(0.5 * (t[0] + t[n - 1]));
@@ -264,8 +275,7 @@ pub fn diagnose_runs(
     let looks = judge(&al, first, &snr, n_fit)?;
     let decided = decisive(&looks);
     let any_gap = looks.iter().any(|l| snr[l.channel] >= MIN_GAP_SNR);
-    let sim_cycles = gates::sim_coolant_cycles(sim, &al.t_s);
-    let gated = gates::gate(&al, &looks, &decided.verdict, any_gap, sim_cycles);
+    let gated = gates::gate(&al, &looks, &decided.verdict, any_gap, al.sim_coolant_cycles);
     let look = gated.as_ref().map_or(decided, |g| &looks[g.look]);
     let main = look.channel;
     let (where_, bands) = where_and_bands(&al, main);
@@ -294,7 +304,7 @@ pub fn diagnose_runs(
         .map(|m| {
             physical::diagnose(
                 m,
-                &real.path,
+                real_path,
                 &al,
                 (n_fit, holdout),
                 physical_channel(&al, first, main, &verdict),
@@ -520,7 +530,13 @@ fn judge(al: &align::Aligned, main: usize, snr: &[f64], n_fit: usize) -> Result<
         ..FALLBACK_RULE
     };
     for t in temps {
-        looks.push(look_at(al, t, snr, n_fit, rule)?);
+        let mut look = look_at(al, t, snr, n_fit, rule)?;
+        if look.verdict == "none" {
+            // Never the deciding look ([`decisive`]): its predictions (a
+            // run's length per candidate) are not needed again.
+            look.scored.iter_mut().for_each(|s| s.pred = Vec::new());
+        }
+        looks.push(look);
     }
     Ok(looks)
 }

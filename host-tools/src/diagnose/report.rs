@@ -370,7 +370,7 @@ fn channels_html(al: &Aligned, ax: &Axis) -> String {
         html.push_str(&line_chart(
             &format!("{} (um)", c.name),
             &ax.t_h,
-            &[("sim", &c.sim), ("real", &c.real)],
+            &[("sim", &c.sim), ("real", &c.real())],
             ax.hold_h,
             220.0,
         ));

@@ -15,7 +15,7 @@
 //! ```
 
 use super::align::Aligned;
-use super::baseline;
+use super::baseline::{self, Col};
 use super::candidates::Problem;
 use super::regime;
 use super::spectrum;
@@ -56,8 +56,9 @@ const MAX_TRACK_SOURCES: usize = 2;
 /// One grid point: the extra regressors and what they mean.
 #[derive(Debug, Clone)]
 pub struct Variant {
-    /// The regressors added to the baseline, every row.
-    pub extra: Vec<Vec<f64>>,
+    /// The regressors added to the baseline, every row (shared between
+    /// the grid points that use the same response).
+    pub extra: Vec<Col>,
     /// Nonlinear parameters of this grid point.
     pub fixed: Vec<(String, f64)>,
     /// Named text parameters (e.g. the tracked channel).
@@ -79,7 +80,7 @@ pub struct Variant {
 impl Variant {
     /// A variant with regressors `extra` and gains named `gains`, nothing
     /// else set.
-    fn plain(extra: Vec<Vec<f64>>, gains: Vec<String>, fixed: Vec<(String, f64)>) -> Self {
+    fn plain(extra: Vec<Col>, gains: Vec<String>, fixed: Vec<(String, f64)>) -> Self {
         Variant {
             extra,
             fixed,
@@ -93,6 +94,11 @@ impl Variant {
     }
 }
 
+/// A grid of variants, made one at a time as it is walked (each grid
+/// point's columns exist only while it is looked at, or shared with its
+/// neighbours).
+pub type Vars<'a> = Box<dyn Iterator<Item = Variant> + 'a>;
+
 /// Peak-to-peak range of `x`.
 fn swing(x: &[f64]) -> f64 {
     let (lo, hi) = x
@@ -104,50 +110,48 @@ fn swing(x: &[f64]) -> f64 {
 }
 
 /// First-order response of `u`, or `u` itself for `tau_s == 0`.
-fn response(t: &[f64], u: &[f64], tau_s: f64, y0: f64) -> Vec<f64> {
+fn response(t: &[f64], u: &Col, tau_s: f64, y0: f64) -> Col {
     if tau_s > 0.0 {
-        lsq::lowpass(t, u, tau_s, y0)
+        Col::new(lsq::lowpass(t, u, tau_s, y0))
     } else {
-        u.to_vec()
+        u.clone()
     }
 }
 
 /// Two-time-constant response variants of input `u` (`y0` initial state).
-fn response_pairs(
+/// Each response is computed once and shared by the pairs that use it.
+fn response_pairs<'a>(
     p: &Problem,
-    u: &[f64],
+    u: &Col,
     y0: f64,
-    taus: &[f64],
-    in_unit: &str,
-    extra_fixed: &[(String, f64)],
-) -> Vec<Variant> {
+    taus: &'static [f64],
+    in_unit: &'a str,
+    extra_fixed: Vec<(String, f64)>,
+) -> Vars<'a> {
     let unit = p.ch.unit();
-    let f: Vec<Vec<f64>> = taus
+    let f: Vec<Col> = taus
         .iter()
         .map(|&tau| response(&p.al.t_s, u, tau, y0))
         .collect();
-    let mut out = Vec::new();
-    for i in 0..taus.len() {
-        for j in i + 1..taus.len() {
-            let mut fixed = vec![
-                ("tau1_s".to_string(), taus[i]),
-                ("tau2_s".to_string(), taus[j]),
-            ];
-            fixed.extend_from_slice(extra_fixed);
-            let mut v = Variant::plain(
-                vec![f[i].clone(), f[j].clone()],
-                vec![
-                    format!("gain1_{unit}_per_{in_unit}"),
-                    format!("gain2_{unit}_per_{in_unit}"),
-                ],
-                fixed,
-            );
-            v.taus = vec![taus[i], taus[j]];
-            v.total = Some(format!("gain_{unit}_per_{in_unit}"));
-            out.push(v);
-        }
-    }
-    out
+    let pairs = (0..taus.len()).flat_map(move |i| (i + 1..taus.len()).map(move |j| (i, j)));
+    Box::new(pairs.map(move |(i, j)| {
+        let mut fixed = vec![
+            ("tau1_s".to_string(), taus[i]),
+            ("tau2_s".to_string(), taus[j]),
+        ];
+        fixed.extend_from_slice(&extra_fixed);
+        let mut v = Variant::plain(
+            vec![f[i].clone(), f[j].clone()],
+            vec![
+                format!("gain1_{unit}_per_{in_unit}"),
+                format!("gain2_{unit}_per_{in_unit}"),
+            ],
+            fixed,
+        );
+        v.taus = vec![taus[i], taus[j]];
+        v.total = Some(format!("gain_{unit}_per_{in_unit}"));
+        v
+    }))
 }
 
 /// Which way extra heat moves the channel, where physics fixes it: up on
@@ -158,37 +162,42 @@ fn heat_sign(p: &Problem) -> Option<f64> {
     crate::data::runfile::is_temperature_column(&p.ch.name).then_some(1.0)
 }
 
-fn with_sign(mut v: Vec<Variant>, sign: Option<f64>) -> Vec<Variant> {
-    for x in &mut v {
+fn with_sign(v: Vars<'_>, sign: Option<f64>) -> Vars<'_> {
+    Box::new(v.map(move |mut x| {
         x.sign = sign;
-    }
-    v
+        x
+    }))
 }
 
 /// The grid of variants of candidate `name`, and the model form's
 /// description. `base_pred` is the baseline's prediction of the channel's
 /// residual (fitted on the fit rows).
-pub fn variants(name: &str, p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
+pub fn variants<'a>(name: &str, p: &Problem<'a>, base_pred: &[f64]) -> (Vars<'a>, String) {
     match name {
         "ambient" => ambient(p),
         "coolant" => coolant(p, base_pred),
         "cutting" => cutting(p),
         "motor_loss" => motor_loss(p),
         "sensor_lag" => sensor_lag(p),
-        _ => (Vec::new(), "the mismatch baseline only".into()),
+        _ => (none(), "the mismatch baseline only".into()),
     }
 }
 
+/// The empty grid.
+fn none<'a>() -> Vars<'a> {
+    Box::new(std::iter::empty())
+}
+
 /// Ambient: responses to the logged ambient, else an inferred day cycle.
-fn ambient(p: &Problem) -> (Vec<Variant>, String) {
+fn ambient<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
     let al = p.al;
     let t = &al.t_s;
     let t0 = t[0];
     let unit = p.ch.unit();
     if let Some(a) = al.ambient_c.as_deref().filter(|a| swing(a) >= MIN_SWING_K) {
-        let u: Vec<f64> = a.iter().map(|v| v - a[0]).collect();
+        let u = Col::new(a.iter().map(|v| v - a[0]).collect());
         return (
-            response_pairs(p, &u, 0.0, &AMBIENT_TAUS_S, "k", &[]),
+            response_pairs(p, &u, 0.0, &AMBIENT_TAUS_S, "k", Vec::new()),
             "first-order responses to logged ambient_c - first value".into(),
         );
     }
@@ -196,26 +205,23 @@ fn ambient(p: &Problem) -> (Vec<Variant>, String) {
     let s: Vec<f64> = t.iter().map(|t| (w * (t - t0)).sin()).collect();
     let c: Vec<f64> = t.iter().map(|t| (w * (t - t0)).cos() - 1.0).collect();
     let drift: Vec<f64> = t.iter().map(|t| (t - t0) / 3600.0).collect();
-    let v = AMBIENT_TAUS_S
-        .iter()
-        .map(|&tau| {
-            Variant::plain(
-                vec![
-                    lsq::lowpass(t, &s, tau, 0.0),
-                    lsq::lowpass(t, &c, tau, 0.0),
-                    lsq::lowpass(t, &drift, tau, 0.0),
-                ],
-                vec![
-                    format!("sin_{unit}"),
-                    format!("cos_{unit}"),
-                    format!("drift_{unit}_per_h"),
-                ],
-                vec![("tau_s".into(), tau), ("period_s".into(), DAY_S)],
-            )
-        })
-        .collect();
+    let v = AMBIENT_TAUS_S.iter().map(move |&tau| {
+        Variant::plain(
+            vec![
+                Col::new(lsq::lowpass(t, &s, tau, 0.0)),
+                Col::new(lsq::lowpass(t, &c, tau, 0.0)),
+                Col::new(lsq::lowpass(t, &drift, tau, 0.0)),
+            ],
+            vec![
+                format!("sin_{unit}"),
+                format!("cos_{unit}"),
+                format!("drift_{unit}_per_h"),
+            ],
+            vec![("tau_s".into(), tau), ("period_s".into(), DAY_S)],
+        )
+    });
     (
-        v,
+        Box::new(v),
         "ambient_c not logged: first-order response to an inferred 24 h cycle and a room drift"
             .into(),
     )
@@ -244,10 +250,10 @@ pub fn band_pass(t: &[f64], x: &[f64], band: (f64, f64)) -> Vec<f64> {
 /// Coolant: responses to the logged coolant (always a candidate when
 /// logged), else a tracked chiller component of another temperature
 /// channel, else a fixed harmonic at the residual's peak.
-fn coolant(p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
+fn coolant<'a>(p: &Problem<'a>, base_pred: &[f64]) -> (Vars<'a>, String) {
     let t = &p.al.t_s;
     if let Some(c) = p.al.coolant_c.as_deref() {
-        let u = high_pass(t, c, CHILLER_BAND_S.1);
+        let u = Col::new(high_pass(t, c, CHILLER_BAND_S.1));
         return (
             signal_variants(p, &u, "k", &[]),
             "responses to logged coolant_c (periods above 2 h removed)".into(),
@@ -255,35 +261,34 @@ fn coolant(p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
     }
     let sources = chiller_sources(p);
     if !sources.is_empty() {
-        let names: Vec<&str> = sources.iter().map(|s| s.0.as_str()).collect();
-        let v = sources
-            .iter()
-            .flat_map(|(name, x)| signal_variants(p, x, "k", &[("source".into(), name.clone())]))
-            .collect();
-        return (
-            v,
-            format!(
-                "coolant_c not logged: responses to the chiller cycle tracked on {} (band-passed 5-120 min residual after its own baseline)",
-                names.join(", ")
-            ),
+        let model = format!(
+            "coolant_c not logged: responses to the chiller cycle tracked on {} (band-passed 5-120 min residual after its own baseline)",
+            sources.iter().map(|s| s.0.as_str()).collect::<Vec<_>>().join(", ")
         );
+        let p = p.clone();
+        let v = sources.into_iter().flat_map(move |(name, x)| {
+            signal_variants(&p, &Col::new(x), "k", &[("source".into(), name)])
+        });
+        return (Box::new(v), model);
     }
     harmonic_variants(p, base_pred)
 }
 
 /// Pairs of responses (the signal itself or first-order responses, so any
 /// phase lag up to 90 degrees) of a chiller signal `x`.
-fn signal_variants(
+fn signal_variants<'a>(
     p: &Problem,
-    x: &[f64],
-    in_unit: &str,
+    x: &Col,
+    in_unit: &'a str,
     labels: &[(String, String)],
-) -> Vec<Variant> {
-    let mut v = response_pairs(p, x, 0.0, &COOLANT_TAUS_S, in_unit, &[]);
-    for var in &mut v {
-        var.labels = labels.to_vec();
-    }
-    v
+) -> Vars<'a> {
+    let labels = labels.to_vec();
+    Box::new(
+        response_pairs(p, x, 0.0, &COOLANT_TAUS_S, in_unit, Vec::new()).map(move |mut var| {
+            var.labels = labels.clone();
+            var
+        }),
+    )
 }
 
 /// Whether channel `src` may track a chiller for explaining `ch`: a
@@ -302,82 +307,97 @@ fn tracks(ch: &super::align::Channel, src: &super::align::Channel) -> bool {
 /// so the hold-out of the explained channel leaks nothing.
 fn chiller_sources(p: &Problem) -> Vec<(String, Vec<f64>)> {
     let al = p.al;
-    let mut found: Vec<(f64, String, Vec<f64>)> = al
+    let rows = p.fit_rows();
+    // The level of every candidate source depends on the source and the
+    // fit rows only: computed once per channel and fold, and the band-passed
+    // component again for the (at most two) sources kept.
+    let mut found: Vec<(f64, &super::align::Channel)> = al
         .channels
         .iter()
         .filter(|c| c.name != p.ch.name && tracks(p.ch, c))
         .filter_map(|c| {
-            let base = baseline::mismatch_baseline(al, c);
-            let penalty = base.penalties(&c.resid, p.fit_rows());
-            let f = lsq::fit_rows_penalised(&base.cols, &c.resid, p.fit_rows(), &penalty)?;
-            let left: Vec<f64> = c.resid.iter().zip(&f.pred).map(|(r, q)| r - q).collect();
-            let x = band_pass(&al.t_s, &left, CHILLER_BAND_S);
-            let white = 0.45 * lsq::noise_sigma(&c.resid).max(1e-12);
-            let snr = lsq::rms(&x) / white;
-            (snr >= MIN_TRACK_SNR).then(|| (snr, c.name.clone(), x))
+            let key = format!("chiller snr {} {}..{}", c.name, rows.start, rows.end);
+            let snr = *al
+                .memo
+                .get_or(&key, || {
+                    chiller_component(al, c, &rows).map_or_else(Vec::new, |(snr, _)| vec![snr])
+                })
+                .first()?;
+            (snr >= MIN_TRACK_SNR).then_some((snr, c))
         })
         .collect();
     found.sort_by(|a, b| b.0.total_cmp(&a.0));
     found
         .into_iter()
         .take(MAX_TRACK_SOURCES)
-        .map(|(_, n, x)| (n, x))
+        .filter_map(|(_, c)| Some((c.name.clone(), chiller_component(al, c, &rows)?.1)))
         .collect()
+}
+
+/// Channel `c`'s chiller-band component after its own mismatch baseline
+/// fitted on `rows`, and its level over the band's share of white noise.
+fn chiller_component(
+    al: &Aligned,
+    c: &super::align::Channel,
+    rows: &std::ops::Range<usize>,
+) -> Option<(f64, Vec<f64>)> {
+    let base = baseline::mismatch_baseline(al, c);
+    let penalty = base.penalties(&c.resid, rows.clone());
+    let f = lsq::fit_streamed(&base.slices(), &c.resid, None, rows.clone(), &penalty)?;
+    let left: Vec<f64> = c.resid.iter().zip(&f.pred).map(|(r, q)| r - q).collect();
+    let x = band_pass(&al.t_s, &left, CHILLER_BAND_S);
+    let white = 0.45 * lsq::noise_sigma(&c.resid).max(1e-12);
+    Some((lsq::rms(&x) / white, x))
 }
 
 /// Harmonic regression (2 harmonics) at periods around the fit part's
 /// 10-120 min spectral peak of what the baseline leaves: the fallback when
 /// no channel tracks the chiller (a fixed period and phase).
-fn harmonic_variants(p: &Problem, base_pred: &[f64]) -> (Vec<Variant>, String) {
+fn harmonic_variants<'a>(p: &Problem<'a>, base_pred: &[f64]) -> (Vars<'a>, String) {
     let t = &p.al.t_s;
     let t0 = t[0];
     let unit = p.ch.unit();
     let rows = p.fit_rows();
     let r: Vec<f64> = rows.clone().map(|k| p.ch.resid[k] - base_pred[k]).collect();
     let Some(p0) = spectrum::peak_period_s(&t[rows], &r, 600.0, 7200.0) else {
-        return (
-            Vec::new(),
-            "coolant_c not logged and no 10-120 min peak".into(),
-        );
+        return (none(), "coolant_c not logged and no 10-120 min peak".into());
     };
-    let v = (-6..=6)
-        .map(|k| {
-            let period = p0 * (1.0 + 0.01 * k as f64);
-            let w = std::f64::consts::TAU / period;
-            let h = |m: f64, f: fn(f64) -> f64| -> Vec<f64> {
-                t.iter().map(|t| f(m * w * (t - t0))).collect()
-            };
-            Variant::plain(
-                vec![
-                    h(1.0, f64::sin),
-                    h(1.0, f64::cos),
-                    h(2.0, f64::sin),
-                    h(2.0, f64::cos),
-                ],
-                ["sin1", "cos1", "sin2", "cos2"]
-                    .iter()
-                    .map(|g| format!("{g}_{unit}"))
-                    .collect(),
-                vec![("period_s".into(), period)],
-            )
-        })
-        .collect();
-    (v, "coolant_c not logged, no channel tracks a chiller: harmonic regression (2 harmonics) at the residual's 10-120 min spectral peak".into())
+    let v = (-6..=6).map(move |k| {
+        let period = p0 * (1.0 + 0.01 * k as f64);
+        let w = std::f64::consts::TAU / period;
+        let h = |m: f64, f: fn(f64) -> f64| -> Col {
+            Col::new(t.iter().map(|t| f(m * w * (t - t0))).collect())
+        };
+        Variant::plain(
+            vec![
+                h(1.0, f64::sin),
+                h(1.0, f64::cos),
+                h(2.0, f64::sin),
+                h(2.0, f64::cos),
+            ],
+            ["sin1", "cos1", "sin2", "cos2"]
+                .iter()
+                .map(|g| format!("{g}_{unit}"))
+                .collect(),
+            vec![("period_s".into(), period)],
+        )
+    });
+    (Box::new(v), "coolant_c not logged, no channel tracks a chiller: harmonic regression (2 harmonics) at the residual's 10-120 min spectral peak".into())
 }
 
 /// Cutting: responses to the power beyond air cutting.
-fn cutting(p: &Problem) -> (Vec<Variant>, String) {
+fn cutting<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
     let al = p.al;
     let Some(pw) = al.power_kw.as_deref() else {
-        return (Vec::new(), "power_kw not logged".into());
+        return (none(), "power_kw not logged".into());
     };
     let u = regime::cutting_excess_kw(&al.speed_rpm, pw);
     if u.iter().fold(0.0f64, |a, &v| a.max(v)) < MIN_CUT_KW {
-        return (Vec::new(), "no power beyond air cutting in power_kw".into());
+        return (none(), "no power beyond air cutting in power_kw".into());
     }
     (
         with_sign(
-            response_pairs(p, &u, 0.0, &HEAT_TAUS_S, "kw", &[]),
+            response_pairs(p, &Col::new(u), 0.0, &HEAT_TAUS_S, "kw", Vec::new()),
             heat_sign(p),
         ),
         "first-order responses to power_kw beyond air cutting (warming, on a temperature)".into(),
@@ -398,33 +418,43 @@ pub fn low_speed_weight(al: &Aligned, knee: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Motor losses: responses to the low-speed weight at each knee.
-fn motor_loss(p: &Problem) -> (Vec<Variant>, String) {
+/// Motor losses: responses to the low-speed weight at each knee (one
+/// knee's responses made at a time).
+fn motor_loss<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
     let top = p.al.speed_rpm.iter().fold(0.0f64, |a, &n| a.max(n.abs()));
-    let mut v = Vec::new();
-    for knee in KNEE_SHARES.map(|k| (k * top).round()) {
-        let u = low_speed_weight(p.al, knee);
-        if u[p.fit_rows()].iter().all(|&x| x == 0.0) {
-            continue;
-        }
-        v.extend(with_sign(
+    // The weight is zero on the fit rows exactly when no speed there is
+    // in (0, knee).
+    let knees: Vec<f64> = KNEE_SHARES
+        .map(|k| (k * top).round())
+        .into_iter()
+        .filter(|&knee| {
+            p.al.speed_rpm[p.fit_rows()]
+                .iter()
+                .any(|&n| n > 0.0 && (1.0 - n / knee).max(0.0) != 0.0)
+        })
+        .collect();
+    let empty = knees.is_empty();
+    let q = p.clone();
+    let v = knees.into_iter().flat_map(move |knee| {
+        let u = Col::new(low_speed_weight(q.al, knee));
+        with_sign(
             response_pairs(
-                p,
+                &q,
                 &u,
                 0.0,
                 &HEAT_TAUS_S,
                 "weight",
-                &[("knee_rpm".into(), knee)],
+                vec![("knee_rpm".into(), knee)],
             ),
-            heat_sign(p),
-        ));
-    }
-    let d = if v.is_empty() {
+            heat_sign(&q),
+        )
+    });
+    let d = if empty {
         "the spindle never runs below 70 % of its top speed in the fit part".into()
     } else {
         "first-order responses to the low-speed weight [n>0] max(0, 1 - n/knee) (warming, on a temperature)".into()
     };
-    (v, d)
+    (Box::new(v), d)
 }
 
 /// Sensor lag: the lag's own signature `F(sim; tau) - sim` on a
@@ -434,33 +464,31 @@ fn motor_loss(p: &Problem) -> (Vec<Variant>, String) {
 /// looks like a lag at low frequencies with a gain `dtau / tau` of a few %,
 /// so a free gain would let mismatch pass as a lag; nothing on
 /// displacements and probes, which do not lag.
-fn sensor_lag(p: &Problem) -> (Vec<Variant>, String) {
+fn sensor_lag<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
     if !crate::data::runfile::is_temperature_column(&p.ch.name) {
         return (
-            Vec::new(),
+            none(),
             "not a temperature channel: probes and displacements do not lag, no signature".into(),
         );
     }
     let t = &p.al.t_s;
-    let v = LAG_TAUS_S
-        .iter()
-        .map(|&tau| {
-            let lag: Vec<f64> = lsq::lowpass(t, &p.ch.sim, tau, p.ch.sim[0])
-                .iter()
-                .zip(&p.ch.sim)
-                .map(|(f, s)| f - s)
-                .collect();
-            let mut v = Variant::plain(
-                Vec::new(),
-                Vec::new(),
-                vec![("tau_s".into(), tau), ("gain".into(), 1.0)],
-            );
-            v.fixed_part = Some(lag);
-            v
-        })
-        .collect();
+    let sim = &p.ch.sim;
+    let v = LAG_TAUS_S.iter().map(move |&tau| {
+        let lag: Vec<f64> = lsq::lowpass(t, sim, tau, sim[0])
+            .iter()
+            .zip(sim.iter())
+            .map(|(f, s)| f - s)
+            .collect();
+        let mut v = Variant::plain(
+            Vec::new(),
+            Vec::new(),
+            vec![("tau_s".into(), tau), ("gain".into(), 1.0)],
+        );
+        v.fixed_part = Some(lag);
+        v
+    });
     (
-        v,
+        Box::new(v),
         "lagged simulated temperature with the whole sensor lagging: r = (F(sim; tau) - sim) + baseline"
             .into(),
     )
