@@ -81,6 +81,40 @@ fn complex_text(z: &[Complex]) -> String {
         .join(", ")
 }
 
+/// What a blob's header and trailer say: kind, format version, CRC, sample
+/// time (`model show`'s first lines).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Header {
+    /// Model kind.
+    pub kind: &'static str,
+    /// Blob format version.
+    pub format_version: u16,
+    /// CRC-32 of the blob, `0x` and eight hex digits.
+    pub crc32: String,
+    /// Sample time, s.
+    pub dt_s: f64,
+}
+
+impl Header {
+    /// The header of `bytes`, the encoding of `model`.
+    pub fn of(model: &ValidModel, bytes: &[u8]) -> Header {
+        Header {
+            kind: model.kind().name(),
+            format_version: format_version(bytes),
+            crc32: crc_text(bytes),
+            dt_s: model.model().dt_s,
+        }
+    }
+}
+
+/// The blob's CRC-32 (over everything but the trailer) as printed.
+fn crc_text(bytes: &[u8]) -> String {
+    format!(
+        "{:#010x}",
+        crc32(&bytes[..bytes.len().saturating_sub(TRAILER_LEN)])
+    )
+}
+
 /// The format version in the blob's header (version 1 blobs still load).
 fn format_version(bytes: &[u8]) -> u16 {
     match bytes.get(4..6) {
@@ -258,7 +292,7 @@ pub fn describe_json(model: &ValidModel, bytes: &[u8]) -> Value {
         "format_version": format_version(bytes),
         "bytes": bytes.len(),
         "body_bytes": bytes.len().saturating_sub(HEADER_LEN + TRAILER_LEN),
-        "crc32": format!("{:#010x}", crc32(&bytes[..bytes.len().saturating_sub(TRAILER_LEN)])),
+        "crc32": crc_text(bytes),
         "dt_s": m.dt_s,
         "inputs": model.inputs().iter().map(|c| json!({
             "name": c.name.as_str(), "reference": reference_json(c.reference)})).collect::<Vec<_>>(),

@@ -203,7 +203,9 @@ fn demo_runs_every_stage_and_writes_its_files() {
     }
 
     // The text summary (what `demo` prints without --json) has a line per stage.
-    let text = host_tools::demo::summary_text(&d);
+    let typed: host_tools::demo::DemoOutcome =
+        serde_json::from_value(d.clone()).expect("demo --json reads back as the typed outcome");
+    let text = host_tools::demo::summary_text(&typed);
     for (n, stage) in ["simulate", "select", "fit", "export", "replay", "diagnose"]
         .iter()
         .enumerate()

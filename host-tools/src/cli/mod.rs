@@ -7,6 +7,7 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
+mod demo;
 mod fivepoint;
 mod hub;
 pub mod pairs;
@@ -15,7 +16,7 @@ pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, demo, diagnose, eval, fit, predict, refit, replay, show};
+use crate::{bench, diagnose, eval, fit, predict, refit, replay, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};

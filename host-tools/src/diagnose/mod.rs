@@ -25,6 +25,7 @@ pub mod regime;
 pub mod report;
 pub mod signif;
 pub mod spectrum;
+pub mod summary;
 pub mod variants;
 
 use crate::num::lsq;
@@ -275,7 +276,13 @@ pub fn diagnose_aligned(
     let looks = judge(&al, first, &snr, n_fit)?;
     let decided = decisive(&looks);
     let any_gap = looks.iter().any(|l| snr[l.channel] >= MIN_GAP_SNR);
-    let gated = gates::gate(&al, &looks, &decided.verdict, any_gap, al.sim_coolant_cycles);
+    let gated = gates::gate(
+        &al,
+        &looks,
+        &decided.verdict,
+        any_gap,
+        al.sim_coolant_cycles,
+    );
     let look = gated.as_ref().map_or(decided, |g| &looks[g.look]);
     let main = look.channel;
     let (where_, bands) = where_and_bands(&al, main);

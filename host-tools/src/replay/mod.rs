@@ -267,7 +267,7 @@ impl ReplayParams {
 }
 
 /// Samples per hub state (`replay --json`'s `states`).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct States {
     /// No model loaded.
     pub no_model: usize,

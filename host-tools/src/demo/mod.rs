@@ -37,7 +37,17 @@
 //! searches) so the test suite's unoptimised build finishes in reasonable
 //! time; the figures are then coarser.
 
+mod outcome;
+mod text;
+
+pub use outcome::{
+    DemoOutcome, DemoRun, DiagnoseStage, ExportStage, FitEntry, FitStage, Metrics, ReplayStage,
+    SelectStage, SimulateStage,
+};
+pub use text::summary_text;
+
 use crate::data::runfile::{ReadOptions, RunFile};
+use crate::diagnose::summary::Summary;
 use crate::eval::MetricsReport;
 use crate::fit::{self, FitKind};
 use crate::replay::{self, ReplayParams};
@@ -49,28 +59,21 @@ use crate::twin::machine::Machine;
 use crate::twin::profile::{self, Profile};
 use crate::twin::sim::SimOptions;
 use anyhow::{anyhow, bail, Context, Result};
-use clap::Args;
 use model_core::ValidModel;
-use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Arguments of `thermcomp demo` (none needed).
-#[derive(Args, Debug)]
-pub struct DemoArgs {
+/// What `thermcomp demo` runs (the command line's `--out`, `--quick`).
+#[derive(Clone, Debug)]
+pub struct DemoParams {
     /// Folder for everything the demo writes (run files, model blobs,
     /// candump log, diagnose report); created if missing, files in it
     /// overwritten.
-    #[arg(long, default_value = "thermcomp-demo")]
     pub out: PathBuf,
-    /// Print one JSON object with every stage's figures instead of the summary.
-    #[arg(long)]
-    pub json: bool,
     /// Small budgets (12 h runs at 60 s, a 6 x 3 GA, short ARX/TF/ARMA
-    /// searches): for unoptimised builds such as the test suite's. Coarser figures.
-    #[arg(long)]
+    /// searches): for unoptimised builds such as the test suite's.
     pub quick: bool,
 }
 
@@ -217,17 +220,6 @@ impl Progress {
     }
 }
 
-/// Runs `thermcomp demo`.
-pub fn run(a: &DemoArgs) -> Result<()> {
-    let out = demo(a)?;
-    if a.json {
-        crate::data::fsio::print_line(&out.to_string())?;
-    } else {
-        crate::data::fsio::print(&summary_text(&out))?;
-    }
-    Ok(())
-}
-
 /// What the stages share: the arguments, budgets, output folder, machine,
 /// stage timing, and the two run files of stage 1.
 struct Demo<'a> {
@@ -244,7 +236,7 @@ type FittedKind = (FitKind, ValidModel, PathBuf);
 
 /// Runs every stage, writes everything to `a.out`, and returns `demo
 /// --json`'s object.
-pub fn demo(a: &DemoArgs) -> Result<Value> {
+pub fn demo(a: &DemoParams) -> Result<DemoOutcome> {
     let dir = &a.out;
     std::fs::create_dir_all(dir.join("models"))
         .and_then(|()| std::fs::create_dir_all(dir.join("diagnose")))
@@ -263,14 +255,13 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
         cal: dir.join("calibration.csv"),
         val: dir.join("validation.csv"),
     };
-    let simulate_json = d.simulate()?;
-    let (select_json, selected) = d.select()?;
-    let (fit_json, fitted) = d.fit(&selected)?;
-    let best_kind = fit_json["best"].as_str().unwrap_or("").to_string();
-    let (export_json, best_model, model_bin) = d.export(&best_kind, &fitted)?;
-    let (replay_json, replay_files) = d.replay(&best_model, &model_bin)?;
-    let (diagnose_json, diagnose_files, report) = d.diagnose()?;
-    let fivepoint_json = crate::fivepoint_demo::step(&d.val)?;
+    let simulate = d.simulate()?;
+    let select = d.select()?;
+    let (fit, fitted) = d.fit(&select.selected)?;
+    let (export, best_model, model_bin) = d.export(&fit.best, &fitted)?;
+    let (replay, replay_files) = d.replay(&best_model, &model_bin)?;
+    let (diagnose, diagnose_files, report) = d.diagnose()?;
+    let fivepoint = crate::fivepoint_demo::step(&d.val)?;
     let written: Vec<PathBuf> = [
         d.cal.clone(),
         d.val.clone(),
@@ -289,27 +280,27 @@ pub fn demo(a: &DemoArgs) -> Result<Value> {
         files.len(),
         shown.display()
     );
-    Ok(json!({
-        "out": path_arg(dir),
-        "quick": a.quick,
-        "hours": d.budget.hours,
-        "dt_s": d.budget.dt_s,
-        "target": TARGET,
-        "simulate": simulate_json,
-        "select": select_json,
-        "fit": fit_json,
-        "export": export_json,
-        "replay": replay_json,
-        "fivepoint": fivepoint_json,
-        "diagnose": diagnose_json,
-        "files": files,
-        "elapsed_s": elapsed_s,
-    }))
+    Ok(DemoOutcome {
+        out: path_arg(dir),
+        quick: a.quick,
+        hours: d.budget.hours,
+        dt_s: d.budget.dt_s,
+        target: TARGET.into(),
+        simulate,
+        select,
+        fit,
+        export,
+        replay,
+        fivepoint,
+        diagnose,
+        files,
+        elapsed_s,
+    })
 }
 
 impl Demo<'_> {
     /// Stage 1: the calibration and validation runs.
-    fn simulate(&mut self) -> Result<Value> {
+    fn simulate(&mut self) -> Result<SimulateStage> {
         let (budget, machine, cal, val, p) = (
             &self.budget,
             &self.machine,
@@ -336,20 +327,18 @@ impl Demo<'_> {
         let val_run = simulate_run(machine, &Profile::Steps, budget, 2, EffectSet::none(), val)?;
         let t = p.end(&format!(
             "{} rows each; max |dz| {:.1} um (calibration), {:.1} um (validation)",
-            cal_run["rows"],
-            num(&cal_run["max_abs_dz_um"]),
-            num(&val_run["max_abs_dz_um"])
+            cal_run.rows, cal_run.max_abs_dz_um, val_run.max_abs_dz_um
         ));
-        Ok(json!({
-            "machine": machine.name,
-            "calibration": cal_run,
-            "validation": val_run,
-            "elapsed_s": t,
-        }))
+        Ok(SimulateStage {
+            machine: machine.name.clone(),
+            calibration: cal_run,
+            validation: val_run,
+            elapsed_s: t,
+        })
     }
 
     /// Stage 2: sensors picked by maxtree and grey on the calibration run.
-    fn select(&mut self) -> Result<(Value, Vec<String>)> {
+    fn select(&mut self) -> Result<SelectStage> {
         let (cal, p) = (&self.cal, &mut self.p);
         // 2. Select.
         p.begin(
@@ -357,7 +346,7 @@ impl Demo<'_> {
             &format!("select: maxtree and grey on the calibration run for {TARGET}"),
         );
         let cal_run = RunFile::read(cal, &ReadOptions::default())?;
-        let mut picks: BTreeMap<&str, Vec<String>> = BTreeMap::new();
+        let mut picks: BTreeMap<String, Vec<String>> = BTreeMap::new();
         let mut commands = Vec::new();
         let mut selected: Vec<String> = Vec::new();
         for (method, scale) in [
@@ -376,7 +365,7 @@ impl Demo<'_> {
                     selected.push(s.clone());
                 }
             }
-            picks.insert(method.name(), pick);
+            picks.insert(method.name().to_string(), pick);
             commands.push(select_command(cal, method, scale));
         }
         if selected.is_empty() {
@@ -390,19 +379,18 @@ impl Demo<'_> {
             picks["grey"].join(","),
             selected.join(",")
         ));
-        let select_json = json!({
-            "target": TARGET,
-            "methods": picks,
-            "selected": selected,
-            "commands": commands,
-            "elapsed_s": t,
-        });
-        Ok((select_json, selected))
+        Ok(SelectStage {
+            target: TARGET.into(),
+            methods: picks,
+            selected,
+            commands,
+            elapsed_s: t,
+        })
     }
 
     /// Stage 3: every kind fitted on the calibration run, scored on the
     /// validation run; the blobs written to `models/`.
-    fn fit(&mut self, selected: &[String]) -> Result<(Value, Vec<FittedKind>)> {
+    fn fit(&mut self, selected: &[String]) -> Result<(FitStage, Vec<FittedKind>)> {
         let (budget, dir, cal, val, p) =
             (&self.budget, self.dir, &self.cal, &self.val, &mut self.p);
         // 3. Fit and validate.
@@ -433,15 +421,8 @@ impl Demo<'_> {
             .with_context(|| format!("demo: fit {name}"))?;
             crate::data::fsio::write_bytes_atomic(&blob, &o.bytes)?;
             let elapsed = started.elapsed().as_secs_f64();
-            let mut entry = fit_entry(kind, &o, &blob)?;
-            merge(
-                &mut entry,
-                json!({
-                    "elapsed_s": elapsed,
-                    "command": fit_command(budget, kind, selected, [cal, val, &blob]),
-                }),
-            );
-            models.push(entry);
+            let command = fit_command(budget, kind, selected, [cal, val, &blob]);
+            models.push(fit_entry(kind, &o, &blob, elapsed, command)?);
             fitted.push((kind, o.model, blob));
             bar.inc(1);
         }
@@ -450,22 +431,20 @@ impl Demo<'_> {
         // validation); the validation run scores it beside the other kinds.
         let best = models
             .iter()
-            .find(|m| m["kind"] == json!("auto"))
+            .find(|m| m.kind == kind_name(FitKind::Auto))
             .ok_or_else(|| anyhow!("demo: no auto model fitted"))?;
-        let best_kind = best["kind"].as_str().unwrap_or("").to_string();
-        let best_reduction = num(&best["validation"]["reduction_pct"]);
         let t = p.end(&format!(
-        "exported: auto (chosen by cross-validation on the calibration run), validation reduction {best_reduction:.1} %, rmse {:.2} um",
-        num(&best["validation"]["rmse_um"])
+        "exported: auto (chosen by cross-validation on the calibration run), validation reduction {:.1} %, rmse {:.2} um",
+        best.validation.reduction_pct, best.validation.rmse_um
     ));
-        let fit_json = json!({
-            "target": TARGET,
-            "inputs": selected,
-            "models": models,
-            "best": best_kind,
-            "elapsed_s": t,
-        });
-        Ok((fit_json, fitted))
+        let stage = FitStage {
+            target: TARGET.into(),
+            inputs: selected.to_vec(),
+            best: best.kind.clone(),
+            models,
+            elapsed_s: t,
+        };
+        Ok((stage, fitted))
     }
 
     /// Stage 4: the chosen blob as `model.bin`, described as `model show` does.
@@ -473,7 +452,7 @@ impl Demo<'_> {
         &mut self,
         best_kind: &str,
         fitted: &[FittedKind],
-    ) -> Result<(Value, ValidModel, PathBuf)> {
+    ) -> Result<(ExportStage, ValidModel, PathBuf)> {
         let (dir, p) = (self.dir, &mut self.p);
         // 4. Export the best blob.
         p.begin(
@@ -490,34 +469,39 @@ impl Demo<'_> {
         let bytes = std::fs::read(best_blob)
             .with_context(|| format!("cannot read {}", best_blob.display()))?;
         crate::data::fsio::write_bytes_atomic(&model_bin, &bytes)?;
-        let described = crate::show::describe_json(best_model, &bytes);
+        let header = crate::show::Header::of(best_model, &bytes);
+        let inputs: Vec<String> = best_model
+            .inputs()
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
         let model_txt = dir.join("model.txt");
         let text = crate::show::describe_text(&model_bin, best_model, &bytes);
         crate::data::fsio::write_bytes_atomic(&model_txt, text.as_bytes())?;
         let t = p.end(&format!(
             "{} bytes, {} model, format v{}, CRC {}, dt {} s, inputs {}",
             bytes.len(),
-            described["kind"].as_str().unwrap_or("?"),
-            described["format_version"],
-            described["crc32"].as_str().unwrap_or("?"),
-            described["dt_s"],
-            input_names(&described).join(",")
+            header.kind,
+            header.format_version,
+            header.crc32,
+            header.dt_s,
+            inputs.join(",")
         ));
-        let export_json = json!({
-            "kind": best_kind,
-            "model": path_arg(&model_bin),
-            "show": path_arg(&model_txt),
-            "blob_kind": described["kind"],
-            "bytes": bytes.len(),
-            "format_version": described["format_version"],
-            "crc32": described["crc32"],
-            "dt_s": described["dt_s"],
-            "inputs": input_names(&described),
-            "outputs": described["outputs"],
-            "command": command_line("model show", &["--model".into(), path_arg(&model_bin)]),
-            "elapsed_s": t,
-        });
-        Ok((export_json, best_model.clone(), model_bin))
+        let stage = ExportStage {
+            kind: best_kind.to_string(),
+            model: path_arg(&model_bin),
+            show: path_arg(&model_txt),
+            blob_kind: header.kind.to_string(),
+            bytes: bytes.len(),
+            format_version: header.format_version,
+            crc32: header.crc32,
+            dt_s: header.dt_s,
+            inputs,
+            outputs: best_model.outputs().iter().map(|o| o.to_string()).collect(),
+            command: command_line("model show", &["--model".into(), path_arg(&model_bin)]),
+            elapsed_s: t,
+        };
+        Ok((stage, best_model.clone(), model_bin))
     }
 
     /// Stage 5: `model.bin` through the hub's firmware pipeline.
@@ -525,7 +509,7 @@ impl Demo<'_> {
         &mut self,
         best_model: &ValidModel,
         model_bin: &Path,
-    ) -> Result<(Value, Vec<PathBuf>)> {
+    ) -> Result<(ReplayStage, Vec<PathBuf>)> {
         let (dir, val, p) = (self.dir, &self.val, &mut self.p);
         // 5. Replay through the firmware.
         p.begin(
@@ -571,30 +555,30 @@ impl Demo<'_> {
         agreement.samples,
         agreement.max_on_file_um
     ));
-        let replay_json = json!({
-            "model": path_arg(model_bin),
-            "candump": path_arg(&candump),
-            "trace": path_arg(&trace),
-            "sample_period_s": outcome.sample_period_s,
-            "samples": run0.samples,
-            "frames": run0.frames,
-            "states": run0.states,
-            "sensor_fault_samples": run0.sensor_fault_samples,
-            "stale_samples": run0.stale_samples,
-            "max_abs_offset_um": run0.max_abs_offset_um.get(TARGET),
-            "limited_samples": agreement.limited,
-            "compared_samples": agreement.compared,
-            "max_abs_sent_minus_model_um": agreement.max_on_readings_um,
-            "max_abs_sent_minus_model_on_file_um": agreement.max_on_file_um,
-            "frame_half_step_um": FRAME_HALF_STEP_UM,
-            "command": command_line("replay", &argv),
-            "elapsed_s": t,
-        });
-        Ok((replay_json, vec![candump, trace]))
+        let stage = ReplayStage {
+            model: path_arg(model_bin),
+            candump: path_arg(&candump),
+            trace: path_arg(&trace),
+            sample_period_s: outcome.sample_period_s,
+            samples: run0.samples,
+            frames: run0.frames,
+            states: run0.states.clone(),
+            sensor_fault_samples: run0.sensor_fault_samples,
+            stale_samples: run0.stale_samples,
+            max_abs_offset_um: run0.max_abs_offset_um.get(TARGET).copied(),
+            limited_samples: agreement.limited,
+            compared_samples: agreement.compared,
+            max_abs_sent_minus_model_um: agreement.max_on_readings_um,
+            max_abs_sent_minus_model_on_file_um: agreement.max_on_file_um,
+            frame_half_step_um: FRAME_HALF_STEP_UM,
+            command: command_line("replay", &argv),
+            elapsed_s: t,
+        };
+        Ok((stage, vec![candump, trace]))
     }
 
     /// Stage 6: a sim-to-real gap with a withheld effect, diagnosed.
-    fn diagnose(&mut self) -> Result<(Value, Vec<PathBuf>, PathBuf)> {
+    fn diagnose(&mut self) -> Result<(DiagnoseStage, Vec<PathBuf>, PathBuf)> {
         let (budget, dir, machine, p) = (&self.budget, self.dir, &self.machine, &mut self.p);
         // 6. Diagnose a sim-to-real gap.
         let withheld = WITHHELD_EFFECT.name();
@@ -633,53 +617,62 @@ impl Demo<'_> {
         let (sim_sum, _) = simulate::write_run(machine, &schedule, &sim_opts, &sim_csv)?;
         let diag =
             diagnose_call(&sim_csv, &real_csv, None, Some(&report)).context("demo: diagnose")?;
-        let mut diagnose_json = json!({
-            "withheld": withheld,
-            "mismatch": {"front_bearing_w_at_ref_factor": MISMATCH_FRONT_BEARING},
-            "profile": "spectrum",
-            "seed": 3,
-            "sim": path_arg(&sim_csv),
-            "real": path_arg(&real_csv),
-            "max_abs_dz_um": {"sim": sim_sum.max_abs_dz_um, "real": real_sum.max_abs_dz_um},
-            "command": command_line(
-                "diagnose",
-                &["--sim".into(), path_arg(&sim_csv), "--real".into(), path_arg(&real_csv),
-                  "--report".into(), path_arg(&report), "--json".into()],
-            ),
-        });
-        let verdict = diag["verdict"].as_str().unwrap_or("?").to_string();
-        let top = diag["effects"].get(0).cloned().unwrap_or(Value::Null);
-        let found = verdict == withheld;
-        merge(
-            &mut diagnose_json,
-            json!({
-                "report": path_arg(&report),
-                "verdict": verdict,
-                "found_withheld": found,
-                "best_effect": top["name"],
-                "best_shrink_pct": top["shrink_pct"],
-                "rms_before_um": top["rms_before"],
-                "rms_after_um": top["rms_after"],
-                "holdout_from_t_s": diag["holdout_from_t_s"],
-                "gap_dz_rms_um": diag["gap"][TARGET]["rms"],
-                "result": diag,
-            }),
-        );
+        let brief = Summary::of(&diag);
+        let found = brief.verdict == withheld;
+        let best = brief.best.as_ref();
         let figures = format!(
-        "verdict {verdict} ({}); best {} shrinks the held-out dz gap {:.1} % ({:.2} -> {:.2} um rms)",
-        if found {
-            "the withheld effect: found"
-        } else {
-            "not the withheld effect"
-        },
-        top["name"].as_str().unwrap_or("?"),
-        num(&top["shrink_pct"]),
-        num(&top["rms_before"]),
-        num(&top["rms_after"])
-    );
+            "verdict {} ({}); best {} shrinks the held-out dz gap {:.1} % ({:.2} -> {:.2} um rms)",
+            brief.verdict,
+            if found {
+                "the withheld effect: found"
+            } else {
+                "not the withheld effect"
+            },
+            best.map_or("?", |b| b.name.as_str()),
+            best.map_or(f64::NAN, |b| b.shrink_pct),
+            best.map_or(f64::NAN, |b| b.rms_before),
+            best.map_or(f64::NAN, |b| b.rms_after)
+        );
         let t = p.end(&figures);
-        merge(&mut diagnose_json, json!({"elapsed_s": t}));
-        Ok((diagnose_json, vec![sim_csv, real_csv], report))
+        let stage = DiagnoseStage {
+            withheld: withheld.to_string(),
+            mismatch: BTreeMap::from([(
+                "front_bearing_w_at_ref_factor".to_string(),
+                MISMATCH_FRONT_BEARING,
+            )]),
+            profile: "spectrum".into(),
+            seed: 3,
+            sim: path_arg(&sim_csv),
+            real: path_arg(&real_csv),
+            max_abs_dz_um: BTreeMap::from([
+                ("sim".to_string(), sim_sum.max_abs_dz_um),
+                ("real".to_string(), real_sum.max_abs_dz_um),
+            ]),
+            command: command_line(
+                "diagnose",
+                &[
+                    "--sim".into(),
+                    path_arg(&sim_csv),
+                    "--real".into(),
+                    path_arg(&real_csv),
+                    "--report".into(),
+                    path_arg(&report),
+                    "--json".into(),
+                ],
+            ),
+            report: path_arg(&report),
+            verdict: brief.verdict.clone(),
+            found_withheld: found,
+            best_effect: best.map(|b| b.name.clone()),
+            best_shrink_pct: best.map(|b| b.shrink_pct),
+            rms_before_um: best.map(|b| b.rms_before),
+            rms_after_um: best.map(|b| b.rms_after),
+            holdout_from_t_s: brief.holdout_from_t_s,
+            gap_dz_rms_um: brief.gap_rms.get(TARGET).copied(),
+            result: diag,
+            elapsed_s: t,
+        };
+        Ok((stage, vec![sim_csv, real_csv], report))
     }
 
     /// What this run wrote (not whatever else the folder holds): the known
@@ -736,8 +729,14 @@ fn fit_command(budget: &Budget, kind: FitKind, selected: &[String], files: [&Pat
     command_line("fit", &argv)
 }
 
-/// Stage 3's figures for one kind (less time and command).
-fn fit_entry(kind: FitKind, o: &fit::FitOutcome, blob: &Path) -> Result<Value> {
+/// Stage 3's figures for one kind.
+fn fit_entry(
+    kind: FitKind,
+    o: &fit::FitOutcome,
+    blob: &Path,
+    elapsed_s: f64,
+    command: String,
+) -> Result<FitEntry> {
     let name = kind_name(kind);
     let target = o
         .report
@@ -748,20 +747,23 @@ fn fit_entry(kind: FitKind, o: &fit::FitOutcome, blob: &Path) -> Result<Value> {
         bail!("demo: fit {name}: no held-out figures");
     };
     let forecaster = kind == FitKind::Arma;
-    Ok(json!({
-        "kind": name,
-        "label": if forecaster {
-            "forecaster: one step ahead from the measured dz_um itself (needs a displacement probe on the machine)"
-        } else {
-            "compensation model: dz_um from temperatures"
-        },
-        "forecaster": forecaster,
-        "inputs": o.inputs,
-        "blob": path_arg(blob),
-        "bytes": o.bytes.len(),
-        "calibration": target.calibration.as_ref().map(pick_metrics),
-        "validation": pick_metrics(val_m),
-    }))
+    let label = if forecaster {
+        "forecaster: one step ahead from the measured dz_um itself (needs a displacement probe on the machine)"
+    } else {
+        "compensation model: dz_um from temperatures"
+    };
+    Ok(FitEntry {
+        kind: name.into(),
+        label: label.into(),
+        forecaster,
+        inputs: o.inputs.clone(),
+        blob: path_arg(blob),
+        bytes: o.bytes.len(),
+        calibration: target.calibration.as_ref().map(pick_metrics),
+        validation: pick_metrics(val_m),
+        elapsed_s,
+        command,
+    })
 }
 
 /// The "real" machine's front bearing makes this much more heat than the
@@ -779,7 +781,7 @@ fn diagnose_call(
     real: &Path,
     holdout_from_s: Option<f64>,
     report: Option<&Path>,
-) -> Result<Value> {
+) -> Result<serde_json::Value> {
     crate::diagnose::diagnose_files(sim, real, holdout_from_s, report)
 }
 
@@ -791,7 +793,7 @@ fn simulate_run(
     seed: u64,
     effects: EffectSet,
     out: &Path,
-) -> Result<Value> {
+) -> Result<DemoRun> {
     let schedule = profile::schedule(
         profile,
         machine.max_rpm,
@@ -805,21 +807,24 @@ fn simulate_run(
         sensors: None,
     };
     let (s, n_sensors) = simulate::write_run(machine, &schedule, &opts, out)?;
-    Ok(json!({
-        "file": path_arg(out),
-        "profile": profile.label(),
-        "seed": seed,
-        "hours": budget.hours,
-        "dt_s": budget.dt_s,
-        "rows": s.rows,
-        "sensors": n_sensors,
-        "max_abs_dz_um": s.max_abs_dz_um,
-        "max_rise_c": s.max_rise_c.0,
-        "command": format!(
+    Ok(DemoRun {
+        file: path_arg(out),
+        profile: profile.label(),
+        seed,
+        hours: budget.hours,
+        dt_s: budget.dt_s,
+        rows: s.rows,
+        sensors: n_sensors,
+        max_abs_dz_um: s.max_abs_dz_um,
+        max_rise_c: s.max_rise_c.0,
+        command: format!(
             "thermcomp simulate --out {} --hours {} --profile {} --seed {seed} --dt-s {}",
-            out.display(), budget.hours, profile.label(), budget.dt_s
+            out.display(),
+            budget.hours,
+            profile.label(),
+            budget.dt_s
         ),
-    }))
+    })
 }
 
 /// How the offsets the hub sent compare with the host's model.
@@ -933,46 +938,14 @@ fn kind_name(k: FitKind) -> &'static str {
 }
 
 /// The figures the summary needs from eval's metrics.
-fn pick_metrics(m: &MetricsReport) -> Value {
-    json!({
-        "n": m.n,
-        "rmse_um": m.rmse_um,
-        "fit_pct": m.fit_pct,
-        "r2": m.r2,
-        "max_abs_um": m.max_abs_um,
-        "reduction_pct": m.reduction_pct,
-    })
-}
-
-fn num(v: &Value) -> f64 {
-    v.as_f64().unwrap_or(f64::NAN)
-}
-
-fn list_of(v: &Value) -> String {
-    v.as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(Value::as_str)
-                .collect::<Vec<_>>()
-                .join(",")
-        })
-        .unwrap_or_default()
-}
-
-fn input_names(described: &Value) -> Vec<String> {
-    described["inputs"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|i| i["name"].as_str().map(str::to_string))
-                .collect()
-        })
-        .unwrap_or_default()
-}
-
-fn merge(into: &mut Value, from: Value) {
-    if let (Value::Object(a), Value::Object(b)) = (into, from) {
-        a.extend(b);
+fn pick_metrics(m: &MetricsReport) -> Metrics {
+    Metrics {
+        n: m.n,
+        rmse_um: m.rmse_um,
+        fit_pct: m.fit_pct,
+        r2: m.r2,
+        max_abs_um: m.max_abs_um,
+        reduction_pct: m.reduction_pct,
     }
 }
 
@@ -990,148 +963,6 @@ fn list_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Stage 3's lines of the summary: each kind's held-out figures on the
-/// validation run, the exported one marked.
-fn fit_lines(s: &mut String, fit: &Value) {
-    let _ = writeln!(
-        s,
-        "3 fit        held-out on the validation run:\n  {:<6} {:>9} {:>9} {:>10} {:>10}",
-        "kind", "rmse_um", "fit_%", "max|r|_um", "reduce_%"
-    );
-    let best = fit["best"].as_str().unwrap_or("");
-    for m in fit["models"].as_array().map(Vec::as_slice).unwrap_or(&[]) {
-        let v = &m["validation"];
-        let kind = m["kind"].as_str().unwrap_or("?");
-        let note = if m["forecaster"] == json!(true) {
-            "  forecaster: needs the measured dz_um, not a compensation model"
-        } else if kind == best {
-            "  <- exported (chosen by CV on the calibration run)"
-        } else {
-            ""
-        };
-        let _ = writeln!(
-            s,
-            "  {:<6} {:>9.3} {:>9.2} {:>10.3} {:>10.2}{note}",
-            kind,
-            num(&v["rmse_um"]),
-            num(&v["fit_pct"]),
-            num(&v["max_abs_um"]),
-            num(&v["reduction_pct"])
-        );
-    }
-}
-
-/// Stage 6's lines of the summary: the verdict on the withheld effect and,
-/// if figured, the deployment comparison.
-fn diagnose_lines(s: &mut String, g: &Value) {
-    // The channel the verdict explains: a displacement (um) or, for a
-    // sensor-lag or ambient verdict, possibly a temperature (K).
-    let channel = g["result"]["main_channel"].as_str().unwrap_or("dz_um");
-    let unit = if channel.ends_with("_um") { "um" } else { "K" };
-    let _ = writeln!(
-        s,
-        "6 diagnose   withheld {}: verdict {} ({}), best {} shrinks the held-out gap on {channel} {:.1} % ({:.2} -> {:.2} {unit} rms)",
-        g["withheld"].as_str().unwrap_or("?"),
-        g["verdict"].as_str().unwrap_or("?"),
-        if g["found_withheld"] == json!(true) {
-            "found"
-        } else {
-            "missed"
-        },
-        g["best_effect"].as_str().unwrap_or("?"),
-        num(&g["best_shrink_pct"]),
-        num(&g["rms_before_um"]),
-        num(&g["rms_after_um"])
-    );
-    let dep = &g["result"]["deployment"];
-    if let Some(sim) = dep["trained_on_sim"]["rmse_um"].as_f64() {
-        let with = dep["trained_on_sim_plus_effect"]["rmse_um"].as_f64();
-        let _ = writeln!(
-            s,
-            "             deployment: {} on the real hold-out, trained on the sim {sim:.2} um rms{}, on the real fit part {:.2} um",
-            dep["model"].as_str().unwrap_or("?"),
-            with.map_or(String::new(), |w| format!(
-                ", on sim + {} {w:.2} um",
-                dep["effect"].as_str().unwrap_or("?")
-            )),
-            num(&dep["trained_on_real_fit_part"]["rmse_um"])
-        );
-    }
-}
-
-/// The summary `demo` prints without `--json`.
-pub fn summary_text(d: &Value) -> String {
-    let mut s = String::new();
-    let sim = &d["simulate"];
-    let _ = writeln!(
-        s,
-        "thermcomp demo: built-in machine \"{}\", target {TARGET}, runs of {} h at {} s{}",
-        sim["machine"].as_str().unwrap_or("?"),
-        d["hours"],
-        d["dt_s"],
-        if d["quick"] == json!(true) {
-            " (--quick)"
-        } else {
-            ""
-        }
-    );
-    let _ = writeln!(
-        s,
-        "1 simulate   calibration spectrum seed 1 (max |dz| {:.1} um), validation steps seed 2 (max |dz| {:.1} um)",
-        num(&sim["calibration"]["max_abs_dz_um"]),
-        num(&sim["validation"]["max_abs_dz_um"])
-    );
-    let sel = &d["select"];
-    let _ = writeln!(
-        s,
-        "2 select     maxtree {}, grey {} -> inputs {}",
-        list_of(&sel["methods"]["maxtree"]),
-        list_of(&sel["methods"]["grey"]),
-        list_of(&sel["selected"])
-    );
-    fit_lines(&mut s, &d["fit"]);
-    let ex = &d["export"];
-    let _ = writeln!(
-        s,
-        "4 export     model.bin: the {} fit (a {} blob), {} bytes, CRC {}, inputs {}",
-        ex["kind"].as_str().unwrap_or("?"),
-        ex["blob_kind"].as_str().unwrap_or("?"),
-        ex["bytes"],
-        ex["crc32"].as_str().unwrap_or("?"),
-        list_of(&ex["inputs"])
-    );
-    let r = &d["replay"];
-    let st = &r["states"];
-    let _ = writeln!(
-        s,
-        "5 replay     {} frames over {} samples every {} s (running {}, holding {}, ramping {}, zeroed {})",
-        r["frames"],
-        r["samples"],
-        r["sample_period_s"],
-        st["running"],
-        st["holding"],
-        st["ramping"],
-        st["zeroed"]
-    );
-    let _ = writeln!(
-        s,
-        "             max |sent - model| {:.3} um on the hub's readings ({} samples without a limiter; frames carry 0.1 um), \
-         {:.3} um on the logged temperatures (adds PT100 quantisation)",
-        num(&r["max_abs_sent_minus_model_um"]),
-        r["compared_samples"],
-        num(&r["max_abs_sent_minus_model_on_file_um"])
-    );
-    diagnose_lines(&mut s, &d["diagnose"]);
-    let _ = writeln!(
-        s,
-        "{} files in {} ({:.1} s); --json for every figure",
-        d["files"].as_array().map_or(0, Vec::len),
-        d["out"].as_str().unwrap_or("?"),
-        num(&d["elapsed_s"])
-    );
-    s
 }
 
 #[cfg(test)]
