@@ -101,8 +101,11 @@ struct Budget {
     hours: f64,
     /// Sample time of every simulated run, s.
     dt_s: f64,
-    /// Extra `fit` arguments per kind (budgets).
+    /// Extra `fit` flags per kind (budgets), as the command lines the demo
+    /// reports spell them; `tune` sets the same values (a test checks).
     fit_extra: fn(FitKind) -> &'static [&'static str],
+    /// The same budgets set on the typed options.
+    tune: fn(FitKind, &mut fit::FitOptions),
 }
 
 impl Budget {
@@ -136,6 +139,27 @@ impl Budget {
                     FitKind::Arma => &["--max-p", "2", "--max-q", "2", "--max-diff", "1"],
                     _ => &[],
                 },
+                tune: |k, o| match k {
+                    FitKind::Arx | FitKind::Tf => {
+                        o.arx.lm_iterations = 15;
+                        o.arx.backfit_rounds = 1;
+                        o.arx.search_folds = 2;
+                    }
+                    FitKind::Bp => o.bp.epochs = 60,
+                    FitKind::Gabp => {
+                        o.bp.epochs = 60;
+                        o.bp.ga_population = 6;
+                        o.bp.ga_generations = 3;
+                        o.bp.ga_hidden = Some("2..8".into());
+                        o.bp.gd_epochs = 0;
+                    }
+                    FitKind::Arma => {
+                        o.arma.max_p = 2;
+                        o.arma.max_q = 2;
+                        o.arma.max_diff = 1;
+                    }
+                    _ => {}
+                },
             }
         } else {
             Budget {
@@ -156,6 +180,13 @@ impl Budget {
                         "0",
                     ],
                     _ => &[],
+                },
+                tune: |k, o| {
+                    if k == FitKind::Gabp {
+                        o.bp.ga_population = 12;
+                        o.bp.ga_generations = 6;
+                        o.bp.gd_epochs = 0;
+                    }
                 },
             }
         }
@@ -694,10 +725,8 @@ impl Demo<'_> {
 /// Stage 3's parameters for `kind`: the selected sensors (auto and arma
 /// choose their own inputs) and the budget's options.
 fn fit_params(budget: &Budget, kind: FitKind, selected: &[String]) -> Result<fit::FitParams> {
-    let pairs: Vec<(String, String)> = (budget.fit_extra)(kind)
-        .chunks(2)
-        .map(|c| (c[0].trim_start_matches("--").to_string(), c[1].to_string()))
-        .collect();
+    let mut options = fit::FitOptions::defaults()?;
+    (budget.tune)(kind, &mut options);
     let own_inputs = kind == FitKind::Arma || kind == FitKind::Auto;
     Ok(fit::FitParams {
         targets: vec![TARGET.into()],
@@ -710,7 +739,7 @@ fn fit_params(budget: &Budget, kind: FitKind, selected: &[String]) -> Result<fit
         holdout_from_s: None,
         reference: crate::data::dataset::InputForm::Change,
         l_defl_mm: None,
-        options: fit::FitOptions::from_pairs(&pairs)?,
+        options,
     })
 }
 
@@ -981,6 +1010,26 @@ mod tests {
         let auto = fit_params(&Budget::new(false), FitKind::Auto, &selected).unwrap();
         assert!(auto.inputs.is_empty(), "auto chooses its own inputs");
         assert!(auto.check().is_ok());
+    }
+
+    #[test]
+    fn the_reported_flags_are_the_budgets_set() {
+        for quick in [true, false] {
+            let budget = Budget::new(quick);
+            for kind in KINDS {
+                let pairs: Vec<(String, String)> = (budget.fit_extra)(kind)
+                    .chunks(2)
+                    .map(|c| (c[0].trim_start_matches("--").to_string(), c[1].to_string()))
+                    .collect();
+                let from_flags = fit::FitOptions::from_pairs(&pairs).unwrap();
+                let set = fit_params(&budget, kind, &[]).unwrap().options;
+                assert_eq!(
+                    format!("{from_flags:?}"),
+                    format!("{set:?}"),
+                    "{kind:?} quick {quick}"
+                );
+            }
+        }
     }
 
     #[test]
