@@ -2,30 +2,13 @@
 //! columns, over all runs together and per run (CONTRACT.md section 1).
 
 use crate::data::runfile::{ReadOptions, RunFile};
-use crate::data::source::{ModelSource, RunSource};
 use crate::runner;
 use crate::runner::ColumnMap;
 use anyhow::{anyhow, bail, Result};
-use clap::Args;
 use model_core::metrics::{Metrics, MetricsAccumulator};
 use model_core::ValidModel;
 use serde::Serialize;
-use serde_json::{Map, Value};
-use std::fmt::Write as _;
-
-/// Arguments of `thermcomp eval`.
-#[derive(Args)]
-pub struct EvalArgs {
-    /// The model to run.
-    #[command(flatten)]
-    pub model: ModelSource,
-    /// The runs to run it on.
-    #[command(flatten)]
-    pub runs: RunSource,
-    /// Print one JSON object keyed by target column.
-    #[arg(long)]
-    pub json: bool,
-}
+use serde_json::Value;
 
 /// One set of figures under the contract's metric keys (CONTRACT.md
 /// section 1) and a few more: what `eval --json` and `fit --json` print.
@@ -375,75 +358,4 @@ fn score_run(
     let file = run.path.display().to_string();
     let entry = run_entry(&file, name, col, run.len(), skipped, &acc);
     Ok((entry, skipped))
-}
-
-/// Runs `thermcomp eval`: reads the model and the runs, [`evaluate`]s,
-/// prints the table or the JSON object.
-pub fn run(a: &EvalArgs) -> Result<()> {
-    let model = a.model.load()?;
-    let map = a.runs.column_map()?;
-    let opts = a.runs.read_options(map.model_columns(&model, true));
-    let out = evaluate_files(&model, &a.runs.data, &opts, &map)?;
-    let Value::Object(out) = serde_json::to_value(&out)? else {
-        bail!("eval: the outcome is not a JSON object");
-    };
-    if a.json {
-        crate::data::fsio::print_line(&Value::Object(out).to_string())?;
-    } else {
-        crate::data::fsio::print(&table_text(&out))?;
-    }
-    Ok(())
-}
-
-/// The text table of `eval`: one row per target, then per run.
-fn table_text(out: &Map<String, Value>) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "{:<10} {:>8} {:>9} {:>8} {:>7} {:>8} {:>9} {:>10} {:>8} {:>10}",
-        "target",
-        "n",
-        "rmse_um",
-        "fit_%",
-        "r2",
-        "eta_%",
-        "max_|r|",
-        "mean_|r|",
-        "dpk_um",
-        "reduce_%"
-    );
-    for (name, m) in out {
-        let f = |k: &str| m.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
-        let _ = writeln!(
-            s,
-            "{:<10} {:>8} {:>9.3} {:>8.2} {:>7.4} {:>8.2} {:>9.3} {:>10.3} {:>8.3} {:>10.2}",
-            name,
-            m.get("n").and_then(Value::as_u64).unwrap_or(0),
-            f("rmse_um"),
-            f("fit_pct"),
-            f("r2"),
-            f("eta_pct"),
-            f("max_abs_um"),
-            f("mean_abs_um"),
-            f("dpk_um"),
-            f("reduction_pct")
-        );
-        if let Some(Value::Array(runs)) = m.get("per_run") {
-            if runs.len() > 1 {
-                for r in runs {
-                    let g = |k: &str| r.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
-                    let _ = writeln!(
-                        s,
-                        "  {:<30} rmse {:>8.3}  fit {:>7.2}%  dpk {:>8.3}  reduction {:>7.2}%",
-                        r.get("file").and_then(Value::as_str).unwrap_or("?"),
-                        g("rmse_um"),
-                        g("fit_pct"),
-                        g("dpk_um"),
-                        g("reduction_pct")
-                    );
-                }
-            }
-        }
-    }
-    s
 }

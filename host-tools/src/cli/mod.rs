@@ -8,6 +8,7 @@
 //! and a non-zero exit status.
 
 mod demo;
+mod eval;
 mod fivepoint;
 mod hub;
 pub mod pairs;
@@ -16,7 +17,7 @@ pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, diagnose, eval, fit, predict, refit, replay, show};
+use crate::{bench, diagnose, fit, predict, refit, replay, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
