@@ -1,38 +1,12 @@
 //! `thermcomp predict`: a model's outputs for run files, row for row.
 
 use crate::data::runfile::{ReadOptions, RunFile, SkippedRow};
-use crate::data::source::{ModelSource, RunSource};
 use crate::runner::{self, ColumnMap};
 use anyhow::{Context, Result};
-use clap::Args;
 use model_core::ValidModel;
 use serde::Serialize;
 use std::io::Write;
-use std::path::PathBuf;
-
-/// Arguments of `thermcomp predict`.
-#[derive(Args)]
-pub struct PredictArgs {
-    /// The model to run.
-    #[command(flatten)]
-    pub model: ModelSource,
-    /// The runs to run it on.
-    #[command(flatten)]
-    pub runs: RunSource,
-    /// Where to write `t_s` and one `<output>_pred` column per model output
-    /// (with several runs, a leading `run` column names each row's file).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Also write `<output>_lo95` and `<output>_hi95`: the model's 95 %
-    /// band (its calibration cross-validation error, widened by
-    /// `1 + d` where `d` is how far the inputs lie outside the calibration
-    /// envelope, in envelope widths). Needs a model with bounds (`fit --model auto`).
-    #[arg(long)]
-    pub interval: bool,
-    /// Print a JSON summary on stdout.
-    #[arg(long)]
-    pub json: bool,
-}
+use std::path::{Path, PathBuf};
 
 /// Writes an empty cell for a missing value, else the shortest exact text.
 fn cell(v: Option<f64>) -> String {
@@ -96,45 +70,60 @@ pub fn predict_run(
     })
 }
 
-/// Runs `thermcomp predict`.
-pub fn run(a: &PredictArgs) -> Result<()> {
-    let model = a.model.load()?;
-    check_interval(&model, a.interval)?;
-    let map = a.runs.column_map()?;
-    let opts = a.runs.read_options(map.model_columns(&model, false));
-    let inputs = [a.model.paths(), a.runs.paths()].concat();
-    crate::data::fsio::check_distinct(&inputs, &[crate::data::fsio::named("--out", &a.out)])?;
-    let (rows, missing, skipped_rows) =
-        crate::data::fsio::write_atomic(&a.out, |w| write_predictions(a, &model, &opts, &map, w))?;
-    let runs = &a.runs.data;
-    if a.json {
-        crate::data::fsio::print_line(
-            &serde_json::json!({"out": a.out.display().to_string(), "runs": runs.len(), "rows": rows,
-                "outputs": runner::prediction_names(&model),
-                "missing_cells": missing, "skipped_rows": skipped_rows})
-            .to_string(),
-        )?;
-    } else {
-        eprintln!(
-            "wrote {} ({rows} rows from {} run(s))",
-            a.out.display(),
-            runs.len()
-        );
-    }
-    Ok(())
+/// What `predict` wrote (`predict --json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct PredictSummary {
+    /// The predictions file.
+    pub out: String,
+    /// Runs predicted.
+    pub runs: usize,
+    /// Rows written.
+    pub rows: usize,
+    /// The prediction columns' outputs.
+    pub outputs: Vec<String>,
+    /// Empty prediction cells.
+    pub missing_cells: usize,
+    /// Rows skipped as bad (`--skip-bad-rows`; written as empty rows).
+    pub skipped_rows: usize,
+}
+
+/// `model`'s predictions for the runs `paths` written to `out` (CSV,
+/// atomically), each run streamed row by row in bounded memory.
+pub fn predict_files(
+    model: &ValidModel,
+    paths: &[PathBuf],
+    opts: &ReadOptions,
+    map: &ColumnMap,
+    interval: bool,
+    out: &Path,
+) -> Result<PredictSummary> {
+    check_interval(model, interval)?;
+    let (rows, missing_cells, skipped_rows) = crate::data::fsio::write_atomic(out, |w| {
+        write_predictions(model, paths, interval, out, opts, map, w)
+    })?;
+    Ok(PredictSummary {
+        out: out.display().to_string(),
+        runs: paths.len(),
+        rows,
+        outputs: runner::prediction_names(model),
+        missing_cells,
+        skipped_rows,
+    })
 }
 
 /// Writes the predictions CSV, each run streamed row by row
 /// ([`crate::stream::stream_run`]) and written as it goes: rows written,
 /// empty prediction cells, rows skipped as bad.
 fn write_predictions(
-    a: &PredictArgs,
     model: &ValidModel,
+    paths: &[PathBuf],
+    interval: bool,
+    out: &Path,
     opts: &ReadOptions,
     map: &ColumnMap,
     w: &mut dyn Write,
 ) -> Result<(usize, usize, usize)> {
-    let several = a.runs.data.len() > 1;
+    let several = paths.len() > 1;
     let mut header: Vec<String> = Vec::new();
     if several {
         header.push("run".into());
@@ -142,20 +131,21 @@ fn write_predictions(
     header.push("t_s".into());
     let names = runner::prediction_names(model);
     header.extend(names.iter().map(|o| format!("{o}_pred")));
-    if a.interval {
+    if interval {
         for o in model.outputs() {
             header.push(format!("{o}_lo95"));
             header.push(format!("{o}_hi95"));
         }
     }
-    writeln!(w, "{}", header.join(",")).with_context(|| write_err(a))?;
+    writeln!(w, "{}", header.join(",")).with_context(|| write_err(out))?;
     let (mut rows, mut missing, mut skipped) = (0, 0, 0);
-    for path in &a.runs.data {
+    for path in paths {
         let mut sink = CsvSink {
-            a,
+            interval,
+            out,
             name: several.then(|| path.display().to_string().replace(',', "_")),
             blank_cells: names.len()
-                + if a.interval {
+                + if interval {
                     2 * model.outputs().len()
                 } else {
                     0
@@ -178,13 +168,16 @@ fn write_predictions(
     Ok((rows, missing, skipped))
 }
 
-fn write_err(a: &PredictArgs) -> String {
-    format!("cannot write {}", a.out.display())
+fn write_err(out: &Path) -> String {
+    format!("cannot write {}", out.display())
 }
 
 /// Writes streamed rows as CSV lines.
 struct CsvSink<'a> {
-    a: &'a PredictArgs,
+    /// Whether the band columns are written.
+    interval: bool,
+    /// The file written (for errors).
+    out: &'a Path,
     /// The run's name in the `run` column, with several runs.
     name: Option<String>,
     /// Cells after `t_s` (the blank row's commas).
@@ -216,7 +209,7 @@ impl crate::stream::RowSink for CsvSink<'_> {
             line.push(',');
             line.push_str(&cell(*value));
         }
-        if self.a.interval {
+        if self.interval {
             for (value, half) in row.values.iter().zip(row.bands) {
                 let pair = value.zip(*half);
                 line.push(',');
@@ -225,7 +218,7 @@ impl crate::stream::RowSink for CsvSink<'_> {
                 line.push_str(&cell(pair.map(|(y, h)| y + h)));
             }
         }
-        writeln!(self.w, "{line}").with_context(|| write_err(self.a))?;
+        writeln!(self.w, "{line}").with_context(|| write_err(self.out))?;
         self.rows += 1;
         Ok(())
     }
@@ -238,7 +231,7 @@ impl crate::stream::RowSink for CsvSink<'_> {
             .as_ref()
             .map_or(String::new(), |n| format!("{n},"));
         writeln!(self.w, "{lead}{}", ",".repeat(self.blank_cells))
-            .with_context(|| write_err(self.a))?;
+            .with_context(|| write_err(self.out))?;
         self.rows += 1;
         self.missing += self.n_values;
         Ok(())
