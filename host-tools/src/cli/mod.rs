@@ -13,12 +13,13 @@ mod fivepoint;
 mod hub;
 pub mod pairs;
 mod predict;
+mod replay;
 pub mod select;
 pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, diagnose, fit, refit, replay, show};
+use crate::{bench, diagnose, fit, refit, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};

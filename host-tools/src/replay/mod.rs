@@ -41,10 +41,8 @@ pub mod virtual_rtd;
 use crate::data::runfile::{
     is_temperature_column, uniform_grid_len, ReadOptions, RowStream, SamplingTally, StreamItem,
 };
-use crate::data::source::RunSource;
 use crate::runner::ColumnMap;
 use anyhow::{anyhow, bail, Result};
-use clap::Args;
 use embedded_can::Frame as _;
 use firmware::board::CNC_INPUT_TIMEOUT_MS;
 use firmware::can_frames::{self, Message, RawFrame, StatusInfo};
@@ -62,34 +60,6 @@ use std::collections::{BTreeMap, VecDeque};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use virtual_rtd::VirtualMax31865;
-
-/// Arguments of `thermcomp replay`.
-#[derive(Args)]
-pub struct ReplayArgs {
-    /// The model blob, as it would be flashed (a refused blob runs as "no model").
-    #[arg(long)]
-    pub model: PathBuf,
-    /// The runs to replay.
-    #[command(flatten)]
-    pub runs: RunSource,
-    /// Where to write the CAN frames (candump log format).
-    #[arg(long)]
-    pub candump: PathBuf,
-    /// CAN interface name written in the log.
-    #[arg(long, default_value = "can0", value_parser = crate::data::source::interface_name)]
-    pub interface: String,
-    /// Also write a CSV of every sample: the inputs as the hub read them and
-    /// the offsets decoded from the frames sent (`<output>_sent`; for a
-    /// five-point model `dx_um_sent`, `dy_um_sent`, `dz_um_sent` and the
-    /// `tool_mm` the hub used), the
-    /// slope of each positional output (`<output>_slope_um_per_m`, from the
-    /// SLOPE frames), with the hub state and flags.
-    #[arg(long, value_name = "FILE.csv")]
-    pub trace: Option<PathBuf>,
-    /// Print one JSON summary object.
-    #[arg(long)]
-    pub json: bool,
-}
 
 /// Where the hub gets one model input from.
 enum Source {
@@ -191,35 +161,6 @@ struct Tally {
     max_abs_um: Vec<f64>,
 }
 
-/// Runs `thermcomp replay`.
-pub fn run(a: &ReplayArgs) -> Result<()> {
-    let params = ReplayParams::from_args(a);
-    params.check()?;
-    let outcome = replay(&params)?;
-    if a.json {
-        let summary = serde_json::to_value(&outcome)?;
-        crate::data::fsio::print_line(&summary.to_string())?;
-    } else {
-        for r in &outcome.runs {
-            let st = &r.states;
-            crate::data::fsio::print_line(&format!(
-                "{}: {} samples, {} frames ({} from the CNC); running {}, holding {}, ramping {}, zeroed {}, no model {}",
-                r.run,
-                r.samples,
-                r.frames,
-                r.rx_frames,
-                st.running,
-                st.holding,
-                st.ramping,
-                st.zeroed,
-                st.no_model
-            ))?;
-        }
-        eprintln!("wrote {}", a.candump.display());
-    }
-    Ok(())
-}
-
 /// The parameters of a replay job (what `thermcomp replay` takes, typed).
 #[derive(Clone, Debug)]
 pub struct ReplayParams {
@@ -240,19 +181,6 @@ pub struct ReplayParams {
 }
 
 impl ReplayParams {
-    /// The parameters of `thermcomp replay`'s arguments.
-    pub fn from_args(a: &ReplayArgs) -> Self {
-        ReplayParams {
-            model: a.model.clone(),
-            data: a.runs.data.clone(),
-            map: a.runs.map.clone(),
-            skip_bad_rows: a.runs.skip_bad_rows,
-            candump: a.candump.clone(),
-            interface: a.interface.clone(),
-            trace: a.trace.clone(),
-        }
-    }
-
     /// The checks the command line makes: at least one run, a valid
     /// interface name and `--map` pairs.
     pub fn check(&self) -> Result<()> {
