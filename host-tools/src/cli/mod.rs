@@ -8,6 +8,7 @@
 //! and a non-zero exit status.
 
 mod demo;
+mod diagnose;
 mod eval;
 mod fivepoint;
 mod hub;
@@ -19,7 +20,7 @@ pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, diagnose, fit, refit, show};
+use crate::{bench, fit, refit, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
