@@ -5,6 +5,24 @@
 use super::tsqr::Tsqr;
 use nalgebra::{DMatrix, DVector};
 
+/// Each column's rms over `rows` (its scale) and the columns worth
+/// solving for: a finite scale above 1e-12 (a column that is zero or not
+/// finite there carries nothing).
+fn live_columns<C: AsRef<[f64]>>(
+    cols: &[C],
+    rows: &std::ops::Range<usize>,
+) -> (Vec<f64>, Vec<usize>) {
+    let n = rows.len() as f64;
+    let scales: Vec<f64> = cols
+        .iter()
+        .map(|c| (c.as_ref()[rows.clone()].iter().map(|v| v * v).sum::<f64>() / n).sqrt())
+        .collect();
+    let live = (0..cols.len())
+        .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
+        .collect();
+    (scales, live)
+}
+
 /// First-order response `tau dy/dt = u - y` of `u` sampled at `t_s`,
 /// discretised exactly for an input held over each step (zero-order hold,
 /// as the twin does): `y_k = a y_(k-1) + (1 - a) u_(k-1)`,
@@ -73,13 +91,7 @@ pub fn fit_rows_penalised(
         return None;
     }
     let (r0, n_fit) = (rows.start, rows.len());
-    let scales: Vec<f64> = cols
-        .iter()
-        .map(|c| (c[rows.clone()].iter().map(|v| v * v).sum::<f64>() / n_fit as f64).sqrt())
-        .collect();
-    let live: Vec<usize> = (0..cols.len())
-        .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
-        .collect();
+    let (scales, live) = live_columns(cols, &rows);
     if live.len() > n_fit {
         return None;
     }
@@ -150,13 +162,7 @@ pub fn fit_streamed(
         return None;
     }
     let n_fit = rows.len();
-    let scales: Vec<f64> = cols
-        .iter()
-        .map(|c| (c[rows.clone()].iter().map(|v| v * v).sum::<f64>() / n_fit as f64).sqrt())
-        .collect();
-    let live: Vec<usize> = (0..cols.len())
-        .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
-        .collect();
+    let (scales, live) = live_columns(cols, &rows);
     // No live column: nothing to solve (the dense path's SVD would panic).
     if live.is_empty() || live.len() > n_fit {
         return None;
