@@ -712,6 +712,29 @@ fn pcr_params(
     }))
 }
 
+/// A kind's parameters from its one `[table]` (`what`: "a [bp]"): a clear
+/// error if the table is missing, `build` over it with its errors prefixed
+/// by the table's position, and its span recorded in `spans` (so a model
+/// error can point at it).
+fn from_table<T, P>(
+    entry: Option<&Spanned<T>>,
+    what: &str,
+    b: &mut Builder,
+    kind_at: &str,
+    spans: &mut Vec<Range<usize>>,
+    build: impl FnOnce(&T, &mut Builder) -> Result<P>,
+) -> Result<P> {
+    let kind = what
+        .trim_start_matches(|c: char| c != '[')
+        .trim_matches(|c| c == '[' || c == ']');
+    let e = entry.ok_or_else(|| anyhow!("{kind_at}: kind = \"{kind}\" needs {what} table"))?;
+    let span = e.span();
+    let at = b.at(&span);
+    let params = build(e.get_ref(), b).map_err(|err| anyhow!("{at}: [{kind}]: {err}"))?;
+    spans.push(span);
+    Ok(params)
+}
+
 /// The `bp` kind's parameters from its spec entries (their spans go to
 /// `spans`, so a model error can point at its entry).
 fn bp_params(
@@ -720,72 +743,70 @@ fn bp_params(
     kind_at: &str,
     spans: &mut Vec<Range<usize>>,
 ) -> Result<Params> {
-    let e = spec
-        .bp
-        .as_ref()
-        .ok_or_else(|| anyhow!("{kind_at}: kind = \"bp\" needs a [bp] table"))?;
-    let span = e.span();
-    let at = b.at(&span);
-    let n = e.get_ref();
-    let net = (|| -> Result<BpNet> {
-        finite_ref(n.reference)?;
-        for (what, rows) in [("w1", &n.w1), ("w2", &n.w2)] {
-            for row in rows.iter() {
-                finite(row, what)?;
+    let net = from_table(
+        spec.bp.as_ref(),
+        "a [bp]",
+        b,
+        kind_at,
+        spans,
+        |n, b| -> Result<BpNet> {
+            finite_ref(n.reference)?;
+            for (what, rows) in [("w1", &n.w1), ("w2", &n.w2)] {
+                for row in rows.iter() {
+                    finite(row, what)?;
+                }
             }
-        }
-        for (what, v) in [
-            ("b1", &n.b1),
-            ("b2", &n.b2),
-            ("x_min", &n.x_min),
-            ("x_max", &n.x_max),
-            ("y_min", &n.y_min),
-            ("y_max", &n.y_max),
-        ] {
-            finite(v, what)?;
-        }
-        let reference = n.reference.map_or(Reference::Absolute, RefSpec::reference);
-        let (m, hidden, q) = (n.inputs.len(), n.b1.len(), n.outputs.len());
-        if n.w1.len() != hidden || n.w1.iter().any(|r| r.len() != m) {
-            bail!("w1 must be {hidden} rows (one per b1 value) of {m} weights (one per input)");
-        }
-        if n.w2.len() != q || n.w2.iter().any(|r| r.len() != hidden) {
-            bail!("w2 must be {q} rows (one per output) of {hidden} weights");
-        }
-        let mut inputs = heapless::Vec::new();
-        for col in &n.inputs {
-            inputs
-                .push(b.input(col, reference)?)
-                .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
-        }
-        let mut outputs = heapless::Vec::new();
-        for (i, col) in n.outputs.iter().enumerate() {
-            if n.outputs[..i].contains(col) {
-                bail!("output {col} is listed twice");
+            for (what, v) in [
+                ("b1", &n.b1),
+                ("b2", &n.b2),
+                ("x_min", &n.x_min),
+                ("x_max", &n.x_max),
+                ("y_min", &n.y_min),
+                ("y_max", &n.y_max),
+            ] {
+                finite(v, what)?;
             }
-            outputs
-                .push(b.output(col)?)
-                .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
-        }
-        let w1: Vec<f64> = n.w1.iter().flatten().copied().collect();
-        let w2: Vec<f64> = n.w2.iter().flatten().copied().collect();
-        Ok(BpNet {
-            inputs,
-            outputs,
-            hidden_activation: activation(n.hidden_activation.as_deref(), Activation::Tansig)?,
-            output_activation: activation(n.output_activation.as_deref(), Activation::Purelin)?,
-            w1: vec_of(&w1, "w1")?,
-            b1: vec_of(&n.b1, "b1")?,
-            w2: vec_of(&w2, "w2")?,
-            b2: vec_of(&n.b2, "b2")?,
-            x_min: vec_of(&n.x_min, "x_min")?,
-            x_max: vec_of(&n.x_max, "x_max")?,
-            y_min: vec_of(&n.y_min, "y_min")?,
-            y_max: vec_of(&n.y_max, "y_max")?,
-        })
-    })()
-    .map_err(|err| anyhow!("{at}: [bp]: {err}"))?;
-    spans.push(span);
+            let reference = n.reference.map_or(Reference::Absolute, RefSpec::reference);
+            let (m, hidden, q) = (n.inputs.len(), n.b1.len(), n.outputs.len());
+            if n.w1.len() != hidden || n.w1.iter().any(|r| r.len() != m) {
+                bail!("w1 must be {hidden} rows (one per b1 value) of {m} weights (one per input)");
+            }
+            if n.w2.len() != q || n.w2.iter().any(|r| r.len() != hidden) {
+                bail!("w2 must be {q} rows (one per output) of {hidden} weights");
+            }
+            let mut inputs = heapless::Vec::new();
+            for col in &n.inputs {
+                inputs
+                    .push(b.input(col, reference)?)
+                    .map_err(|_| anyhow!("more than {MAX_CHANNELS} inputs"))?;
+            }
+            let mut outputs = heapless::Vec::new();
+            for (i, col) in n.outputs.iter().enumerate() {
+                if n.outputs[..i].contains(col) {
+                    bail!("output {col} is listed twice");
+                }
+                outputs
+                    .push(b.output(col)?)
+                    .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
+            }
+            let w1: Vec<f64> = n.w1.iter().flatten().copied().collect();
+            let w2: Vec<f64> = n.w2.iter().flatten().copied().collect();
+            Ok(BpNet {
+                inputs,
+                outputs,
+                hidden_activation: activation(n.hidden_activation.as_deref(), Activation::Tansig)?,
+                output_activation: activation(n.output_activation.as_deref(), Activation::Purelin)?,
+                w1: vec_of(&w1, "w1")?,
+                b1: vec_of(&n.b1, "b1")?,
+                w2: vec_of(&w2, "w2")?,
+                b2: vec_of(&n.b2, "b2")?,
+                x_min: vec_of(&n.x_min, "x_min")?,
+                x_max: vec_of(&n.x_max, "x_max")?,
+                y_min: vec_of(&n.y_min, "y_min")?,
+                y_max: vec_of(&n.y_max, "y_max")?,
+            })
+        },
+    )?;
     Ok(Params::Bp(net))
 }
 
@@ -797,34 +818,32 @@ fn arma_params(
     kind_at: &str,
     spans: &mut Vec<Range<usize>>,
 ) -> Result<Params> {
-    let e = spec
-        .arma
-        .as_ref()
-        .ok_or_else(|| anyhow!("{kind_at}: kind = \"arma\" needs an [arma] table"))?;
-    let span = e.span();
-    let at = b.at(&span);
-    let a = e.get_ref();
-    let arma = (|| -> Result<model_core::arma::Arma> {
-        let scalars = [a.mean, a.std, a.constant];
-        finite(
-            &scalars.iter().flatten().copied().collect::<Vec<_>>(),
-            "mean/std/constant",
-        )?;
-        finite(&a.phi, "phi")?;
-        finite(&a.theta, "theta")?;
-        Ok(model_core::arma::Arma {
-            channel: b.input(&a.series, Reference::Absolute)?,
-            output: b.output(a.output.as_deref().unwrap_or(&a.series))?,
-            mean: a.mean.unwrap_or(0.0),
-            std: a.std.unwrap_or(1.0),
-            diff: a.diff.unwrap_or(0),
-            constant: a.constant.unwrap_or(0.0),
-            phi: vec_of(&a.phi, "phi")?,
-            theta: vec_of(&a.theta, "theta")?,
-        })
-    })()
-    .map_err(|err| anyhow!("{at}: [arma]: {err}"))?;
-    spans.push(span);
+    let arma = from_table(
+        spec.arma.as_ref(),
+        "an [arma]",
+        b,
+        kind_at,
+        spans,
+        |a, b| -> Result<model_core::arma::Arma> {
+            let scalars = [a.mean, a.std, a.constant];
+            finite(
+                &scalars.iter().flatten().copied().collect::<Vec<_>>(),
+                "mean/std/constant",
+            )?;
+            finite(&a.phi, "phi")?;
+            finite(&a.theta, "theta")?;
+            Ok(model_core::arma::Arma {
+                channel: b.input(&a.series, Reference::Absolute)?,
+                output: b.output(a.output.as_deref().unwrap_or(&a.series))?,
+                mean: a.mean.unwrap_or(0.0),
+                std: a.std.unwrap_or(1.0),
+                diff: a.diff.unwrap_or(0),
+                constant: a.constant.unwrap_or(0.0),
+                phi: vec_of(&a.phi, "phi")?,
+                theta: vec_of(&a.theta, "theta")?,
+            })
+        },
+    )?;
     Ok(Params::Arma(arma))
 }
 
@@ -836,69 +855,69 @@ fn fbank_params(
     kind_at: &str,
     spans: &mut Vec<Range<usize>>,
 ) -> Result<Params> {
-    let e = spec
-        .fbank
-        .as_ref()
-        .ok_or_else(|| anyhow!("{kind_at}: kind = \"fbank\" needs an [fbank] table"))?;
-    let span = e.span();
-    let at = b.at(&span);
-    let f = e.get_ref();
-    let bank = (|| -> Result<FilterBank> {
-        for i in &f.inputs {
-            finite_ref(i.reference)?;
-        }
-        for ft in &f.features {
-            finite(&ft.tau_s.into_iter().collect::<Vec<_>>(), "tau_s")?;
-        }
-        for o in &f.output {
-            finite(&[o.intercept], "intercept")?;
-            finite(&o.coef, "coef")?;
-        }
-        let mut by_name: Vec<(&str, u8)> = Vec::new();
-        for i in &f.inputs {
-            if by_name.iter().any(|(n, _)| *n == i.name) {
-                bail!("input {} is listed twice", i.name);
+    let bank = from_table(
+        spec.fbank.as_ref(),
+        "an [fbank]",
+        b,
+        kind_at,
+        spans,
+        |f, b| -> Result<FilterBank> {
+            for i in &f.inputs {
+                finite_ref(i.reference)?;
             }
-            let reference = i.reference.map_or(Reference::First, RefSpec::reference);
-            by_name.push((&i.name, b.input(&i.name, reference)?));
-        }
-        let mut features = heapless::Vec::new();
-        for (j, ft) in f.features.iter().enumerate() {
-            let input = by_name
-                .iter()
-                .find(|(n, _)| *n == ft.input)
-                .map(|(_, i)| *i)
-                .ok_or_else(|| anyhow!("feature {}: input {} is not in inputs", j + 1, ft.input))?;
-            features
-                .push(Feature {
-                    input,
-                    power: ft.power.unwrap_or(1),
-                    tau_s: ft.tau_s.unwrap_or(0.0),
-                })
-                .map_err(|_| anyhow!("more than {MAX_FB_FEATURES} features"))?;
-        }
-        let mut outputs = heapless::Vec::new();
-        for o in &f.output {
-            if o.coef.len() != features.len() {
-                bail!(
-                    "output {}: {} coef values for {} features",
-                    o.output,
-                    o.coef.len(),
-                    features.len()
-                );
+            for ft in &f.features {
+                finite(&ft.tau_s.into_iter().collect::<Vec<_>>(), "tau_s")?;
             }
-            outputs
-                .push(FbOutput {
-                    output: b.output(&o.output)?,
-                    intercept: o.intercept,
-                    coef: vec_of(&o.coef, "coef")?,
-                })
-                .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
-        }
-        Ok(FilterBank { features, outputs })
-    })()
-    .map_err(|err| anyhow!("{at}: [fbank]: {err}"))?;
-    spans.push(span);
+            for o in &f.output {
+                finite(&[o.intercept], "intercept")?;
+                finite(&o.coef, "coef")?;
+            }
+            let mut by_name: Vec<(&str, u8)> = Vec::new();
+            for i in &f.inputs {
+                if by_name.iter().any(|(n, _)| *n == i.name) {
+                    bail!("input {} is listed twice", i.name);
+                }
+                let reference = i.reference.map_or(Reference::First, RefSpec::reference);
+                by_name.push((&i.name, b.input(&i.name, reference)?));
+            }
+            let mut features = heapless::Vec::new();
+            for (j, ft) in f.features.iter().enumerate() {
+                let input = by_name
+                    .iter()
+                    .find(|(n, _)| *n == ft.input)
+                    .map(|(_, i)| *i)
+                    .ok_or_else(|| {
+                        anyhow!("feature {}: input {} is not in inputs", j + 1, ft.input)
+                    })?;
+                features
+                    .push(Feature {
+                        input,
+                        power: ft.power.unwrap_or(1),
+                        tau_s: ft.tau_s.unwrap_or(0.0),
+                    })
+                    .map_err(|_| anyhow!("more than {MAX_FB_FEATURES} features"))?;
+            }
+            let mut outputs = heapless::Vec::new();
+            for o in &f.output {
+                if o.coef.len() != features.len() {
+                    bail!(
+                        "output {}: {} coef values for {} features",
+                        o.output,
+                        o.coef.len(),
+                        features.len()
+                    );
+                }
+                outputs
+                    .push(FbOutput {
+                        output: b.output(&o.output)?,
+                        intercept: o.intercept,
+                        coef: vec_of(&o.coef, "coef")?,
+                    })
+                    .map_err(|_| anyhow!("more than {MAX_OUTPUTS} outputs"))?;
+            }
+            Ok(FilterBank { features, outputs })
+        },
+    )?;
     Ok(Params::Fbank(bank))
 }
 
