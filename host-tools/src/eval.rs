@@ -116,17 +116,14 @@ pub type EvalOutcome = std::collections::BTreeMap<String, TargetEval>;
 /// columns, `map` naming a measured column per output where it differs.
 /// Notes (unscored rows, an arma model's caveat) go to stderr.
 pub fn evaluate(model: &ValidModel, runs: &[RunFile], map: &ColumnMap) -> Result<EvalOutcome> {
-    if model.kind() == model_core::ModelKind::Arma {
-        eprintln!("note: an arma model forecasts one step ahead from the measured series itself: these figures hold only where the error is measured every dt_s on the machine (docs/arma.md)");
-    }
     let skipped_rows = crate::data::source::skipped_rows(runs);
-    // A five-point model's tip drift is scored too, where the run has it.
-    let names = runner::prediction_names(model);
-    let n_model = model.outputs().len();
-    let n_out = names.len();
-    let mut all = vec![MetricsAccumulator::new(); n_out];
-    let mut per_run: Vec<Vec<RunEval>> = vec![Vec::new(); n_out];
-    let mut unscored = vec![0usize; n_out];
+    let Tally {
+        names,
+        n_model,
+        mut all,
+        mut per_run,
+        mut unscored,
+    } = Tally::new(model);
     for run in runs {
         let p = runner::predict(model, run, map)?;
         for note in &p.notes {
@@ -147,6 +144,35 @@ pub fn evaluate(model: &ValidModel, runs: &[RunFile], map: &ColumnMap) -> Result
         }
     }
     outcome(&names, n_model, map, &all, per_run, &unscored, skipped_rows)
+}
+
+/// The running figures of an evaluation: per output (a five-point model's
+/// tip drift too, where the run has it) the accumulator over every run,
+/// the per-run entries and the rows not scored.
+struct Tally {
+    names: Vec<String>,
+    n_model: usize,
+    all: Vec<MetricsAccumulator>,
+    per_run: Vec<Vec<RunEval>>,
+    unscored: Vec<usize>,
+}
+
+impl Tally {
+    /// Empty figures for `model`'s outputs; an arma model's caveat on stderr.
+    fn new(model: &ValidModel) -> Tally {
+        if model.kind() == model_core::ModelKind::Arma {
+            eprintln!("note: an arma model forecasts one step ahead from the measured series itself: these figures hold only where the error is measured every dt_s on the machine (docs/arma.md)");
+        }
+        let names = runner::prediction_names(model);
+        let n_out = names.len();
+        Tally {
+            names,
+            n_model: model.outputs().len(),
+            all: vec![MetricsAccumulator::new(); n_out],
+            per_run: vec![Vec::new(); n_out],
+            unscored: vec![0; n_out],
+        }
+    }
 }
 
 /// The outcome from the accumulated figures (every run's rows in `all`).
@@ -190,15 +216,13 @@ pub fn evaluate_files(
     opts: &ReadOptions,
     map: &ColumnMap,
 ) -> Result<EvalOutcome> {
-    if model.kind() == model_core::ModelKind::Arma {
-        eprintln!("note: an arma model forecasts one step ahead from the measured series itself: these figures hold only where the error is measured every dt_s on the machine (docs/arma.md)");
-    }
-    let names = runner::prediction_names(model);
-    let n_model = model.outputs().len();
-    let n_out = names.len();
-    let mut all = vec![MetricsAccumulator::new(); n_out];
-    let mut per_run: Vec<Vec<RunEval>> = vec![Vec::new(); n_out];
-    let mut unscored = vec![0usize; n_out];
+    let Tally {
+        names,
+        n_model,
+        mut all,
+        mut per_run,
+        mut unscored,
+    } = Tally::new(model);
     let mut skipped_rows = 0;
     for path in paths {
         let mut sink = EvalSink {
