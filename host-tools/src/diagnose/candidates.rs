@@ -610,3 +610,22 @@ pub fn effect_part(name: &str, p: &Problem) -> Option<EffectPart> {
         fit_rms_with: (f.sse_fit / n_fit).sqrt(),
     })
 }
+
+/// A scored candidate for tests: held-out rms 10 before, `after` after,
+/// `after / none_after` of the baseline, p-values `p`.
+#[cfg(test)]
+pub fn test_scored(name: &str, after: f64, none_after: f64, p: f64) -> Scored {
+    Scored {
+        name: name.into(),
+        rms_before: 10.0,
+        rms_after: after,
+        shrink_pct: 100.0 * (1.0 - after / 10.0),
+        fit_rms: 0.0,
+        params: serde_json::Map::new(),
+        model: String::new(),
+        pred: Vec::new(),
+        p_value: Some(p),
+        p_adjusted: Some(p),
+        ratio_to_none: after / none_after,
+    }
+}

@@ -297,19 +297,8 @@ mod tests {
     }
 
     fn cand(name: &str, ratio: f64, p: f64) -> Scored {
-        Scored {
-            name: name.into(),
-            rms_before: 10.0,
-            rms_after: 5.0 * ratio,
-            shrink_pct: 100.0 * (1.0 - 0.5 * ratio),
-            fit_rms: 0.0,
-            params: serde_json::Map::new(),
-            model: String::new(),
-            pred: Vec::new(),
-            p_value: Some(p),
-            p_adjusted: Some(p),
-            ratio_to_none: ratio,
-        }
+        // 10 before, 5 left by the baseline.
+        crate::diagnose::candidates::test_scored(name, 5.0 * ratio, 5.0, p)
     }
 
     fn look(channel: usize, rule: Rule, scored: Vec<Scored>) -> Look {

@@ -591,19 +591,7 @@ mod tests {
     use super::*;
 
     fn cand(name: &str, after: f64, none_after: f64, p: f64) -> Scored {
-        Scored {
-            name: name.into(),
-            rms_before: 10.0,
-            rms_after: after,
-            shrink_pct: 100.0 * (1.0 - after / 10.0),
-            fit_rms: 0.0,
-            params: serde_json::Map::new(),
-            model: String::new(),
-            pred: Vec::new(),
-            p_value: Some(p),
-            p_adjusted: Some(p),
-            ratio_to_none: after / none_after,
-        }
+        super::candidates::test_scored(name, after, none_after, p)
     }
 
     #[test]
