@@ -11,7 +11,7 @@
 //! A five-point model's predictions also carry the tool-tip drift from its
 //! outputs and each row's `tool_mm`, as the hub computes it.
 
-use crate::data::runfile::{resample_linear, uniform_grid, RunFile, Sampling};
+use crate::data::runfile::{resample_linear, uniform_grid_len, RunFile, Sampling};
 use crate::fivepoint::TOOL_COLUMN;
 use anyhow::{bail, Result};
 use model_core::fivepoint::{TipMap, TIP_OUTPUTS};
@@ -238,14 +238,17 @@ pub fn predict(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Pre
     if let Some(tip) = model.five_point() {
         let tool = run.column(map.column(TOOL_COLUMN));
         if tool.is_none() {
-            p.notes.push(format!(
-                "no {TOOL_COLUMN} column: the tool-tip dx_um, dy_um, dz_um are left empty"
-            ));
+            p.notes.push(tool_note());
         }
         let tip_values = tool_tip_columns(tip, &p.values, tool, run.len());
         p.values.extend(tip_values);
     }
     Ok(p)
+}
+
+/// The note of a five-point model on a run without tool lengths.
+pub fn tool_note() -> String {
+    format!("no {TOOL_COLUMN} column: the tool-tip dx_um, dy_um, dz_um are left empty")
 }
 
 /// The tip drift per row from a five-point model's outputs and the row's
@@ -291,6 +294,109 @@ pub fn on_model_grid(sampling: &Sampling, dt: f64) -> bool {
     sampling.n < 2 || (sampling.is_uniform && (median - dt).abs() <= 1e-6 * dt.max(1e-9))
 }
 
+/// A dynamic model's grid over a run it cannot step row by row: the points
+/// `(t0 + k dt).min(t_end)` of [`uniform_grid`], and one more step,
+/// `t0 + len dt`, when the run ends after the last whole step (the rows
+/// there would have no grid point to their right; that step reads the
+/// inputs at the run's last time, held). docs/models.md, "Sampling".
+#[derive(Clone, Copy, Debug)]
+pub struct ModelGrid {
+    t0: f64,
+    t_end: f64,
+    dt: f64,
+    whole: usize,
+    extra: bool,
+}
+
+impl ModelGrid {
+    /// The grid over a run's first and last times `span` (`None`: no rows).
+    pub fn new(span: Option<(f64, f64)>, dt: f64) -> Result<Self> {
+        let Some((t0, t_end)) = span else {
+            bail!("no rows");
+        };
+        let whole = uniform_grid_len(t0, t_end, dt).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let last = (t0 + (whole - 1) as f64 * dt).min(t_end);
+        Ok(Self {
+            t0,
+            t_end,
+            dt,
+            whole,
+            extra: last < t_end,
+        })
+    }
+
+    /// The step, s.
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// Points, the extra step included.
+    pub fn len(&self) -> usize {
+        self.whole + usize::from(self.extra)
+    }
+
+    /// Whether the grid has no point (never: a run has a first row).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Point `k` (`k < len`).
+    pub fn point(&self, k: usize) -> f64 {
+        let t = self.t0 + k as f64 * self.dt;
+        if k < self.whole {
+            t.min(self.t_end)
+        } else {
+            t
+        }
+    }
+
+    /// The time at which point `k`'s inputs are read: the point, or the
+    /// run's last time for the extra step.
+    pub fn input_time(&self, k: usize) -> f64 {
+        self.point(k).min(self.t_end)
+    }
+
+    /// The last whole step when an extra step follows it.
+    pub fn last_whole_step(&self) -> Option<f64> {
+        self.extra.then(|| self.point(self.whole - 1))
+    }
+
+    /// The note of the extra step, `tail` rows lying after the last whole one.
+    pub fn extra_step_note(&self, tail: usize) -> String {
+        let last = self.point(self.whole - 1);
+        format!(
+            "the last {tail} row(s) lie after the last whole step ({last} s): the model takes one more step, to {} s, with the inputs held at their values at {} s",
+            self.point(self.whole),
+            self.t_end
+        )
+    }
+}
+
+/// The note of a run whose inputs are resampled to a dynamic model's step
+/// `dt` (`rows`: the run's rows).
+pub fn resampled_note(sampling: &Sampling, dt: f64, rows: usize) -> String {
+    let median = sampling.dt_median_s.unwrap_or(dt);
+    let why = if sampling.is_uniform {
+        format!("sampled every {median} s")
+    } else {
+        format!(
+            "sampling irregular (steps {}..{} s)",
+            sampling.dt_min_s.unwrap_or(median),
+            sampling.dt_max_s.unwrap_or(median)
+        )
+    };
+    format!(
+        "{why}: inputs resampled to the model's dt {dt} s by linear interpolation, outputs interpolated back to the {rows} rows"
+    )
+}
+
+/// The note of missing input cells bridged for a dynamic model.
+pub fn bridged_note(bridged: usize) -> String {
+    format!(
+        "{bridged} missing input cells bridged by linear interpolation (the model's state needs every sample)"
+    )
+}
+
 /// Runs `model` over one run file: its own outputs only.
 fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result<Prediction> {
     let columns = input_columns(model, run, map)?;
@@ -306,43 +412,19 @@ fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result
         });
     }
     let sampling = run.sampling();
-    let median = sampling.dt_median_s.unwrap_or(dt);
     let on_grid = on_model_grid(&sampling, dt);
     let grid: Vec<f64> = if on_grid {
         run.t_s.clone()
     } else {
-        let (t0, t1) = match (run.t_s.first(), run.t_s.last()) {
-            (Some(a), Some(b)) => (*a, *b),
-            _ => bail!("{}: no rows", run.path.display()),
-        };
-        let why = if sampling.is_uniform {
-            format!("sampled every {median} s")
-        } else {
-            format!(
-                "sampling irregular (steps {}..{} s)",
-                sampling.dt_min_s.unwrap_or(median),
-                sampling.dt_max_s.unwrap_or(median)
-            )
-        };
-        notes.push(format!(
-            "{why}: inputs resampled to the model's dt {dt} s by linear interpolation, outputs interpolated back to the {n} rows"
-        ));
-        let mut grid =
-            uniform_grid(t0, t1, dt).map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?;
-        // The grid stops at its last point <= t1; rows after that point
-        // would have no grid point to their right. One more step covers them
-        // (its inputs are held at the run's last time, see `input_t`).
-        if let Some(&last) = grid.last() {
-            if last < t1 {
-                let tail = run.t_s.iter().filter(|&&t| t > last).count();
-                notes.push(format!(
-                    "the last {tail} row(s) lie after the last whole step ({last} s): the model takes one more step, to {} s, with the inputs held at their values at {t1} s",
-                    t0 + grid.len() as f64 * dt
-                ));
-                grid.push(t0 + grid.len() as f64 * dt);
-            }
+        let span = run.t_s.first().copied().zip(run.t_s.last().copied());
+        let grid =
+            ModelGrid::new(span, dt).map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?;
+        notes.push(resampled_note(&sampling, dt, n));
+        if let Some(last) = grid.last_whole_step() {
+            let tail = run.t_s.iter().filter(|&&t| t > last).count();
+            notes.push(grid.extra_step_note(tail));
         }
-        grid
+        (0..grid.len()).map(|k| grid.point(k)).collect()
     };
     // The times at which the inputs are read for each grid point: the grid
     // itself, except a point past the run's end, which reads the inputs at
@@ -358,9 +440,7 @@ fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result
         })
         .collect();
     if bridged > 0 {
-        notes.push(format!(
-            "{bridged} missing input cells bridged by linear interpolation (the model's state needs every sample)"
-        ));
+        notes.push(bridged_note(bridged));
     }
     let (on_grid_values, on_grid_bands) = step_all(model, &inputs, grid.len(), &mut notes);
     let back = |cols: Vec<Vec<Option<f64>>>| -> Vec<Vec<Option<f64>>> {

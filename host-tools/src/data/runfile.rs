@@ -1427,17 +1427,30 @@ pub fn resample_linear(t: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option
                 before = Some(sample);
                 after = valid.next();
             }
-            let (t0, x0) = before.filter(|&(t0, _)| t0 <= g)?;
-            if t0 == g {
-                return Some(x0);
-            }
-            let (t1, x1) = after?;
-            let w = (g - t0) / (t1 - t0);
-            // This form, unlike `x0 + w * (x1 - x0)`, cannot overflow for
-            // finite inputs of opposite sign.
-            Some(x0 * (1.0 - w) + x1 * w).filter(|v| v.is_finite())
+            interpolate_between(before, after, g)
         })
         .collect()
+}
+
+/// The value at `g` of the line through the valid samples `before` (the
+/// last at or before `g`) and `after` (the first after it): `None` without
+/// a sample at or before `g`, or without one after it unless `before` lies
+/// exactly on `g`. [`resample_linear`]'s rule, also used by the streamed
+/// resampling (`stream::regrid`), so both give the same value to the bit.
+pub fn interpolate_between(
+    before: Option<(f64, f64)>,
+    after: Option<(f64, f64)>,
+    g: f64,
+) -> Option<f64> {
+    let (t0, x0) = before.filter(|&(t0, _)| t0 <= g)?;
+    if t0 == g {
+        return Some(x0);
+    }
+    let (t1, x1) = after?;
+    let w = (g - t0) / (t1 - t0);
+    // This form, unlike `x0 + w * (x1 - x0)`, cannot overflow for
+    // finite inputs of opposite sign.
+    Some(x0 * (1.0 - w) + x1 * w).filter(|v| v.is_finite())
 }
 
 /// The uniform grid t0, t0+dt, ... up to and including the last time <= t_end
