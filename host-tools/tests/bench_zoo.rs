@@ -152,7 +152,7 @@ fn score_heldout_runs_only_the_heldout_plant() {
 
 #[test]
 fn zoo_flags_fail_with_one_line() {
-    let e = fails_one_line(&["bench", "gap", "--plants", "a,g"]);
+    let e = fails_one_line(&["bench", "gap", "--plants", "a,h"]);
     assert!(
         e.contains("held out") && e.contains("--score-heldout"),
         "{e}"
