@@ -18,8 +18,8 @@
 //!    band rms within [`COOLANT_CYCLE_SNR`] of what its noise leaves).
 //! 3. **A low-speed motor loss seen on two channels.** With no verdict, a
 //!    look whose best significant candidate is `motor_loss` and leaves <=
-//!    [`MOTOR_RATIO`] of the baseline decides if `motor_loss` also helps on
-//!    another look (significant there, leaving <= [`MOTOR_CORROBORATE`]):
+//!    [`MOTOR_RATIO`] of the baseline decides if `motor_loss` is also
+//!    [`seen_on`] another look (leaving <= [`MOTOR_CORROBORATE`]):
 //!    an extra loss of a few hundred watts at the motor warms the motor's
 //!    sensor and, through the structure, others and the axes; a twin's
 //!    error in a motor coefficient (or a heat capacity near the motor)
@@ -49,7 +49,7 @@
 
 use super::align::Aligned;
 use super::variants::CHILLER_BAND_S;
-use super::{Look, MAX_RATIO_TO_NONE, STRONG_ALPHA};
+use super::{seen_on, Look, MAX_RATIO_TO_NONE, STRONG_ALPHA};
 use crate::data::runfile::{is_temperature_column, resample_linear, RunFile};
 use crate::num::lsq;
 
@@ -260,7 +260,7 @@ fn motor_gate(al: &Aligned, looks: &[Look]) -> Option<Gated> {
     let seen_elsewhere = looks.iter().enumerate().any(|(j, l)| {
         j != i
             && (at_axis(al, l) || at_axis(al, &looks[i]))
-            && passing(l, "motor_loss", MOTOR_CORROBORATE).is_some()
+            && seen_on(l, "motor_loss", MOTOR_CORROBORATE)
     });
     seen_elsewhere.then(|| Gated {
         look: i,

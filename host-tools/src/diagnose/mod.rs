@@ -534,33 +534,37 @@ pub const SOLO_RATIO: f64 = 0.4;
 /// most this share of its baseline's.
 pub const CORROBORATE_RATIO: f64 = 0.9;
 
-/// Whether look `i`'s verdict is seen on another look too: the same
-/// candidate, shrinking there by [`MIN_SHRINK_PCT`] and leaving <=
-/// [`CORROBORATE_RATIO`] of its baseline, either significant at that look's
-/// level or that look's best candidate (smallest ratio) at the family level
-/// [`ALPHA`]. A real effect moves several sensors and axes; a twin's
-/// parameter error that happens to look like one shows on the one sensor
-/// nearest that parameter. The second way asks a narrower question (is the
-/// one effect already named the best explanation there too?), so it is not
-/// divided among the looks. Development seed 1 (plants a-g), with the
-/// other rules of this round: 358 -> 361 right, 0 -> 0 false alarms (seed
-/// 2: 344 -> 347, 1 -> 1; twin: no change).
+/// Whether look `i`'s verdict is [`seen_on`] another look too, leaving
+/// there <= [`CORROBORATE_RATIO`] of its baseline. A real effect moves
+/// several sensors and axes; a twin's parameter error that happens to look
+/// like one shows on the one sensor nearest that parameter.
 fn corroborated(looks: &[Look], i: usize) -> bool {
     let name = &looks[i].verdict;
-    let supports = |l: &Look, s: &Scored| {
-        &s.name == name
-            && s.ratio_to_none <= CORROBORATE_RATIO
-            && s.shrink_pct >= l.rule.min_shrink_pct
+    looks
+        .iter()
+        .enumerate()
+        .any(|(j, l)| j != i && seen_on(l, name, CORROBORATE_RATIO))
+}
+
+/// Whether candidate `name` is seen on look `l`: shrinking its held-out
+/// rms by the look's minimum and leaving <= `max_ratio` of its baseline,
+/// either significant at the look's level or the look's best candidate
+/// (smallest ratio) at the family level [`ALPHA`]. The second way asks a
+/// narrower question (is the one effect already named elsewhere the best
+/// explanation here too?), so its level is not divided among the looks.
+/// Development seed 1 (plants a-g), with the other rules of issue 13's
+/// third round: 358 -> 361 right as corroboration, 361 -> 362 in the motor
+/// gate ([`gates`]), 0 false alarms throughout (seed 2, checked: 344 ->
+/// 347 -> 349, 1 false alarm throughout; twin set: no change).
+pub fn seen_on(l: &Look, name: &str, max_ratio: f64) -> bool {
+    let supports = |s: &Scored| {
+        s.name == name && s.ratio_to_none <= max_ratio && s.shrink_pct >= l.rule.min_shrink_pct
     };
-    looks.iter().enumerate().any(|(j, l)| {
-        j != i
-            && (l
-                .scored
-                .iter()
-                .any(|s| supports(l, s) && s.p_adjusted.unwrap_or(1.0) <= l.rule.alpha)
-                || l.best_candidate()
-                    .is_some_and(|s| supports(l, s) && s.p_adjusted.unwrap_or(1.0) <= ALPHA))
-    })
+    l.scored
+        .iter()
+        .any(|s| supports(s) && s.p_adjusted.unwrap_or(1.0) <= l.rule.alpha)
+        || l.best_candidate()
+            .is_some_and(|s| supports(s) && s.p_adjusted.unwrap_or(1.0) <= ALPHA)
 }
 
 /// Effects that heat the structure: the room air reaches every node with a
