@@ -57,7 +57,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(v["benchmark"], "zoo");
-    assert_eq!(v["heldout_plant"], "g");
+    assert_eq!(v["heldout_plant"], "h");
     assert_eq!(v["scored_heldout"], false);
     assert_eq!(v["cases"], 12, "one case per cause on each of 2 plants");
     let plants = v["plants"].as_array().unwrap();
@@ -97,7 +97,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
             assert!(!c[k].is_null(), "{k} in {c}");
         }
         assert!(
-            c["plant"] != "g",
+            c["plant"] != "h",
             "the held-out plant never runs in development"
         );
     }
@@ -152,7 +152,7 @@ fn score_heldout_runs_only_the_heldout_plant() {
 
 #[test]
 fn zoo_flags_fail_with_one_line() {
-    let e = fails_one_line(&["bench", "gap", "--plants", "a,g"]);
+    let e = fails_one_line(&["bench", "gap", "--plants", "a,h"]);
     assert!(
         e.contains("held out") && e.contains("--score-heldout"),
         "{e}"

@@ -13,7 +13,10 @@
 //! `auto` began ranking candidates by the geometric mean of the per-fold
 //! errors (a method change: `cv_geo_rmse` added to every CV-table row, one
 //! ensemble member and the numbers that follow from it changed; held-out
-//! rmse 0.634 -> 0.630 um).
+//! rmse 0.634 -> 0.630 um). diagnose once when looks whose verdict may not
+//! decide alone were set to `none` (issue 13, third round: one look's
+//! `ambient` -> `none` and the `rule` text; the verdict and every number
+//! unchanged).
 //!
 //! Every command runs in the repository root with the relative paths the
 //! fixtures were captured with (`eval` names each run's file). `fit --model

@@ -126,6 +126,21 @@ impl Scored {
         })
     }
 
+    /// The held-out rms left over the better of two references: the
+    /// baseline's ([`Scored::ratio_to_none`]) and the raw residual's
+    /// (`rms_after / rms_before`: doing nothing). A baseline whose mismatch
+    /// terms extrapolate into the hold-out worse than doing nothing (a slow
+    /// node it cannot follow, a second heat cluster joined only through the
+    /// bed) makes every candidate look good against it; a claim that rests
+    /// on one sensor is held to both (see `Rule::raw_reference`).
+    pub fn ratio_to_reference(&self) -> f64 {
+        if self.rms_before > 0.0 {
+            self.ratio_to_none.max(self.rms_after / self.rms_before)
+        } else {
+            self.ratio_to_none
+        }
+    }
+
     /// `1 - p_adjusted`: how sure the test is that the candidate beats the
     /// baseline on the hold-out, with five candidates tested at once.
     pub fn confidence(&self) -> Option<f64> {

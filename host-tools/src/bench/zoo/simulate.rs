@@ -274,7 +274,10 @@ mod tests {
         // Plant g: tank 400 kJ/K, band 0.9 K, 2000 W, 220 W base: at rest
         // ~ 360k/230 + 360k/1770 = 1770 s; at top speed the stator jacket
         // and the ram take ~850 W: ~ 360k/1070 + 360k/930 = 720 s.
-        for id in ["a", "g"] {
+        // Plant h: tank 450 kJ/K, band 0.85 K, 1700 W, 180 W base: at rest
+        // ~ 380k/230 + 380k/1470 = 1910 s; at top speed the gearbox oil and
+        // the headstock take ~400 W: ~ 380k/630 + 380k/1070 = 960 s.
+        for id in ["a", "g", "h"] {
             chiller_period_drifts_on(id);
         }
     }
