@@ -24,7 +24,7 @@ pub struct FitOptions {
     pub pcr: pcr::PcrArgs,
     /// ARX, TF, gain (and auto/arma `--dt-s`) options.
     #[command(flatten)]
-    pub arx: arx::ArxArgs,
+    pub arx: super::dynamic::options::DynamicOptions,
     /// BP and GA-BP options.
     #[command(flatten)]
     pub bp: bp::BpArgs,

@@ -10,6 +10,7 @@ pub mod arma;
 pub mod arx;
 pub mod auto;
 pub mod bp;
+pub mod dynamic;
 pub mod gain;
 pub mod job;
 pub mod mlr;

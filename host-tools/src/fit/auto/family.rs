@@ -27,8 +27,9 @@ use super::ridge::{standard_error, CvScore};
 use super::search::{cv_columns, CvRow, Form};
 use super::{cv_extrapolation, Band};
 use crate::data::dataset::{Dataset, GridRun, InputForm, RunData};
-use crate::fit::arx::{ArxArgs, OrderRange};
 use crate::fit::bp::BpArgs;
+use crate::fit::dynamic::options::DynamicOptions;
+use crate::fit::dynamic::orders::OrderRange;
 use crate::fit::pcr::PcrArgs;
 use crate::fit::{arx, bp, pcr, tfbank, Fitted};
 use anyhow::{anyhow, bail, Result};
@@ -128,7 +129,7 @@ struct TrainerOptions {
     #[command(flatten)]
     pcr: PcrArgs,
     #[command(flatten)]
-    arx: ArxArgs,
+    arx: DynamicOptions,
     #[command(flatten)]
     bp: BpArgs,
 }
@@ -150,8 +151,8 @@ const TF_ORDERS: [OrderRange; 3] = [
 #[derive(Clone, Debug)]
 pub struct Trainers {
     pcr: PcrArgs,
-    arx: ArxArgs,
-    tf: ArxArgs,
+    arx: DynamicOptions,
+    tf: DynamicOptions,
     bp: BpArgs,
 }
 

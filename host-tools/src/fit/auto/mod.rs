@@ -116,7 +116,7 @@ impl AutoParams {
             bail!("auto: --auto-ensemble {} must be 1..100", self.ensemble);
         }
         let families = Family::parse_list(&self.families)?;
-        let dt_s = super::arx::sample_time(ds, self.dt_s)?;
+        let dt_s = super::dynamic::grid::sample_time(ds, self.dt_s)?;
         Ok(ValidAutoParams {
             folds: self.folds,
             families,
@@ -402,7 +402,7 @@ fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&f
 /// Trains an auto model on `ds` (inputs in absolute form).
 pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport)> {
     let s = &params.settings;
-    let grid = super::arx::grid_runs(ds, s.dt_s, "auto")?;
+    let grid = super::dynamic::grid::grid_runs(ds, s.dt_s, "auto")?;
     let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
     let folds = Folds::of_grid(&grid, params.folds);
     let xs: Vec<(Form, Vec<Vec<Vec<f64>>>)> = Form::ALL
