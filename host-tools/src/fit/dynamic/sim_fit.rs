@@ -1,20 +1,15 @@
 //! The score the order searches and input selection rank by: the
 //! system-identification fit % of a free-run simulation against the
-//! measured target (seed 004, Eq. 4).
+//! measured target (seed 004, Eq. 4), computed by the model core's own
+//! metric so that a search ranks by exactly the figure `eval` prints.
 
-/// System-identification fit % of `yhat` against `y` (seed 004, Eq. 4).
+/// System-identification fit % of the predictions against the measured
+/// values of `(y, yhat)` pairs: [`model_core::metrics`]'s `fit_pct`, or NaN
+/// when it has no figure (no pairs, a non-finite simulation, overflow), so
+/// that a search can drop the candidate.
 pub fn fit_pct(pairs: &[(f64, f64)]) -> f64 {
-    let n = pairs.len() as f64;
-    if pairs.is_empty() {
-        return f64::NAN;
-    }
-    let mean = pairs.iter().map(|p| p.0).sum::<f64>() / n;
-    let sse: f64 = pairs.iter().map(|(y, h)| (y - h).powi(2)).sum();
-    let sst: f64 = pairs.iter().map(|(y, _)| (y - mean).powi(2)).sum();
-    if sst == 0.0 {
-        return if sse == 0.0 { 100.0 } else { 0.0 };
-    }
-    (1.0 - (sse / sst).sqrt()) * 100.0
+    let (y, yhat): (Vec<f64>, Vec<f64>) = pairs.iter().copied().unzip();
+    model_core::metrics::metrics(&y, &yhat).map_or(f64::NAN, |m| m.fit_pct)
 }
 
 #[cfg(test)]
