@@ -10,6 +10,7 @@
 mod demo;
 mod diagnose;
 mod eval;
+pub mod fit;
 mod fivepoint;
 mod hub;
 pub mod pairs;
@@ -20,7 +21,7 @@ pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, fit, refit, show};
+use crate::{bench, refit, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};

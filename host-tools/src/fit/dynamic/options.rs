@@ -2,55 +2,85 @@
 //! values they take: how inputs are chosen and the ridge penalty.
 
 use super::orders::OrderRange;
-use clap::Args;
+use super::split::{check_holdout, SearchScheme};
+use crate::fit::FitKind;
+use anyhow::{bail, Result};
 use std::path::PathBuf;
 use std::str::FromStr;
 
-/// Options of the dynamic trainers (`arx`, `tf`, `gain`) of `thermcomp fit`.
-#[derive(Args, Clone, Debug)]
+/// Options of the dynamic trainers (`arx`, `tf`, `gain`; `dt_s` also
+/// `auto` and `arma`); [`Default`] is `fit`'s defaults.
+#[derive(Clone, Debug, PartialEq)]
 pub struct DynamicOptions {
     /// arx, tf: denominator orders tried, MIN..MAX (default arx 1..3, tf 1..2).
-    #[arg(long, value_name = "MIN..MAX")]
     pub na: Option<OrderRange>,
     /// arx, tf: numerator lengths tried, MIN..MAX (default arx 1..3, tf 1..2; arx: same for every input).
-    #[arg(long, value_name = "MIN..MAX")]
     pub nb: Option<OrderRange>,
     /// arx, tf: input delays tried in samples, MIN..MAX (default arx 0..2, tf 0..1; arx: same for every input).
-    #[arg(long, value_name = "MIN..MAX")]
     pub nk: Option<OrderRange>,
     /// arx: order search scores simulation fit by blocked cross-validation over K contiguous folds of each run's calibration samples (1: on the last --search-holdout only, as tf does).
-    #[arg(long, default_value_t = 4, value_name = "K")]
     pub search_folds: usize,
     /// arx with --search-folds 1, tf: the search scores simulation fit on the last FRACTION of each run's calibration samples.
-    #[arg(long, default_value_t = 0.25, value_name = "FRACTION")]
     pub search_holdout: f64,
     /// arx, tf, arma: model sample time (default: the median sampling step of the first run).
-    #[arg(long, value_name = "SECONDS")]
     pub dt_s: Option<f64>,
     /// tf: rounds of SISO ARX backfitting on partial residuals before the joint refinement.
-    #[arg(long, default_value_t = 3, value_name = "N")]
     pub backfit_rounds: usize,
     /// tf: Levenberg-Marquardt iteration limit of the joint output-error refinement.
-    #[arg(long, default_value_t = 60, value_name = "N")]
     pub lm_iterations: usize,
     /// gain: the TF-bank blob whose spindle part gets a new gain g (seed 004, Eq. 6).
-    #[arg(long, value_name = "MODEL.bin")]
     pub gain_from: Option<PathBuf>,
     /// gain: inputs whose TF entries are scaled by g (default: every input but ambient_c).
-    #[arg(long, value_delimiter = ',', value_name = "COL,..")]
     pub gain_inputs: Vec<String>,
     /// arx, tf: choose the inputs among --inputs by the search itself (forward: greedy, by simulation fit).
-    #[arg(long, value_enum, default_value = "off")]
     pub select_inputs: Selection,
     /// arx, tf: with --select-inputs forward, at most K inputs (also capped by the 16-entry bank).
-    #[arg(long, default_value_t = 6, value_name = "K")]
     pub max_inputs: usize,
     /// arx, tf: with --select-inputs forward, stop when the best addition raises the search fit by less than this (percentage points).
-    #[arg(long, default_value_t = 1.0, value_name = "POINTS")]
     pub min_gain_pct: f64,
     /// arx: ridge penalty of the least squares: "auto" (default: searched with the orders, by search fit), 0 = none, or a number.
-    #[arg(long, default_value = "auto", value_name = "auto|LAMBDA")]
     pub ridge: Ridge,
+}
+
+impl DynamicOptions {
+    /// Checks what needs no data for `kind`: the search split (`arx`: folds
+    /// or a tail; `tf`: a tail) and the selection threshold. The cap on the
+    /// inputs selected depends on the dataset
+    /// ([`super::select::max_selected`]).
+    pub fn check(&self, kind: FitKind) -> Result<()> {
+        match kind {
+            FitKind::Arx => SearchScheme::from_args(self).map(|_| ())?,
+            FitKind::Tf => check_holdout(self.search_holdout)?,
+            _ => return Ok(()),
+        }
+        let threshold = self.min_gain_pct;
+        if self.select_inputs == Selection::Forward && !(threshold.is_finite() && threshold >= 0.0)
+        {
+            bail!("--min-gain-pct {threshold} must be >= 0");
+        }
+        Ok(())
+    }
+}
+
+impl Default for DynamicOptions {
+    fn default() -> Self {
+        Self {
+            na: None,
+            nb: None,
+            nk: None,
+            search_folds: 4,
+            search_holdout: 0.25,
+            dt_s: None,
+            backfit_rounds: 3,
+            lm_iterations: 60,
+            gain_from: None,
+            gain_inputs: Vec::new(),
+            select_inputs: Selection::Off,
+            max_inputs: 6,
+            min_gain_pct: 1.0,
+            ridge: Ridge::Auto,
+        }
+    }
 }
 
 /// How `arx` and `tf` choose their inputs.

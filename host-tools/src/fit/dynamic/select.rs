@@ -67,9 +67,6 @@ pub fn max_selected(args: &DynamicOptions, ds: &Dataset) -> Result<usize> {
     if k == 0 {
         bail!("--max-inputs 0 (or more than {MAX_TF_ENTRIES} targets): nothing to select");
     }
-    if !(args.min_gain_pct.is_finite() && args.min_gain_pct >= 0.0) {
-        bail!("--min-gain-pct {} must be >= 0", args.min_gain_pct);
-    }
     Ok(k)
 }
 
