@@ -411,11 +411,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
 
 /// `fit --json`'s object: the report and the path written.
 pub fn report_json(o: &FitOutcome, out: &std::path::Path) -> Result<Value> {
-    let mut v = serde_json::to_value(&o.report)?;
-    if let Value::Object(m) = &mut v {
-        m.insert("out".into(), Value::String(out.display().to_string()));
-    }
-    Ok(v)
+    super::with_out(&o.report, out)
 }
 
 /// Refuses an `--out` that is the same file as a `--data` or `--validate` run.
