@@ -22,7 +22,6 @@
 //!    tail of every run (`crate::score::score`); an updated target is kept
 //!    only if its held-out rmse is lower. If no target is kept, or nothing
 //!    changed, `--out` gets the old blob byte for byte.
-
 //!
 //! The job's shape (docs/architecture.md): [`RefitParams`] ->
 //! [`RefitParams::check`] -> [`ValidRefitParams`] -> [`refit`] over the
