@@ -271,3 +271,115 @@ fn diagnose_json_is_unchanged() {
         "diagnose.json",
     );
 }
+
+/// The example run's first 20000 s as a run of its own (header and rows
+/// as written), for a model that `refit` then tests on the whole run.
+fn early_run(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(root().join(SPINDLE)).unwrap();
+    let mut lines = text.lines();
+    let mut early = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let t: f64 = line.split(',').next().unwrap().parse().unwrap();
+        if t < 20000.0 {
+            early.push_str(line);
+            early.push('\n');
+        }
+    }
+    let path = dir.join("early.csv");
+    std::fs::write(&path, early).unwrap();
+    path
+}
+
+/// A blob fitted on [`early_run`] with `fit_args` after `--model`.
+fn early_model(dir: &Path, fit_args: &[&str]) -> PathBuf {
+    let early = early_run(dir);
+    let blob = dir.join("old.bin");
+    let mut args = vec!["fit", "--data", p(&early), "--out", p(&blob), "--model"];
+    args.extend_from_slice(fit_args);
+    stdout_of(&debug_bin(), &args);
+    blob
+}
+
+/// `refit --json` of an early mlr model on the whole example run:
+/// changed, updated by RLS, the update kept. Fixtures refit_*.json were
+/// captured with the release binary of commit 1bb5791, before refit
+/// became a typed job.
+#[test]
+fn refit_rls_json_is_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = early_model(
+        dir.path(),
+        &["mlr", "--target", "dz_um,dx_um", "--inputs", "T1,T2,T3"],
+    );
+    let out = dir.path().join("new.bin");
+    pinned(
+        &debug_bin(),
+        &[
+            "refit",
+            "--json",
+            "--model",
+            p(&old),
+            "--data",
+            SPINDLE,
+            "--out",
+            p(&out),
+        ],
+        "refit_rls.json",
+    );
+}
+
+/// See [`refit_rls_json_is_unchanged`]: `--method window`.
+#[test]
+fn refit_window_json_is_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = early_model(
+        dir.path(),
+        &["mlr", "--target", "dz_um,dx_um", "--inputs", "T1,T2,T3"],
+    );
+    let out = dir.path().join("new.bin");
+    pinned(
+        &debug_bin(),
+        &[
+            "refit",
+            "--json",
+            "--method",
+            "window",
+            "--window-h",
+            "6",
+            "--model",
+            p(&old),
+            "--data",
+            SPINDLE,
+            "--out",
+            p(&out),
+        ],
+        "refit_window.json",
+    );
+}
+
+/// See [`refit_rls_json_is_unchanged`]: a TF bank (least-squares entry gains).
+#[test]
+fn refit_tf_json_is_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = early_model(
+        dir.path(),
+        &[
+            "tf", "--target", "dz_um", "--inputs", "T1,T2", "--na", "1", "--nb", "1", "--nk", "0",
+        ],
+    );
+    let out = dir.path().join("new.bin");
+    pinned(
+        &debug_bin(),
+        &[
+            "refit",
+            "--json",
+            "--model",
+            p(&old),
+            "--data",
+            SPINDLE,
+            "--out",
+            p(&out),
+        ],
+        "refit_tf.json",
+    );
+}

@@ -2,6 +2,7 @@
 //! against the same run read from CSV text: same values, same error places,
 //! and the typed fit job giving the very figures `fit_files` gives.
 
+use host_tools::cli::fit::options_from_pairs;
 use host_tools::data::runfile::{ReadOptions, RunFile};
 use host_tools::fit::{FitKind, FitOptions, FitParams};
 
@@ -86,7 +87,7 @@ fn typed_fit_matches_fit_files_figure_for_figure() {
         holdout_from_s: Some(43200.0),
         reference: host_tools::data::dataset::InputForm::Change,
         l_defl_mm: None,
-        options: FitOptions::defaults().unwrap(),
+        options: FitOptions::default(),
     };
     let typed = host_tools::fit::fit(&params.check().unwrap(), &[mem], &[]).unwrap();
 
@@ -110,14 +111,15 @@ fn typed_fit_matches_fit_files_figure_for_figure() {
         out.display().to_string(),
     ]);
     let pairs: Vec<String> = argv.skip(1).collect();
-    let args: host_tools::fit::FitArgs = {
+    let args: host_tools::cli::fit::FitArgs = {
         use clap::{Args, FromArgMatches};
-        let cmd =
-            host_tools::fit::FitArgs::augment_args(clap::Command::new("fit").no_binary_name(true));
-        host_tools::fit::FitArgs::from_arg_matches(&cmd.try_get_matches_from(pairs).unwrap())
+        let cmd = host_tools::cli::fit::FitArgs::augment_args(
+            clap::Command::new("fit").no_binary_name(true),
+        );
+        host_tools::cli::fit::FitArgs::from_arg_matches(&cmd.try_get_matches_from(pairs).unwrap())
             .unwrap()
     };
-    let files = host_tools::fit::fit_files(&args).unwrap();
+    let files = host_tools::cli::fit::fit_files(&args).unwrap();
     assert_eq!(typed.bytes, files.bytes, "the same blob");
     assert_eq!(typed.bytes, std::fs::read(&out).unwrap());
     assert_eq!(
@@ -134,16 +136,16 @@ fn typed_fit_matches_fit_files_figure_for_figure() {
 
 #[test]
 fn options_by_name_use_the_clis_defaults_and_messages() {
-    let d = FitOptions::defaults().unwrap();
+    let d = FitOptions::default();
     assert_eq!((d.pcr.variance, d.auto.auto_folds, d.bp.seed), (0.85, 6, 1));
-    let o = FitOptions::from_pairs(&[("auto_folds".into(), "3".into())]).unwrap();
+    let o = options_from_pairs(&[("auto_folds".into(), "3".into())]).unwrap();
     assert_eq!(o.auto.auto_folds, 3);
-    let e = FitOptions::from_pairs(&[("variance".into(), "lots".into())]).unwrap_err();
+    let e = options_from_pairs(&[("variance".into(), "lots".into())]).unwrap_err();
     assert!(
         e.to_string()
             .starts_with("fit: invalid value 'lots' for '--variance"),
         "{e}"
     );
-    let e = FitOptions::from_pairs(&[("nope".into(), "1".into())]).unwrap_err();
+    let e = options_from_pairs(&[("nope".into(), "1".into())]).unwrap_err();
     assert!(e.to_string().contains("--nope"), "{e}");
 }

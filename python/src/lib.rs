@@ -9,7 +9,8 @@ use anyhow::{anyhow, bail, Result};
 use clap::ValueEnum;
 use host_tools::data::dataset::InputForm;
 use host_tools::data::runfile::{ReadOptions, RunFile};
-use host_tools::fit::{FitKind, FitOptions, FitParams};
+use host_tools::cli::fit::options_from_pairs;
+use host_tools::fit::{FitKind, FitParams};
 use host_tools::runner::ColumnMap;
 use model_core::ValidModel;
 use pyo3::create_exception;
@@ -135,7 +136,7 @@ fn fit<'py>(
             holdout_from_s,
             reference: value_of::<InputForm>("--reference", reference)?,
             l_defl_mm,
-            options: FitOptions::from_pairs(&options)?,
+            options: options_from_pairs(&options)?,
         };
         let valid = params.check()?;
         let (runs, validate) = (runs_from(&runs)?, runs_from(&validate)?);

@@ -10,17 +10,19 @@
 mod demo;
 mod diagnose;
 mod eval;
+pub mod fit;
 mod fivepoint;
 mod hub;
 pub mod pairs;
 mod predict;
+mod refit;
 mod replay;
 pub mod select;
 pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, fit, refit, show};
+use crate::{bench, show};
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -246,4 +248,18 @@ pub fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A job's report as the JSON object its subcommand prints: the report's
+/// keys and `out`, the path the command wrote (a job over data in memory
+/// does not know it).
+fn with_out(
+    report: &impl serde::Serialize,
+    out: &std::path::Path,
+) -> anyhow::Result<serde_json::Value> {
+    let mut v = serde_json::to_value(report)?;
+    if let serde_json::Value::Object(m) = &mut v {
+        m.insert("out".into(), out.display().to_string().into());
+    }
+    Ok(v)
 }

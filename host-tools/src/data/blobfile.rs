@@ -13,10 +13,14 @@ pub fn read(path: &Path) -> Result<(ValidModel, Vec<u8>)> {
 
 /// Encodes a validated model and writes it; returns the bytes written.
 pub fn write(model: &ValidModel, path: &Path) -> Result<Vec<u8>> {
-    let bytes = model_core::blob::encode_to_vec(model)
-        .map_err(|e| anyhow!("cannot encode the model: {e}"))?;
+    let bytes = encode(model)?;
     crate::data::fsio::write_bytes_atomic(path, &bytes)?;
     Ok(bytes)
+}
+
+/// The model's blob bytes.
+pub fn encode(model: &ValidModel) -> Result<Vec<u8>> {
+    model_core::blob::encode_to_vec(model).map_err(|e| anyhow!("cannot encode the model: {e}"))
 }
 
 /// The model named by `--model BLOB` or `--spec SPEC.toml` (one of them).

@@ -725,7 +725,7 @@ impl Demo<'_> {
 /// Stage 3's parameters for `kind`: the selected sensors (auto and arma
 /// choose their own inputs) and the budget's options.
 fn fit_params(budget: &Budget, kind: FitKind, selected: &[String]) -> Result<fit::FitParams> {
-    let mut options = fit::FitOptions::defaults()?;
+    let mut options = fit::FitOptions::default();
     (budget.tune)(kind, &mut options);
     let own_inputs = kind == FitKind::Arma || kind == FitKind::Auto;
     Ok(fit::FitParams {
@@ -1021,7 +1021,7 @@ mod tests {
                     .chunks(2)
                     .map(|c| (c[0].trim_start_matches("--").to_string(), c[1].to_string()))
                     .collect();
-                let from_flags = fit::FitOptions::from_pairs(&pairs).unwrap();
+                let from_flags = crate::cli::fit::options_from_pairs(&pairs).unwrap();
                 let set = fit_params(&budget, kind, &[]).unwrap().options;
                 assert_eq!(
                     format!("{from_flags:?}"),

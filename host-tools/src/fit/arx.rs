@@ -1,7 +1,8 @@
 //! MISO ARX models exported as a transfer-function bank (seed 004, Eq. 1-2
-//! and the ARX structure its Sec. 2 names), plus the pieces the other
-//! dynamic trainers (`tf`, `gain`) share: the CLI options, the sample time,
-//! least squares by a tall-skinny QR, TF simulation and step responses.
+//! and the ARX structure its Sec. 2 names). What it shares with the other
+//! dynamic trainers (`tf`, `gain`: options, orders, sample time, search
+//! split, input selection, the bank) is in [`super::dynamic`]; least squares
+//! by blocked QR in [`crate::num::tsqr`].
 //!
 //! Per target, `A(q) y(k) = sum_i B_i(q) u_i(k - nk) + e(k)` with
 //! `A = 1 + a_1 q^-1 + .. + a_na q^-na` and `B_i = b_i0 + .. + b_i,nb-1 q^-(nb-1)`,
@@ -42,136 +43,22 @@
 //! Export: one TF entry per (input, target), `a = [0; nk] ++ B_i` and
 //! `b = A` (the common denominator), so the bank sums to the ARX model.
 
-use super::{channels, outputs, Fitted};
-use crate::data::dataset::{Dataset, GridRun, InputForm};
+use super::dynamic::bank::{bank, entry, step_info};
+use super::dynamic::grid::{grid_runs, sample_time};
+use super::dynamic::options::{DynamicOptions, Ridge, Selection};
+use super::dynamic::orders::{candidates, OrderRange, Orders};
+use super::dynamic::select::{forward_select, max_selected, names_only, sub_grid, subset};
+use super::dynamic::sim_fit::fit_pct;
+use super::dynamic::split::SearchScheme;
+use super::Fitted;
+use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
-use anyhow::{anyhow, bail, Result};
-use clap::Args;
-use model_core::tf::{RealisedTf, TfEntry, TfHistory, MAX_ORDER, MAX_TF_ENTRIES};
-use model_core::{Model, Params, ValidModel};
-use nalgebra::DMatrix;
+use crate::num::tsqr::{Triangle, Tsqr};
+use anyhow::{bail, Result};
+use model_core::tf::{TfEntry, MAX_TF_ENTRIES};
+use model_core::ValidModel;
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
-use std::path::PathBuf;
-use std::str::FromStr;
-
-/// An inclusive order range given as `MIN..MAX` or a single number.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct OrderRange {
-    /// Smallest order tried.
-    pub min: usize,
-    /// Largest order tried.
-    pub max: usize,
-}
-
-impl FromStr for OrderRange {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let parse = |v: &str| {
-            v.trim()
-                .parse::<usize>()
-                .map_err(|_| format!("\"{s}\" is not an order range like 1..3"))
-        };
-        let (min, max) = match s.split_once("..") {
-            Some((a, b)) => (parse(a)?, parse(b.trim_start_matches('='))?),
-            None => (parse(s)?, parse(s)?),
-        };
-        if min > max || max > MAX_ORDER {
-            return Err(format!(
-                "order range {s}: need MIN <= MAX <= {MAX_ORDER} (the model core's highest order)"
-            ));
-        }
-        Ok(Self { min, max })
-    }
-}
-
-impl OrderRange {
-    const fn new(min: usize, max: usize) -> Self {
-        Self { min, max }
-    }
-    fn iter(self) -> std::ops::RangeInclusive<usize> {
-        self.min..=self.max
-    }
-}
-
-/// Options of the dynamic trainers (`arx`, `tf`, `gain`) of `thermcomp fit`.
-#[derive(Args, Clone, Debug)]
-pub struct ArxArgs {
-    /// arx, tf: denominator orders tried, MIN..MAX (default arx 1..3, tf 1..2).
-    #[arg(long, value_name = "MIN..MAX")]
-    pub na: Option<OrderRange>,
-    /// arx, tf: numerator lengths tried, MIN..MAX (default arx 1..3, tf 1..2; arx: same for every input).
-    #[arg(long, value_name = "MIN..MAX")]
-    pub nb: Option<OrderRange>,
-    /// arx, tf: input delays tried in samples, MIN..MAX (default arx 0..2, tf 0..1; arx: same for every input).
-    #[arg(long, value_name = "MIN..MAX")]
-    pub nk: Option<OrderRange>,
-    /// arx: order search scores simulation fit by blocked cross-validation over K contiguous folds of each run's calibration samples (1: on the last --search-holdout only, as tf does).
-    #[arg(long, default_value_t = 4, value_name = "K")]
-    pub search_folds: usize,
-    /// arx with --search-folds 1, tf: the search scores simulation fit on the last FRACTION of each run's calibration samples.
-    #[arg(long, default_value_t = 0.25, value_name = "FRACTION")]
-    pub search_holdout: f64,
-    /// arx, tf, arma: model sample time (default: the median sampling step of the first run).
-    #[arg(long, value_name = "SECONDS")]
-    pub dt_s: Option<f64>,
-    /// tf: rounds of SISO ARX backfitting on partial residuals before the joint refinement.
-    #[arg(long, default_value_t = 3, value_name = "N")]
-    pub backfit_rounds: usize,
-    /// tf: Levenberg-Marquardt iteration limit of the joint output-error refinement.
-    #[arg(long, default_value_t = 60, value_name = "N")]
-    pub lm_iterations: usize,
-    /// gain: the TF-bank blob whose spindle part gets a new gain g (seed 004, Eq. 6).
-    #[arg(long, value_name = "MODEL.bin")]
-    pub gain_from: Option<PathBuf>,
-    /// gain: inputs whose TF entries are scaled by g (default: every input but ambient_c).
-    #[arg(long, value_delimiter = ',', value_name = "COL,..")]
-    pub gain_inputs: Vec<String>,
-    /// arx, tf: choose the inputs among --inputs by the search itself (forward: greedy, by simulation fit).
-    #[arg(long, value_enum, default_value = "off")]
-    pub select_inputs: Selection,
-    /// arx, tf: with --select-inputs forward, at most K inputs (also capped by the 16-entry bank).
-    #[arg(long, default_value_t = 6, value_name = "K")]
-    pub max_inputs: usize,
-    /// arx, tf: with --select-inputs forward, stop when the best addition raises the search fit by less than this (percentage points).
-    #[arg(long, default_value_t = 1.0, value_name = "POINTS")]
-    pub min_gain_pct: f64,
-    /// arx: ridge penalty of the least squares: "auto" (default: searched with the orders, by search fit), 0 = none, or a number.
-    #[arg(long, default_value = "auto", value_name = "auto|LAMBDA")]
-    pub ridge: Ridge,
-}
-
-/// How `arx` and `tf` choose their inputs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Selection {
-    /// Every `--inputs` column.
-    Off,
-    /// Greedy forward selection scored by simulation fit on the search-validation part.
-    Forward,
-}
-
-/// The ridge penalty of `arx` (in the column-scaled basis: every regressor
-/// column has unit norm, so the penalty is relative to that).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Ridge {
-    /// Chosen from [`RIDGE_GRID`] by simulation fit on the search-validation part.
-    Auto,
-    /// A fixed penalty (0: plain least squares).
-    Fixed(f64),
-}
-
-impl FromStr for Ridge {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        if s == "auto" {
-            return Ok(Self::Auto);
-        }
-        match s.parse::<f64>() {
-            Ok(v) if v.is_finite() && v >= 0.0 => Ok(Self::Fixed(v)),
-            _ => Err(format!("--ridge {s}: \"auto\" or a number >= 0")),
-        }
-    }
-}
 
 /// Ridge penalties `auto` tries (0 first: plain least squares wins ties).
 pub const RIDGE_GRID: [f64; 7] = [0.0, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2];
@@ -182,176 +69,6 @@ const ARX_DEFAULTS: [OrderRange; 3] = [
     OrderRange::new(1, 3),
     OrderRange::new(0, 2),
 ];
-
-/// One candidate structure: denominator order, numerator length, delay.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Orders {
-    /// Denominator order (`A` has `na + 1` coefficients).
-    pub na: usize,
-    /// Numerator length (`B` has `nb` coefficients).
-    pub nb: usize,
-    /// Input delay in samples.
-    pub nk: usize,
-}
-
-impl Orders {
-    /// Largest lag the structure reaches back.
-    pub fn max_lag(self) -> usize {
-        self.na.max(self.nk + self.nb.saturating_sub(1))
-    }
-    /// Whether the model core can hold it.
-    pub fn fits_core(self) -> bool {
-        self.na <= MAX_ORDER && self.nk + self.nb <= MAX_ORDER + 1 && self.nb >= 1
-    }
-    /// `{"na":..,"nb":..,"nk":..}`.
-    pub fn json(self) -> Value {
-        json!({"na": self.na, "nb": self.nb, "nk": self.nk})
-    }
-}
-
-/// The candidate structures of the given ranges that the model core holds.
-pub fn candidates(na: OrderRange, nb: OrderRange, nk: OrderRange) -> Vec<Orders> {
-    let mut out = Vec::new();
-    for na in na.iter() {
-        for nb in nb.iter() {
-            for nk in nk.iter() {
-                let o = Orders { na, nb, nk };
-                if o.fits_core() && nb >= 1 {
-                    out.push(o);
-                }
-            }
-        }
-    }
-    out
-}
-
-/// The model sample time: `--dt-s`, else the median step of the first run.
-pub fn sample_time(ds: &Dataset, dt_s: Option<f64>) -> Result<f64> {
-    let dt = match dt_s {
-        Some(dt) => dt,
-        None => {
-            let t = &ds.runs.first().ok_or_else(|| anyhow!("no runs"))?.t_s;
-            let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-            if steps.is_empty() {
-                bail!("the first run has fewer than two rows: no sample time (give --dt-s)");
-            }
-            steps.sort_by(f64::total_cmp);
-            steps[steps.len() / 2]
-        }
-    };
-    if !(dt.is_finite() && dt > 0.0) {
-        bail!("sample time {dt} s must be positive");
-    }
-    Ok(dt)
-}
-
-/// Resamples to `dt` and says so when a run was not already on that grid.
-pub fn grid_runs(ds: &Dataset, dt: f64, kind: &str) -> Result<Vec<GridRun>> {
-    for run in &ds.runs {
-        let off = run
-            .t_s
-            .windows(2)
-            .any(|w| ((w[1] - w[0]) - dt).abs() > 1e-6 * dt);
-        if off {
-            eprintln!(
-                "note: {kind}: {} is not sampled uniformly at {dt} s; inputs and targets are interpolated linearly onto a {dt} s grid",
-                run.name
-            );
-        }
-    }
-    let grid = ds.on_grid(dt)?;
-    if grid.iter().all(|g| g.calib_end == 0) {
-        bail!("{kind}: no calibration samples on the {dt} s grid");
-    }
-    Ok(grid)
-}
-
-/// First sample of the search-validation segment of a run with `calib_end`
-/// calibration samples (the last `h` of them).
-pub fn search_split(calib_end: usize, h: f64) -> usize {
-    // Truncation is intended: a whole number of samples.
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let n_val = ((calib_end as f64) * h).round() as usize;
-    calib_end - n_val.min(calib_end)
-}
-
-/// Most folds `--search-folds` takes (one bit each in a row's exclusion mask).
-pub const MAX_FOLDS: usize = 64;
-
-/// How the order search scores a candidate, on calibration samples only.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SearchScheme {
-    /// Blocked cross-validation: each run's calibration samples cut into
-    /// this many contiguous folds; fold `j` of every run is held out at once.
-    Folds(usize),
-    /// One held-out segment: the last fraction of each run's calibration samples.
-    Tail(f64),
-}
-
-impl SearchScheme {
-    /// From `--search-folds` and `--search-holdout`.
-    pub fn from_args(args: &ArxArgs) -> Result<Self> {
-        match args.search_folds {
-            0 => bail!("--search-folds 0: at least 1"),
-            1 => {
-                check_holdout(args.search_holdout)?;
-                Ok(Self::Tail(args.search_holdout))
-            }
-            k if k > MAX_FOLDS => bail!("--search-folds {k}: at most {MAX_FOLDS}"),
-            k => Ok(Self::Folds(k)),
-        }
-    }
-
-    /// Number of held-out segments per run.
-    pub fn count(self) -> usize {
-        match self {
-            Self::Folds(k) => k,
-            Self::Tail(_) => 1,
-        }
-    }
-
-    /// Held-out samples `[from, to)` of segment `j` of a run with
-    /// `calib_end` calibration samples.
-    pub fn segment(self, calib_end: usize, j: usize) -> (usize, usize) {
-        match self {
-            Self::Folds(k) => (calib_end * j / k, calib_end * (j + 1) / k),
-            Self::Tail(h) => (search_split(calib_end, h), calib_end),
-        }
-    }
-
-    /// Bit `j` set when segment `j` excludes sample `k` from estimation: `k`
-    /// is in the segment or its regressors (`lag` samples back) reach into it.
-    pub fn excluded_by(self, calib_end: usize, k: usize, lag: usize) -> u64 {
-        (0..self.count()).fold(0, |mask, j| {
-            let (from, to) = self.segment(calib_end, j);
-            if (from..to + lag).contains(&k) {
-                mask | 1 << j
-            } else {
-                mask
-            }
-        })
-    }
-
-    /// For the JSON.
-    pub fn json(self) -> Value {
-        match self {
-            Self::Folds(k) => json!({"scheme": "blocked cross-validation", "folds": k,
-                "score": "simulation fit % (free run from each run's start) pooled over the held-out folds; each fold's model estimated on the other calibration samples (regression rows whose lags reach into the fold excluded too)"}),
-            Self::Tail(h) => json!({"scheme": "tail", "search_holdout": h,
-                "score": "simulation fit % (free run from each run's start) on the last search_holdout of each run's calibration samples"}),
-        }
-    }
-}
-
-/// Checks `--search-holdout`.
-pub fn check_holdout(h: f64) -> Result<()> {
-    if !(h > 0.0 && h < 1.0) {
-        bail!("--search-holdout {h} must be in (0, 1)");
-    }
-    Ok(())
-}
-
-pub use crate::num::tsqr::{Triangle, Tsqr};
 
 /// An ARX model of one target: common denominator and one numerator per input.
 #[derive(Clone, Debug)]
@@ -517,119 +234,6 @@ pub fn simulate_arx(m: &ArxPoly, g: &GridRun, to: usize) -> Vec<f64> {
     ys
 }
 
-/// System-identification fit % of `yhat` against `y` (seed 004, Eq. 4).
-pub fn fit_pct(pairs: &[(f64, f64)]) -> f64 {
-    let n = pairs.len() as f64;
-    if pairs.is_empty() {
-        return f64::NAN;
-    }
-    let mean = pairs.iter().map(|p| p.0).sum::<f64>() / n;
-    let sse: f64 = pairs.iter().map(|(y, h)| (y - h).powi(2)).sum();
-    let sst: f64 = pairs.iter().map(|(y, _)| (y - mean).powi(2)).sum();
-    if sst == 0.0 {
-        return if sse == 0.0 { 100.0 } else { 0.0 };
-    }
-    (1.0 - (sse / sst).sqrt()) * 100.0
-}
-
-/// A TF-bank model over `ds`'s inputs and targets, validated by the model core.
-pub fn bank(ds: &Dataset, dt: f64, entries: Vec<TfEntry>) -> Result<ValidModel> {
-    let n = entries.len();
-    let bank = heapless::Vec::<TfEntry, MAX_TF_ENTRIES>::from_iter(
-        entries.into_iter().take(MAX_TF_ENTRIES),
-    );
-    if bank.len() != n {
-        bail!("{n} TF entries; the model holds at most {MAX_TF_ENTRIES}");
-    }
-    Model {
-        inputs: channels(ds)?,
-        outputs: outputs(ds)?,
-        dt_s: dt,
-        params: Params::Tf(bank),
-        bounds: None,
-        five_point: None,
-    }
-    .validate()
-    .map_err(|e| anyhow!("{e}"))
-}
-
-/// Builds a TF entry (checked sizes).
-pub fn entry(output: usize, input: usize, a: &[f64], b: &[f64]) -> Result<TfEntry> {
-    Ok(TfEntry {
-        output: u8::try_from(output)?,
-        input: u8::try_from(input)?,
-        a: heapless::Vec::from_slice(a)
-            .map_err(|_| anyhow!("numerator above order {MAX_ORDER}"))?,
-        b: heapless::Vec::from_slice(b)
-            .map_err(|_| anyhow!("denominator above order {MAX_ORDER}"))?,
-    })
-}
-
-/// Step-response figures of one TF, from its realisation in the model core.
-pub fn step_info(a: &[f64], b: &[f64], dt: f64) -> Value {
-    let tf = match RealisedTf::new(a, b) {
-        Ok(tf) => tf,
-        Err(e) => return json!({"error": e.to_string()}),
-    };
-    let gain = tf.dc_gain();
-    json!({
-        "gain_per_unit": gain,
-        "tau_s": time_constant(&tf, dt),
-        "cancelled_pole_zero_pairs": tf.cancelled(),
-        "pole_zero_cancellation": tf.cancelled() > 0,
-        "poles": poles(tf.denominator()),
-    })
-}
-
-/// Time for the unit-step response to reach 63.2 % of its final value
-/// (simulated on the realised TF, linear interpolation between samples);
-/// `None` for a zero gain or when it takes more than ten million samples.
-pub fn time_constant(tf: &RealisedTf, dt: f64) -> Option<f64> {
-    let gain = tf.dc_gain();
-    if gain == 0.0 || !gain.is_finite() {
-        return None;
-    }
-    let target = (1.0 - (-1.0f64).exp()) * gain;
-    let mut h = TfHistory::default();
-    let mut prev = 0.0;
-    for k in 0..10_000_000u32 {
-        let y = tf.output(&h, 1.0);
-        if (y - target) * gain.signum() >= 0.0 {
-            let frac = if k == 0 || y == prev {
-                0.0
-            } else {
-                (target - prev) / (y - prev)
-            };
-            return Some((f64::from(k) - 1.0 + frac).max(0.0) * dt);
-        }
-        h.push(1.0, y);
-        prev = y;
-    }
-    None
-}
-
-/// Roots of a denominator `[1, d1, ..]` in z (the poles), as `[re, im]`.
-fn poles(den: &[f64]) -> Vec<[f64; 2]> {
-    let n = den.len().saturating_sub(1);
-    if n == 0 {
-        return Vec::new();
-    }
-    // Companion matrix of z^n + d1 z^(n-1) + .. + dn.
-    let c = DMatrix::from_fn(n, n, |i, j| {
-        if i == 0 {
-            -den[j + 1]
-        } else if i == j + 1 {
-            1.0
-        } else {
-            0.0
-        }
-    });
-    c.complex_eigenvalues()
-        .iter()
-        .map(|z| [z.re, z.im])
-        .collect()
-}
-
 /// One row of an order-search table.
 struct SearchRow {
     orders: Orders,
@@ -645,139 +249,6 @@ impl SearchRow {
         let v: Option<Vec<f64>> = self.fit.iter().copied().collect();
         v.map(|v| v.iter().sum::<f64>() / v.len() as f64)
     }
-}
-
-/// `ds` restricted to the inputs `idx` (in that order). In the change form
-/// the reference is re-taken at the first row where every kept input has a
-/// value, as the hub will take it for a model with only those inputs.
-pub fn subset(ds: &Dataset, idx: &[usize]) -> Dataset {
-    let mut out = ds.clone();
-    out.inputs = idx.iter().map(|&i| ds.inputs[i].clone()).collect();
-    for run in &mut out.runs {
-        let mut x: Vec<Vec<Option<f64>>> = idx.iter().map(|&i| run.x[i].clone()).collect();
-        if ds.form == InputForm::Change {
-            let n = run.t_s.len();
-            if let Some(first) = (0..n).find(|&r| x.iter().all(|c| c[r].is_some())) {
-                for c in &mut x {
-                    let r0 = c[first].unwrap_or(0.0);
-                    for v in c.iter_mut().flatten() {
-                        *v -= r0;
-                    }
-                }
-            }
-        }
-        run.x = x;
-    }
-    out
-}
-
-/// Grid runs with only the inputs `idx`.
-pub fn sub_grid(grid: &[GridRun], idx: &[usize]) -> Vec<GridRun> {
-    grid.iter()
-        .map(|g| GridRun {
-            name: g.name.clone(),
-            t_s: Vec::new(),
-            x: idx.iter().map(|&i| g.x[i].clone()).collect(),
-            y: g.y.clone(),
-            calib_end: g.calib_end,
-        })
-        .collect()
-}
-
-/// Names only (no rows): enough for [`bank`]'s model-core check.
-pub fn names_only(ds: &Dataset, idx: &[usize]) -> Dataset {
-    Dataset {
-        inputs: idx.iter().map(|&i| ds.inputs[i].clone()).collect(),
-        targets: ds.targets.clone(),
-        form: ds.form,
-        runs: Vec::new(),
-    }
-}
-
-/// The most inputs forward selection may keep: `--max-inputs`, and the
-/// 16-entry bank shared by all targets.
-pub fn max_selected(args: &ArxArgs, ds: &Dataset) -> Result<usize> {
-    let k = args
-        .max_inputs
-        .min(MAX_TF_ENTRIES / ds.targets.len().max(1))
-        .min(ds.inputs.len());
-    if k == 0 {
-        bail!("--max-inputs 0 (or more than {MAX_TF_ENTRIES} targets): nothing to select");
-    }
-    if !(args.min_gain_pct.is_finite() && args.min_gain_pct >= 0.0) {
-        bail!("--min-gain-pct {} must be >= 0", args.min_gain_pct);
-    }
-    Ok(k)
-}
-
-/// Greedy forward selection over `ds.inputs`. `score(idx)` returns the
-/// search fit (mean over targets) of the model on inputs `idx`, with a JSON
-/// note (e.g. the orders), or `None` when no stable model exists. Each step
-/// adds the candidate with the best score; it stops at `k_max` inputs or
-/// when the best addition gains less than `min_gain` points (the first
-/// input is always taken). Returns the chosen indices and the path.
-pub fn forward_select(
-    ds: &Dataset,
-    k_max: usize,
-    min_gain: f64,
-    what: &str,
-    mut score: impl FnMut(&[usize]) -> Option<(f64, Value)>,
-) -> Result<(Vec<usize>, Value)> {
-    let n = ds.inputs.len();
-    let pb = progress((0..k_max).map(|s| n - s).sum(), what);
-    let mut chosen: Vec<usize> = Vec::new();
-    let mut current: Option<f64> = None;
-    let mut path = Vec::new();
-    let mut stop = format!("reached {k_max} inputs");
-    while chosen.len() < k_max {
-        let mut tried = Map::new();
-        let mut best: Option<(usize, f64, Value)> = None;
-        for c in (0..n).filter(|c| !chosen.contains(c)) {
-            pb.inc(1);
-            let mut trial = chosen.clone();
-            trial.push(c);
-            let r = score(&trial);
-            tried.insert(ds.inputs[c].clone(), json!(r.as_ref().map(|r| r.0)));
-            if let Some((f, note)) = r {
-                if best.as_ref().is_none_or(|b| f > b.1) {
-                    best = Some((c, f, note));
-                }
-            }
-        }
-        let Some((c, f, note)) = best else {
-            stop = "no addition gave a stable model".into();
-            break;
-        };
-        let gain = current.map(|cur| f - cur);
-        if gain.is_some_and(|g| g < min_gain) {
-            stop = format!(
-                "best addition {} gains {:.2} points < --min-gain-pct {min_gain}",
-                ds.inputs[c],
-                gain.unwrap_or(0.0)
-            );
-            path.push(
-                json!({"rejected": ds.inputs[c], "search_fit_pct": f, "gain_pct": gain,
-                             "candidates": tried}),
-            );
-            break;
-        }
-        chosen.push(c);
-        current = Some(f);
-        path.push(
-            json!({"added": ds.inputs[c], "search_fit_pct": f, "gain_pct": gain,
-                         "model": note, "candidates": tried}),
-        );
-    }
-    pb.finish_and_clear();
-    if chosen.is_empty() {
-        bail!("{what}: no single input gave a stable model");
-    }
-    let names: Vec<&String> = chosen.iter().map(|&i| &ds.inputs[i]).collect();
-    Ok((
-        chosen,
-        json!({"method": "forward", "candidates": ds.inputs, "selected": names,
-               "max_inputs": k_max, "min_gain_pct": min_gain, "stopped": stop, "path": path}),
-    ))
 }
 
 /// Scores orders `o` with every penalty of `lambdas` (one row each): per
@@ -889,7 +360,7 @@ fn best_row(table: &[SearchRow]) -> Option<(&SearchRow, f64)> {
 }
 
 /// Fits `--model arx`.
-pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
+pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
     let scheme = SearchScheme::from_args(args)?;
     let dt = sample_time(ds, args.dt_s)?;
     let [dna, dnb, dnk] = ARX_DEFAULTS;
@@ -1044,7 +515,7 @@ fn equations_json(ds: &Dataset, polys: &[ArxPoly], dt: f64) -> Map<String, Value
 /// estimate on `ds`'s inputs.
 fn fit_inputs(
     ds: &Dataset,
-    args: &ArxArgs,
+    args: &DynamicOptions,
     scheme: SearchScheme,
     dt: f64,
     cands: &[Orders],
@@ -1109,27 +580,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn folds_partition_the_calibration_samples() {
-        // Every calibration sample is held out exactly once, in contiguous
-        // folds of near-equal length (uneven counts included).
-        for (n, k) in [(5760, 4), (10, 3), (7, 7), (3, 4)] {
-            let s = SearchScheme::Folds(k);
-            let segs: Vec<(usize, usize)> = (0..s.count()).map(|j| s.segment(n, j)).collect();
-            assert_eq!(segs[0].0, 0);
-            assert_eq!(segs[k - 1].1, n);
-            for w in segs.windows(2) {
-                assert_eq!(w[0].1, w[1].0);
-            }
-            for (a, b) in &segs {
-                assert!(b - a <= n.div_ceil(k), "{n} {k}: fold {a}..{b}");
-            }
-        }
-        let tail = SearchScheme::Tail(0.25);
-        assert_eq!(tail.count(), 1);
-        assert_eq!(tail.segment(100, 0), (75, 100));
-    }
-
-    #[test]
     fn fold_estimate_never_sees_the_held_out_fold() {
         // A target that is pure garbage inside fold 2 and a clean FIR of the
         // input elsewhere: the fold-2 model (which must not see the garbage,
@@ -1166,51 +616,5 @@ mod tests {
         let p = ArxPoly::solve(&ls.finish().unwrap(), o, 1, 0.0).unwrap();
         assert!(p.den[1].abs() < 1e-9, "{:?}", p.den);
         assert!((p.num[0][0] - 2.0).abs() < 1e-9 && (p.num[0][1] + 0.5).abs() < 1e-9);
-    }
-
-    #[test]
-    fn order_ranges_parse() {
-        assert_eq!("1..3".parse::<OrderRange>().unwrap(), OrderRange::new(1, 3));
-        assert_eq!("2".parse::<OrderRange>().unwrap(), OrderRange::new(2, 2));
-        assert!("3..1".parse::<OrderRange>().is_err());
-        assert!("0..9".parse::<OrderRange>().is_err());
-    }
-
-    #[test]
-    fn tsqr_agrees_with_svd_least_squares_across_blocks() {
-        // 5000 rows (three blocks), exact y = 2 x0 - 0.5 x1 + 3 x2: recovered
-        // to 1e-9 (conditioning of the columns is ~1e2).
-        let mut ls = Tsqr::new(3);
-        for k in 0..5000 {
-            let x = [
-                f64::from(k).sin(),
-                f64::from(k % 17),
-                1.0 + f64::from(k) * 1e-3,
-            ];
-            ls.push(&x, 2.0 * x[0] - 0.5 * x[1] + 3.0 * x[2]);
-        }
-        let (b, rss) = ls.solve().unwrap();
-        assert!(
-            (b[0] - 2.0).abs() < 1e-9 && (b[1] + 0.5).abs() < 1e-9 && (b[2] - 3.0).abs() < 1e-9
-        );
-        assert!(rss < 1e-12, "{rss}");
-    }
-
-    #[test]
-    fn first_order_time_constant_is_tau() {
-        // ZOH discretisation of K/(tau s + 1), tau = 300 samples: the 63.2 %
-        // time is tau within one sample (the response is sampled).
-        let p = (-1.0f64 / 300.0).exp();
-        let tf = RealisedTf::new(&[0.0, 4.0 * (1.0 - p)], &[1.0, -p]).unwrap();
-        let tau = time_constant(&tf, 1.0).unwrap();
-        assert!((tau - 300.0).abs() < 1.0, "{tau}");
-        assert!((tf.dc_gain() - 4.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn fit_pct_of_a_perfect_and_a_mean_model() {
-        let y = [1.0, 2.0, 3.0];
-        assert_eq!(fit_pct(&y.map(|v| (v, v))), 100.0);
-        assert!(fit_pct(&y.map(|v| (v, 2.0))).abs() < 1e-12);
     }
 }

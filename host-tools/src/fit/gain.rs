@@ -10,7 +10,7 @@
 //! `g = sum s (y - r) / sum s^2`, and the scaled model multiplies the
 //! numerators of those entries by `g` (poles, hence time constants, stay).
 
-use super::arx::ArxArgs;
+use super::dynamic::options::DynamicOptions;
 use super::Fitted;
 use crate::data::dataset::Dataset;
 use crate::data::runfile::RunFile;
@@ -63,7 +63,7 @@ fn check_matches(ds: &Dataset, old: &ValidModel, names: &[String], path: &Path) 
 
 /// The inputs whose entries the gain scales: `--gain-inputs` (each an input
 /// of the model), or every input but [`AMBIENT`].
-fn gain_inputs(args: &ArxArgs, names: &[String], path: &Path) -> Result<Vec<String>> {
+fn gain_inputs(args: &DynamicOptions, names: &[String], path: &Path) -> Result<Vec<String>> {
     if args.gain_inputs.is_empty() {
         return Ok(names.iter().filter(|n| *n != AMBIENT).cloned().collect());
     }
@@ -127,7 +127,12 @@ fn scaled_model(old: &ValidModel, scaled: &[bool], g: f64) -> Result<ValidModel>
 }
 
 /// Fits `--model gain`.
-pub fn fit(ds: &Dataset, args: &ArxArgs, runs: &[RunFile], validate: &[RunFile]) -> Result<Fitted> {
+pub fn fit(
+    ds: &Dataset,
+    args: &DynamicOptions,
+    runs: &[RunFile],
+    validate: &[RunFile],
+) -> Result<Fitted> {
     let path = args
         .gain_from
         .as_ref()

@@ -9,45 +9,37 @@ use crate::data::runfile::RunFile;
 use crate::eval::MetricsReport;
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
-use clap::Args;
 use model_core::ValidModel;
 use serde::Serialize;
 use serde_json::Value;
 use std::collections::BTreeMap;
 
-/// Every kind's training options, as `fit`'s flags define them (one source
-/// for the defaults and the checks of each value).
-#[derive(Args, Clone, Debug)]
+/// Every kind's training options; [`Default`] is `thermcomp fit`'s
+/// defaults (the CLI's flag groups convert into it, `cli::fit`).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct FitOptions {
     /// PCR options.
-    #[command(flatten)]
-    pub pcr: pcr::PcrArgs,
-    /// ARX, TF, gain (and auto/arma `--dt-s`) options.
-    #[command(flatten)]
-    pub arx: arx::ArxArgs,
+    pub pcr: pcr::PcrOptions,
+    /// ARX, TF, gain (and auto/arma `dt_s`) options.
+    pub arx: super::dynamic::options::DynamicOptions,
     /// BP and GA-BP options.
-    #[command(flatten)]
-    pub bp: bp::BpArgs,
+    pub bp: bp::BpOptions,
     /// ARMA options.
-    #[command(flatten)]
-    pub arma: arma::ArmaArgs,
+    pub arma: arma::ArmaOptions,
     /// Auto options.
-    #[command(flatten)]
-    pub auto: super::AutoArgs,
+    pub auto: auto::AutoOptions,
 }
 
 impl FitOptions {
-    /// The documented defaults (those of `thermcomp fit --help`).
-    pub fn defaults() -> Result<Self> {
-        Self::from_pairs(&[])
-    }
-
-    /// Options by name and value as `fit`'s flags spell them, without the
-    /// leading `--` (`("variance", "0.9")`, `("auto_folds", "3")`:
-    /// underscores stand for dashes); the others keep their defaults. A bad
-    /// name or value fails with the CLI's one-line message.
-    pub fn from_pairs(pairs: &[(String, String)]) -> Result<Self> {
-        crate::cli::pairs::args_from_pairs("fit", pairs)
+    /// Checks the options of `kind` that need no data (sizes against the
+    /// inputs and rows are the trainers' to check, against the dataset).
+    pub fn check(&self, kind: FitKind) -> Result<()> {
+        match kind {
+            FitKind::Pcr => self.pcr.check(),
+            FitKind::Arx | FitKind::Tf => self.arx.check(kind),
+            FitKind::Arma => self.arma.check(),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -82,8 +74,9 @@ pub struct ValidFitParams {
 
 impl FitParams {
     /// Checks what can be checked without data: one target at least; arma
-    /// forecasts one target from itself; no target among the inputs (the
-    /// holdout time is judged against the runs, by [`Dataset::new`]).
+    /// forecasts one target from itself; no target among the inputs; the
+    /// kind's options ([`FitOptions::check`]). The holdout time is judged
+    /// against the runs, by [`Dataset::new`].
     pub fn check(&self) -> Result<ValidFitParams> {
         if self.targets.is_empty() {
             bail!("a fit needs at least one --target column");
@@ -95,6 +88,7 @@ impl FitParams {
         if let Some(t) = self.targets.iter().find(|t| self.inputs.contains(t)) {
             bail!("{t} is both a --target and one of the --inputs: a model cannot read what it predicts");
         }
+        self.options.check(self.kind)?;
         let form = if arma || self.kind == FitKind::Auto {
             InputForm::Absolute
         } else {

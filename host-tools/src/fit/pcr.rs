@@ -11,23 +11,39 @@ use super::{channels, outputs, Fitted};
 use crate::data::dataset::Dataset;
 use crate::num::linalg;
 use anyhow::{anyhow, bail, Result};
-use clap::Args;
 use model_core::model::MAX_OUTPUTS;
 use model_core::pcr::{Component, Pcr, PcrOutput, MAX_COMPONENTS};
 use model_core::{Model, Params};
 use nalgebra::DMatrix;
 use serde_json::{json, Value};
 
-/// PCR options of `thermcomp fit`.
-#[derive(Args, Clone, Debug)]
-pub struct PcrArgs {
+/// PCR options (`fit --model pcr`); [`Default`] is `fit`'s defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PcrOptions {
     /// pcr: keep the fewest components whose cumulative share of the
     /// variance reaches this fraction (seed 003: 0.85).
-    #[arg(long, default_value_t = 0.85, value_name = "FRACTION")]
     pub variance: f64,
     /// pcr: keep exactly this many components instead.
-    #[arg(long, value_name = "K")]
     pub components: Option<usize>,
+}
+
+impl Default for PcrOptions {
+    fn default() -> Self {
+        Self {
+            variance: 0.85,
+            components: None,
+        }
+    }
+}
+
+impl PcrOptions {
+    /// The variance share lies in (0, 1].
+    pub fn check(&self) -> Result<()> {
+        if !(self.variance > 0.0 && self.variance <= 1.0) {
+            bail!("--variance {} must be in (0, 1]", self.variance);
+        }
+        Ok(())
+    }
 }
 
 /// The components of the standardised inputs, largest variance first:
@@ -42,7 +58,7 @@ fn ranked_components(eig: &nalgebra::SymmetricEigen<f64, nalgebra::Dyn>) -> (Vec
 
 /// How many components to keep (of `m`): `--components`, or the fewest
 /// whose cumulative `share` reaches `--variance`.
-fn components_kept(args: &PcrArgs, share: &[f64], m: usize) -> Result<usize> {
+fn components_kept(args: &PcrOptions, share: &[f64], m: usize) -> Result<usize> {
     let k = match args.components {
         Some(0) => bail!("--components must be at least 1"),
         Some(k) if k > m => bail!("--components {k} exceeds the {m} inputs"),
@@ -124,10 +140,7 @@ fn regress_targets(
 }
 
 /// Fits a PCR per target on shared components.
-pub fn fit(ds: &Dataset, args: &PcrArgs) -> Result<Fitted> {
-    if !(args.variance > 0.0 && args.variance <= 1.0) {
-        bail!("--variance {} must be in (0, 1]", args.variance);
-    }
+pub fn fit(ds: &Dataset, args: &PcrOptions) -> Result<Fitted> {
     let (x, y) = ds.calibration_rows();
     let (n, m) = (x.len(), ds.inputs.len());
     if n <= m {

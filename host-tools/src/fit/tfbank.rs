@@ -29,14 +29,17 @@
 //! every input at the smallest structure of the ranges (the per-input order
 //! search, a whole-bank fit per trial, runs only on the selected set).
 
-use super::arx::{
-    bank, candidates, check_holdout, entry, fit_pct, forward_select, grid_runs, max_selected,
-    sample_time, search_split, step_info, sub_grid, subset, ArxArgs, OrderRange, Orders, Selection,
-    Tsqr,
-};
+use super::dynamic::bank::{bank, entry, step_info};
+use super::dynamic::grid::{grid_runs, sample_time};
+use super::dynamic::options::{DynamicOptions, Selection};
+use super::dynamic::orders::{candidates, OrderRange, Orders};
+use super::dynamic::select::{forward_select, max_selected, sub_grid, subset};
+use super::dynamic::sim_fit::fit_pct;
+use super::dynamic::split::{check_holdout, search_split};
 use super::Fitted;
 use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
+use crate::num::tsqr::Tsqr;
 use anyhow::{bail, Result};
 use model_core::tf::{RealisedTf, MAX_TF_ENTRIES};
 use nalgebra::{DMatrix, DVector};
@@ -333,7 +336,7 @@ pub fn fit_target(
     t: usize,
     orders: &[Orders],
     end: impl Fn(&GridRun) -> usize,
-    args: &ArxArgs,
+    args: &DynamicOptions,
 ) -> Result<(Vec<Siso>, OeReport)> {
     let mut models: Vec<Siso> = orders.iter().map(|o| Siso::zero(*o)).collect();
     let mut sims = simulate_all(&models, grid, &end);
@@ -419,7 +422,7 @@ fn validation_fit(grid: &[GridRun], t: usize, models: &[Siso], h: f64) -> Option
 
 /// The order candidates of `args` (tf defaults where unset) and the first,
 /// the orders used while inputs are being selected.
-fn order_candidates(args: &ArxArgs) -> Result<(Vec<Orders>, Orders)> {
+fn order_candidates(args: &DynamicOptions) -> Result<(Vec<Orders>, Orders)> {
     let [dna, dnb, dnk] = TF_DEFAULTS;
     let cands = candidates(
         args.na.unwrap_or(dna),
@@ -433,7 +436,7 @@ fn order_candidates(args: &ArxArgs) -> Result<(Vec<Orders>, Orders)> {
 }
 
 /// Fits `--model tf`.
-pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
+pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
     check_holdout(args.search_holdout)?;
     if args.select_inputs == Selection::Off {
         return fit_inputs(ds, args, Value::Null);
@@ -460,7 +463,7 @@ pub fn fit(ds: &Dataset, args: &ArxArgs) -> Result<Fitted> {
 }
 
 /// The per-input order search and the final fit on `ds`'s inputs.
-fn fit_inputs(ds: &Dataset, args: &ArxArgs, selection: Value) -> Result<Fitted> {
+fn fit_inputs(ds: &Dataset, args: &DynamicOptions, selection: Value) -> Result<Fitted> {
     let dt = sample_time(ds, args.dt_s)?;
     let (n_in, n_t) = (ds.inputs.len(), ds.targets.len());
     if n_in * n_t > MAX_TF_ENTRIES {

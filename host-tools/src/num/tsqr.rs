@@ -198,3 +198,28 @@ impl Triangle {
         Ok((theta, rss))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tsqr_agrees_with_svd_least_squares_across_blocks() {
+        // 5000 rows (three blocks), exact y = 2 x0 - 0.5 x1 + 3 x2: recovered
+        // to 1e-9 (conditioning of the columns is ~1e2).
+        let mut ls = Tsqr::new(3);
+        for k in 0..5000 {
+            let x = [
+                f64::from(k).sin(),
+                f64::from(k % 17),
+                1.0 + f64::from(k) * 1e-3,
+            ];
+            ls.push(&x, 2.0 * x[0] - 0.5 * x[1] + 3.0 * x[2]);
+        }
+        let (b, rss) = ls.solve().unwrap();
+        assert!(
+            (b[0] - 2.0).abs() < 1e-9 && (b[1] + 0.5).abs() < 1e-9 && (b[2] - 3.0).abs() < 1e-9
+        );
+        assert!(rss < 1e-12, "{rss}");
+    }
+}

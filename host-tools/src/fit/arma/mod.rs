@@ -33,7 +33,6 @@ pub mod yule_walker;
 use super::{channels, outputs, Fitted};
 use crate::data::dataset::{Dataset, GridRun, RunData};
 use anyhow::{anyhow, bail, Result};
-use clap::Args;
 use estimate::Estimate;
 use model_core::arma::{Arma, ArmaState, MAX_ARMA_ORDER, MAX_DIFF};
 use model_core::{Model, Params};
@@ -42,27 +41,50 @@ use serde_json::{json, Value};
 /// ACF/PACF lags reported in the JSON.
 const REPORTED_LAGS: usize = 10;
 
-/// ARMA options of `thermcomp fit`.
-#[derive(Args, Clone, Debug)]
-pub struct ArmaArgs {
+/// ARMA options (`fit --model arma`); [`Default`] is `fit`'s defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArmaOptions {
     /// arma: largest AR order tried (at most 10).
-    #[arg(long, default_value_t = 4, value_name = "P")]
     pub max_p: usize,
     /// arma: largest MA order tried (at most 10).
-    #[arg(long, default_value_t = 4, value_name = "Q")]
     pub max_q: usize,
     /// arma: most differences taken while the ADF test keeps a unit root (at most 2).
-    #[arg(long, default_value_t = 2, value_name = "D")]
     pub max_diff: usize,
     /// arma: ADF level: difference while the p-value is above it.
-    #[arg(long, default_value_t = 0.05, value_name = "ALPHA")]
     pub adf_alpha: f64,
     /// arma: largest ADF lag tried (default statsmodels' ceil(12 (n/100)^(1/4))).
-    #[arg(long, value_name = "L")]
     pub adf_maxlag: Option<usize>,
     /// arma: Yule-Walker autocovariance divisor for the reported AR estimate.
-    #[arg(long, value_enum, default_value = "adjusted")]
     pub yw_method: yule_walker::Method,
+}
+
+impl ArmaOptions {
+    /// `--max-p`, `--max-q`, `--max-diff` and `--adf-alpha` in their ranges.
+    pub fn check(&self) -> Result<()> {
+        if self.max_p > MAX_ARMA_ORDER || self.max_q > MAX_ARMA_ORDER {
+            bail!("arma: --max-p and --max-q are at most {MAX_ARMA_ORDER}");
+        }
+        if self.max_diff > MAX_DIFF {
+            bail!("arma: --max-diff is at most {MAX_DIFF}");
+        }
+        if !(self.adf_alpha > 0.0 && self.adf_alpha < 1.0) {
+            bail!("arma: --adf-alpha must lie in (0, 1)");
+        }
+        Ok(())
+    }
+}
+
+impl Default for ArmaOptions {
+    fn default() -> Self {
+        Self {
+            max_p: 4,
+            max_q: 4,
+            max_diff: 2,
+            adf_alpha: 0.05,
+            adf_maxlag: None,
+            yw_method: yule_walker::Method::Adjusted,
+        }
+    }
 }
 
 /// Everything the trainer decided, in the units the blob uses.
@@ -171,20 +193,6 @@ fn blob_forecasts(arma: &Arma, y: &[f64], from: usize) -> (Vec<f64>, Vec<f64>) {
     (one, free)
 }
 
-/// `--max-p`, `--max-q`, `--max-diff` and `--adf-alpha` in their ranges.
-fn check_args(args: &ArmaArgs) -> Result<()> {
-    if args.max_p > MAX_ARMA_ORDER || args.max_q > MAX_ARMA_ORDER {
-        bail!("arma: --max-p and --max-q are at most {MAX_ARMA_ORDER}");
-    }
-    if args.max_diff > MAX_DIFF {
-        bail!("arma: --max-diff is at most {MAX_DIFF}");
-    }
-    if !(args.adf_alpha > 0.0 && args.adf_alpha < 1.0) {
-        bail!("arma: --adf-alpha must lie in (0, 1)");
-    }
-    Ok(())
-}
-
 /// The calibration run's native step (median over its calibration part)
 /// and the step the fit uses: `--dt-s`, or the native one.
 fn sample_time(run: &RunData, dt_s: Option<f64>) -> Result<(Option<f64>, f64)> {
@@ -249,7 +257,7 @@ struct Stationary {
 /// Step 2, ADF and differencing: differences `z` until the ADF test at
 /// `--adf-alpha` rejects a unit root, at most `--max-diff` times (a
 /// warning on stderr if it never does).
-fn difference_to_stationary(z: &[f64], args: &ArmaArgs) -> Result<Stationary> {
+fn difference_to_stationary(z: &[f64], args: &ArmaOptions) -> Result<Stationary> {
     let mut w = z.to_vec();
     let mut d = 0;
     let mut steps = Vec::new();
@@ -291,7 +299,7 @@ fn difference_to_stationary(z: &[f64], args: &ArmaArgs) -> Result<Stationary> {
 
 /// Step 4, the order by AIC over `(p, q)`: the table of every cell and the
 /// best cell's estimate; the Yule-Walker AR estimate beside it.
-fn choose_order(w: &[f64], args: &ArmaArgs) -> Result<(Vec<order::Cell>, Estimate, Value)> {
+fn choose_order(w: &[f64], args: &ArmaOptions) -> Result<(Vec<order::Cell>, Estimate, Value)> {
     let (table, best) = order::search(w, args.max_p, args.max_q, true);
     let Some(best) = best else {
         let why = table
@@ -342,8 +350,7 @@ fn forecasts_json(fitted: &ArmaFit, arma: &Arma, y_all: &[f64], ce: usize, dt: f
 
 /// Fits `--model arma`.
 /// `dt_s` is `--dt-s` (shared with arx and tf); default the run's median step.
-pub fn fit(ds: &Dataset, args: &ArmaArgs, dt_s: Option<f64>) -> Result<Fitted> {
-    check_args(args)?;
+pub fn fit(ds: &Dataset, args: &ArmaOptions, dt_s: Option<f64>) -> Result<Fitted> {
     let target = ds
         .targets
         .first()

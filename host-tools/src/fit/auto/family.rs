@@ -27,12 +27,12 @@ use super::ridge::{standard_error, CvScore};
 use super::search::{cv_columns, CvRow, Form};
 use super::{cv_extrapolation, Band};
 use crate::data::dataset::{Dataset, GridRun, InputForm, RunData};
-use crate::fit::arx::{ArxArgs, OrderRange};
-use crate::fit::bp::BpArgs;
-use crate::fit::pcr::PcrArgs;
+use crate::fit::bp::BpOptions;
+use crate::fit::dynamic::options::DynamicOptions;
+use crate::fit::dynamic::orders::OrderRange;
+use crate::fit::pcr::PcrOptions;
 use crate::fit::{arx, bp, pcr, tfbank, Fitted};
 use anyhow::{anyhow, bail, Result};
-use clap::Parser;
 use model_core::tf::MAX_TF_ENTRIES;
 use model_core::ValidModel;
 use serde::Serialize;
@@ -122,17 +122,6 @@ impl Family {
     }
 }
 
-/// The trainers' own CLI options, to read their defaults.
-#[derive(Parser)]
-struct TrainerOptions {
-    #[command(flatten)]
-    pcr: PcrArgs,
-    #[command(flatten)]
-    arx: ArxArgs,
-    #[command(flatten)]
-    bp: BpArgs,
-}
-
 /// tf's structure inside auto: one first-order TF per input (`na 1, nb 1,
 /// nk 0`, the first structure of tf's search). tf's per-input order search
 /// fits the whole bank 113 times for 16 inputs (40 s per fit on one
@@ -144,30 +133,32 @@ const TF_ORDERS: [OrderRange; 3] = [
 ];
 
 /// The settings each family is trained with inside auto: its `fit --model`
-/// defaults (read from the CLI definitions, so they are the documented
-/// ones), at the grid's sample time, with tf capped at [`TF_ORDERS`] and
+/// defaults (the options' [`Default`]s, which a CLI test holds to the
+/// documented flags' defaults), at the grid's sample time, with tf capped at [`TF_ORDERS`] and
 /// gabp without its gradient-descent comparison (a report, not the model).
 #[derive(Clone, Debug)]
 pub struct Trainers {
-    pcr: PcrArgs,
-    arx: ArxArgs,
-    tf: ArxArgs,
-    bp: BpArgs,
+    pcr: PcrOptions,
+    arx: DynamicOptions,
+    tf: DynamicOptions,
+    bp: BpOptions,
 }
 
 impl Trainers {
     /// The defaults at sample time `dt_s`.
     pub fn defaults(dt_s: f64) -> Result<Self> {
-        let o = TrainerOptions::try_parse_from(["auto"])
-            .map_err(|e| anyhow!("auto: trainer defaults: {e}"))?;
-        let mut arx = o.arx;
-        arx.dt_s = Some(dt_s);
+        let arx = DynamicOptions {
+            dt_s: Some(dt_s),
+            ..DynamicOptions::default()
+        };
         let mut tf = arx.clone();
         [tf.na, tf.nb, tf.nk] = TF_ORDERS.map(Some);
-        let mut bp = o.bp;
-        bp.gd_epochs = 0;
+        let bp = BpOptions {
+            gd_epochs: 0,
+            ..BpOptions::default()
+        };
         Ok(Self {
-            pcr: o.pcr,
+            pcr: PcrOptions::default(),
             arx,
             tf,
             bp,

@@ -65,6 +65,42 @@ fn lambda_grid() -> Vec<f64> {
         .collect()
 }
 
+/// Options of `fit --model auto`; [`Default`] is `fit`'s defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AutoOptions {
+    /// auto: contiguous cross-validation folds within a single calibration
+    /// run (several runs: one fold per run).
+    pub auto_folds: usize,
+    /// auto: how many of the best candidates the model averages (as many
+    /// as fit the hub's 128 features; 20 won on the development split,
+    /// scripts/auto_dev_split.sh).
+    pub auto_ensemble: usize,
+    /// auto: how many of the best candidates also try dropping temperature
+    /// sensors (backward elimination by CV, one-standard-error rule; 0: off,
+    /// the default: on the development split it lost more than it won,
+    /// docs/validation-auto.md).
+    pub auto_eliminate: usize,
+    /// auto: model families weighed by the same cross-validation: ridge
+    /// (the filter bank, always), pcr, arx, tf, bp, gabp. Another family
+    /// replaces the ridge only when its CV error is lower beyond noise;
+    /// "ridge" alone: the filter bank only.
+    pub auto_families: Vec<String>,
+}
+
+impl Default for AutoOptions {
+    fn default() -> Self {
+        Self {
+            auto_folds: 6,
+            auto_ensemble: 20,
+            auto_eliminate: 0,
+            auto_families: family::DEFAULT_FAMILIES
+                .split(',')
+                .map(String::from)
+                .collect(),
+        }
+    }
+}
+
 /// Settings of an auto fit.
 #[derive(Clone, Debug)]
 pub struct AutoParams {
@@ -116,7 +152,7 @@ impl AutoParams {
             bail!("auto: --auto-ensemble {} must be 1..100", self.ensemble);
         }
         let families = Family::parse_list(&self.families)?;
-        let dt_s = super::arx::sample_time(ds, self.dt_s)?;
+        let dt_s = super::dynamic::grid::sample_time(ds, self.dt_s)?;
         Ok(ValidAutoParams {
             folds: self.folds,
             families,
@@ -402,7 +438,7 @@ fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&f
 /// Trains an auto model on `ds` (inputs in absolute form).
 pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport)> {
     let s = &params.settings;
-    let grid = super::arx::grid_runs(ds, s.dt_s, "auto")?;
+    let grid = super::dynamic::grid::grid_runs(ds, s.dt_s, "auto")?;
     let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
     let folds = Folds::of_grid(&grid, params.folds);
     let xs: Vec<(Form, Vec<Vec<Vec<f64>>>)> = Form::ALL

@@ -30,7 +30,7 @@ use crate::num::linalg;
 use crate::num::progress::progress;
 use crate::num::rng::SplitMix64;
 use anyhow::{anyhow, bail, Result};
-use clap::{Args, ValueEnum};
+use clap::ValueEnum;
 use model_core::bp::{Activation, BpNet, MAX_HIDDEN, MAX_W1};
 use model_core::{Model, Params};
 use net::{Data, Scaling, Shape};
@@ -59,58 +59,65 @@ impl From<HiddenActivation> for Activation {
     }
 }
 
-/// BP and GA-BP options of `thermcomp fit`.
-#[derive(Args, Clone, Debug)]
-pub struct BpArgs {
+/// BP and GA-BP options (`fit --model bp|gabp`); [`Default`] is `fit`'s defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BpOptions {
     /// bp, gabp: random seed (training is deterministic for a given seed).
-    #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// bp: hidden neurons [default: 10 (seed 000's 4-10-3 net), at most 384 / inputs].
-    #[arg(long, value_name = "N")]
     pub hidden: Option<usize>,
     /// bp, gabp: hidden-layer transfer function.
-    #[arg(long, value_enum, default_value = "tansig")]
     pub activation: HiddenActivation,
     /// bp, gabp: Levenberg-Marquardt epochs at most.
-    #[arg(long, default_value_t = 200, value_name = "N")]
     pub epochs: usize,
     /// bp, gabp: stop after this many epochs without a better validation error (MATLAB max_fail).
-    #[arg(long, default_value_t = 6, value_name = "N")]
     pub max_fail: usize,
     /// bp, gabp: cut the calibration rows into this many contiguous blocks for validation.
-    #[arg(long, default_value_t = 20, value_name = "N")]
     pub val_blocks: usize,
     /// bp, gabp: every K-th block validates (0: no validation, no early stop).
-    #[arg(long, default_value_t = 5, value_name = "K")]
     pub val_every: usize,
     /// bp, gabp: training MSE goal (on targets scaled to [-1, 1]) for the
     /// convergence report [default: half the MSE of a linear least-squares fit].
-    #[arg(long, value_name = "MSE")]
     pub goal: Option<f64>,
     /// gabp: individuals per generation.
-    #[arg(long, default_value_t = 40, value_name = "N")]
     pub ga_population: usize,
     /// gabp: generations.
-    #[arg(long, default_value_t = 30, value_name = "N")]
     pub ga_generations: usize,
     /// gabp: crossover probability of a pair.
-    #[arg(long, default_value_t = 0.7, value_name = "P")]
     pub ga_crossover: f64,
     /// gabp: mutation probability of an individual.
-    #[arg(long, default_value_t = 0.2, value_name = "P")]
     pub ga_mutation: f64,
     /// gabp: hidden sizes the GA searches [default: 2..16, at most 384 / inputs].
-    #[arg(long, value_name = "MIN..MAX")]
     pub ga_hidden: Option<String>,
     /// gabp: epochs of gradient-descent BP (traingdx) for the convergence comparison (0: skip).
-    #[arg(long, default_value_t = 1000, value_name = "N")]
     pub gd_epochs: usize,
     /// gabp: also train the nets it is compared with (BP at the default size and
     /// at the GA's size, LM, and the three gradient-descent runs) and report how
     /// each converged; off, only the GA-BP net is trained (the same blob, about a
     /// third of the time).
-    #[arg(long)]
     pub report_convergence: bool,
+}
+
+impl Default for BpOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            hidden: None,
+            activation: HiddenActivation::Tansig,
+            epochs: 200,
+            max_fail: 6,
+            val_blocks: 20,
+            val_every: 5,
+            goal: None,
+            ga_population: 40,
+            ga_generations: 30,
+            ga_crossover: 0.7,
+            ga_mutation: 0.2,
+            ga_hidden: None,
+            gd_epochs: 1000,
+            report_convergence: false,
+        }
+    }
 }
 
 /// Splits row indices `0..rows` into training and validation blocks.
@@ -212,7 +219,7 @@ fn run_lm(
 /// Hidden sizes a fit may use: `(bp's, the GA's range)`, after checking
 /// every option against the data's input count.
 fn checked_sizes(
-    args: &BpArgs,
+    args: &BpOptions,
     m: usize,
     genetic: bool,
     kind: &str,
@@ -277,7 +284,7 @@ struct Prepared {
     common: Value,
 }
 
-fn prepare(ds: &Dataset, args: &BpArgs, kind: &str) -> Result<Prepared> {
+fn prepare(ds: &Dataset, args: &BpOptions, kind: &str) -> Result<Prepared> {
     let (m, q) = (ds.inputs.len(), ds.targets.len());
     let (x, y) = ds.calibration_rows();
     let rows = x.len();
@@ -355,7 +362,7 @@ fn convergence_json(hidden: usize, init: &str, r: &lm::LmReport, extra_s: f64) -
 }
 
 /// Fits `--model bp` (`genetic = false`) or `--model gabp`.
-pub fn fit(ds: &Dataset, args: &BpArgs, genetic: bool) -> Result<Fitted> {
+pub fn fit(ds: &Dataset, args: &BpOptions, genetic: bool) -> Result<Fitted> {
     let kind = if genetic { "gabp" } else { "bp" };
     let inputs = channels(ds)?;
     let outs = outputs(ds)?;
@@ -414,7 +421,7 @@ struct Baseline<'a> {
 /// `--report-convergence`, also the comparison nets.
 fn fit_genetic(
     ds: &Dataset,
-    args: &BpArgs,
+    args: &BpOptions,
     p: &Prepared,
     base: Baseline,
     ga_hidden: (usize, usize),
@@ -475,7 +482,7 @@ fn fit_genetic(
 /// `convergence` JSON and BP's held-out figures.
 fn compare(
     ds: &Dataset,
-    args: &BpArgs,
+    args: &BpOptions,
     p: &Prepared,
     base: Baseline,
     ga_shape: Shape,

@@ -1,0 +1,170 @@
+//! Step 1, the test: the old model's residual on the new runs per output
+//! (bias, drift, gain; the HAC Wald test of [`super::stats`]) and, with
+//! baseline runs, the tolerance rule on rmse and dpk.
+
+use super::outcome::BaselineFigures;
+use super::stats::{drift_test, DriftTest, Sample};
+use super::ValidRefitParams;
+use crate::data::runfile::RunFile;
+use crate::runner::{self, ColumnMap};
+use crate::score::{score, TargetScore};
+use anyhow::{anyhow, Result};
+use model_core::ValidModel;
+
+/// One target's test outcome.
+pub struct Verdict {
+    /// The drift test (`None`: too few samples).
+    pub test: Option<DriftTest>,
+    /// Its p-value is below `alpha`.
+    pub significant: bool,
+    /// Its fitted systematic error reaches `min_effect_um`.
+    pub relevant: bool,
+    /// With baseline runs: their figures and the new runs'.
+    pub baseline: Option<BaselineFigures>,
+    /// The tolerance rule flags a change.
+    pub baseline_flag: bool,
+    /// Significant and relevant, or flagged by the baseline rule.
+    pub changed: bool,
+}
+
+/// Each run's measured column of each model output: `ys[run][output]`.
+pub(crate) fn measured_outputs<'r>(
+    runs: &'r [RunFile],
+    outputs: &[String],
+) -> Result<Vec<Vec<&'r [Option<f64>]>>> {
+    runs.iter()
+        .map(|r| {
+            outputs
+                .iter()
+                .map(|o| {
+                    r.column(o).ok_or_else(|| {
+                        anyhow!(
+                            "{}: no measured column \"{o}\" for the model's output",
+                            r.path.display()
+                        )
+                    })
+                })
+                .collect::<Result<_>>()
+        })
+        .collect()
+}
+
+/// Where each run's held-out tail starts: the last `fraction` of its time.
+pub(crate) fn holdout_starts(runs: &[RunFile], fraction: f64) -> Vec<usize> {
+    runs.iter()
+        .map(|r| match (r.t_s.first(), r.t_s.last()) {
+            (Some(t0), Some(t1)) => {
+                let ts = t0 + (1.0 - fraction) * (t1 - t0);
+                r.t_s.partition_point(|t| *t < ts)
+            }
+            _ => 0,
+        })
+        .collect()
+}
+
+/// The old model's predictions on each run (the runner's notes on stderr).
+pub(crate) fn predictions(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<runner::Prediction>> {
+    let map = ColumnMap::default();
+    let preds: Vec<runner::Prediction> = runs
+        .iter()
+        .map(|r| runner::predict(old, r, &map))
+        .collect::<Result<_>>()?;
+    for (r, p) in runs.iter().zip(&preds) {
+        for note in &p.notes {
+            eprintln!("note: {}: {note}", r.path.display());
+        }
+    }
+    Ok(preds)
+}
+
+/// Output `k`'s residual samples per run: time since the run's start,
+/// prediction and residual, at every row with both.
+pub(crate) fn residual_samples(
+    runs: &[RunFile],
+    preds: &[runner::Prediction],
+    ys: &[Vec<&[Option<f64>]>],
+    k: usize,
+) -> Vec<Vec<Sample>> {
+    runs.iter()
+        .zip(preds)
+        .zip(ys)
+        .map(|((run, p), y)| {
+            let t0 = run.t_s.first().copied().unwrap_or(0.0);
+            (0..run.len())
+                .filter_map(|row| match (y[k][row], p.values[k][row]) {
+                    (Some(y), Some(yhat)) => Some(Sample {
+                        tau_h: (run.t_s[row] - t0) / 3600.0,
+                        yhat,
+                        r: y - yhat,
+                    }),
+                    _ => None,
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The `--tolerance` rule on one output: the baseline's and the new runs'
+/// figures, and whether the new rmse or dpk exceeds the baseline's.
+pub(crate) fn baseline_rule(
+    a: &ValidRefitParams,
+    base: &TargetScore,
+    new: &TargetScore,
+) -> (Option<BaselineFigures>, bool) {
+    let (Some(bm), Some(nm)) = (&base.calibration, &new.calibration) else {
+        return (None, false);
+    };
+    let exceeds = |new: f64, base: f64| new > a.tolerance * base && new - base >= a.min_effect_um;
+    let flag = exceeds(nm.rmse, bm.rmse) || exceeds(nm.dpk, bm.dpk);
+    let figures = BaselineFigures {
+        rmse_um: bm.rmse,
+        dpk_um: bm.dpk,
+        new_rmse_um: nm.rmse,
+        new_dpk_um: nm.dpk,
+        rmse_ratio: nm.rmse / bm.rmse,
+        dpk_ratio: nm.dpk / bm.dpk,
+    };
+    (Some(figures), flag)
+}
+
+/// Step 1: each output's test on every row of the new runs (and the
+/// baseline rule with `--baseline`).
+pub(crate) fn test_outputs(
+    a: &ValidRefitParams,
+    old: &ValidModel,
+    (runs, baseline): (&[RunFile], &[RunFile]),
+    preds: &[runner::Prediction],
+    ys: &[Vec<&[Option<f64>]>],
+) -> Result<Vec<Verdict>> {
+    let whole = |rs: &[RunFile]| -> Result<Vec<TargetScore>> {
+        let pairs: Vec<(&RunFile, usize)> = rs.iter().map(|r| (r, r.len())).collect();
+        score(old, &pairs)
+    };
+    let scores = if baseline.is_empty() {
+        None
+    } else {
+        Some((whole(baseline)?, whole(runs)?))
+    };
+    let verdicts = (0..old.outputs().len())
+        .map(|k| {
+            let test = drift_test(&residual_samples(runs, preds, ys, k));
+            let significant = test.as_ref().is_some_and(|t| t.p_value < a.alpha);
+            let relevant = test
+                .as_ref()
+                .is_some_and(|t| t.effect_um >= a.min_effect_um);
+            let (baseline, baseline_flag) = match &scores {
+                Some((b, n)) => baseline_rule(a, &b[k], &n[k]),
+                None => (None, false),
+            };
+            Verdict {
+                changed: (significant && relevant) || baseline_flag,
+                test,
+                significant,
+                relevant,
+                baseline,
+                baseline_flag,
+            }
+        })
+        .collect();
+    Ok(verdicts)
+}

@@ -1,0 +1,267 @@
+//! What an update works on, per model output: the regressors the model
+//! form gives each row of the new runs (linear inputs, PCR components, or a
+//! TF bank's per-entry series) with the old coefficients, and the model
+//! with new coefficients written back into its form.
+
+use super::rls::Coefs;
+use crate::data::runfile::RunFile;
+use crate::runner::{self, ColumnMap};
+use anyhow::{anyhow, bail, Result};
+use model_core::linear::LinearOutput;
+use model_core::pcr::{Pcr, PcrOutput};
+use model_core::tf::TfEntry;
+use model_core::{Model, Params, Reference, ValidModel};
+
+/// Per run, per row: one output's regressors (None where any is missing).
+pub(crate) type Regressors = Vec<Vec<Option<Vec<f64>>>>;
+
+/// Model-form inputs to one output's regressors.
+pub(crate) type RegressorFn = Box<dyn Fn(&[f64]) -> Vec<f64>>;
+
+/// The inputs as a static model sees them, per row (references applied as
+/// the runner applies them: `first` is the first row where every input has
+/// a value).
+pub(crate) fn model_inputs(model: &ValidModel, run: &RunFile) -> Result<Vec<Option<Vec<f64>>>> {
+    let cols: Vec<&[Option<f64>]> = model
+        .inputs()
+        .iter()
+        .map(|ch| {
+            run.column(&ch.name).ok_or_else(|| {
+                anyhow!(
+                    "{}: the model needs input \"{}\" but the run has no such column",
+                    run.path.display(),
+                    ch.name
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    let first = (0..run.len()).find(|&r| cols.iter().all(|c| c[r].is_some()));
+    Ok((0..run.len())
+        .map(|r| {
+            let raw: Option<Vec<f64>> = cols.iter().map(|c| c[r]).collect();
+            raw.map(|raw| {
+                raw.iter()
+                    .zip(model.inputs())
+                    .zip(&cols)
+                    .map(|((v, ch), col)| match ch.reference {
+                        Reference::Absolute => *v,
+                        Reference::Value(x) => v - x,
+                        Reference::First => v - first.and_then(|f| col[f]).unwrap_or(*v),
+                    })
+                    .collect()
+            })
+        })
+        .collect())
+}
+
+/// What one output's update works on: its regressors and the old coefficients.
+pub(crate) struct Structure {
+    /// `regs[run][row]`.
+    pub(crate) regs: Regressors,
+    /// Old `(intercept, slopes)`; for a TF bank `(0, [1; entries])` (gains).
+    pub(crate) old: Coefs,
+    /// TF banks: the indices of this output's entries; they have no intercept.
+    pub(crate) tf_entries: Option<Vec<usize>>,
+}
+
+pub(crate) fn linear_eq(model: &Model, k: usize) -> Option<&LinearOutput> {
+    match &model.params {
+        Params::Linear(l) => l.outputs.iter().find(|e| usize::from(e.output) == k),
+        _ => None,
+    }
+}
+
+pub(crate) fn pcr_eq(model: &Model, k: usize) -> Option<(&Pcr, &PcrOutput)> {
+    match &model.params {
+        Params::Pcr(p) => p
+            .outputs
+            .iter()
+            .find(|e| usize::from(e.output) == k)
+            .map(|e| (p, e)),
+        _ => None,
+    }
+}
+
+/// Output `k` of a linear or PCR model: its regressors as a function of
+/// the model-form inputs, and its old coefficients.
+pub(crate) fn static_equation(model: &Model, k: usize) -> Result<(RegressorFn, Coefs)> {
+    if let Some(eq) = linear_eq(model, k) {
+        if eq.position.is_some() {
+            bail!("refit does not update positional (slope) regressions");
+        }
+        let ch: Vec<usize> = eq.coef.iter().map(|c| usize::from(c.channel)).collect();
+        Ok((
+            Box::new(move |x: &[f64]| ch.iter().map(|&c| x[c]).collect()),
+            (eq.intercept, eq.coef.iter().map(|c| c.value).collect()),
+        ))
+    } else if let Some((pcr, eq)) = pcr_eq(model, k) {
+        if eq.position.is_some() {
+            bail!("refit does not update positional (slope) regressions");
+        }
+        // The components stay; the regression on them is updated.
+        let (pcr, used) = (pcr.clone(), eq.beta.len());
+        Ok((
+            Box::new(move |x: &[f64]| pcr.scores(x)[..used].to_vec()),
+            (eq.intercept, eq.beta.to_vec()),
+        ))
+    } else {
+        bail!("output #{k} has no equation");
+    }
+}
+
+/// Every output's [`Structure`] of a linear or PCR model over the new runs.
+pub(crate) fn static_structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Structure>> {
+    let xs: Vec<Vec<Option<Vec<f64>>>> = runs
+        .iter()
+        .map(|r| model_inputs(old, r))
+        .collect::<Result<_>>()?;
+    (0..old.outputs().len())
+        .map(|k| {
+            let (phi, old_c) = static_equation(old.model(), k)?;
+            let regs = xs
+                .iter()
+                .map(|run| run.iter().map(|x| x.as_deref().map(&phi)).collect())
+                .collect();
+            Ok(Structure {
+                regs,
+                old: old_c,
+                tf_entries: None,
+            })
+        })
+        .collect()
+}
+
+/// Each TF entry simulated alone on each run, through the runner
+/// (resampling and state exactly as the whole model runs):
+/// `[entry][run][row]`.
+pub(crate) fn tf_entry_series(
+    old: &ValidModel,
+    entries: &[TfEntry],
+    runs: &[RunFile],
+) -> Result<Vec<Vec<Vec<Option<f64>>>>> {
+    let model = old.model();
+    let map = ColumnMap::default();
+    let mut series = Vec::new();
+    for entry in entries {
+        let mut single = entry.clone();
+        single.output = 0;
+        let name = old
+            .outputs()
+            .get(usize::from(entry.output))
+            .cloned()
+            .ok_or_else(|| anyhow!("tf entry names a missing output"))?;
+        let mut ents = heapless::Vec::new();
+        let _ = ents.push(single);
+        let mut outputs = heapless::Vec::new();
+        let _ = outputs.push(name);
+        let m = Model {
+            inputs: model.inputs.clone(),
+            outputs,
+            dt_s: model.dt_s,
+            params: Params::Tf(ents),
+            bounds: None,
+            five_point: None,
+        }
+        .validate()
+        .map_err(|e| anyhow!("tf entry: {e}"))?;
+        series.push(
+            runs.iter()
+                .map(|r| Ok(runner::predict(&m, r, &map)?.values.swap_remove(0)))
+                .collect::<Result<_>>()?,
+        );
+    }
+    Ok(series)
+}
+
+/// Every output's [`Structure`] of a TF bank: its entries' simulated
+/// outputs as regressors, a gain per entry (old gains 1).
+pub(crate) fn tf_structures(
+    old: &ValidModel,
+    entries: &[TfEntry],
+    runs: &[RunFile],
+) -> Result<Vec<Structure>> {
+    let series = tf_entry_series(old, entries, runs)?;
+    Ok((0..old.outputs().len())
+        .map(|k| {
+            let idx: Vec<usize> = entries
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| usize::from(e.output) == k)
+                .map(|(i, _)| i)
+                .collect();
+            let regs = runs
+                .iter()
+                .enumerate()
+                .map(|(ri, run)| {
+                    (0..run.len())
+                        .map(|row| idx.iter().map(|&e| series[e][ri][row]).collect())
+                        .collect()
+                })
+                .collect();
+            Structure {
+                regs,
+                old: (0.0, vec![1.0; idx.len()]),
+                tf_entries: Some(idx),
+            }
+        })
+        .collect())
+}
+
+/// Builds every output's [`Structure`] over the new runs.
+pub(crate) fn structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Structure>> {
+    match &old.model().params {
+        Params::Linear(_) | Params::Pcr(_) => static_structures(old, runs),
+        Params::Tf(entries) => tf_structures(old, entries, runs),
+        _ => bail!(
+            "refit updates linear, pcr and tf models; this is a {} model",
+            old.kind().name()
+        ),
+    }
+}
+
+/// The old model with the outputs in `new` (output index -> coefficients) replaced.
+pub(crate) fn with_updates(
+    old: &ValidModel,
+    sts: &[Structure],
+    new: &[(usize, Coefs)],
+) -> Result<ValidModel> {
+    let mut model = old.model().clone();
+    // The calibration bounds (input envelope, error band) describe the old
+    // coefficients on the old data; a refit model drops them rather than
+    // claim a band it was not scored on.
+    model.bounds = None;
+    for (k, (b0, b)) in new {
+        match &mut model.params {
+            Params::Linear(l) => {
+                for eq in l.outputs.iter_mut().filter(|e| usize::from(e.output) == *k) {
+                    eq.intercept = *b0;
+                    for (c, v) in eq.coef.iter_mut().zip(b) {
+                        c.value = *v;
+                    }
+                }
+            }
+            Params::Pcr(p) => {
+                for eq in p.outputs.iter_mut().filter(|e| usize::from(e.output) == *k) {
+                    eq.intercept = *b0;
+                    for (c, v) in eq.beta.iter_mut().zip(b) {
+                        *c = *v;
+                    }
+                }
+            }
+            Params::Tf(entries) => {
+                let idx = sts[*k].tf_entries.as_deref().unwrap_or(&[]);
+                for (&e, g) in idx.iter().zip(b) {
+                    if let Some(entry) = entries.get_mut(e) {
+                        for a in entry.a.iter_mut() {
+                            *a *= g;
+                        }
+                    }
+                }
+            }
+            _ => bail!("cannot update a {} model", old.kind().name()),
+        }
+    }
+    model
+        .validate()
+        .map_err(|e| anyhow!("the updated model is invalid ({e}); the old one is kept"))
+}
