@@ -5,7 +5,8 @@
 use super::cases::LABELS;
 use super::outcome::{Diagnosis, Outcome};
 use crate::diagnose::candidates::round;
-use serde_json::{json, Value};
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// The summary of a benchmark.
 #[derive(Debug, Clone)]
@@ -145,56 +146,101 @@ pub fn summarise_diagnoses(d: &[&Diagnosis]) -> Summary {
     }
 }
 
-/// The confusion matrix as JSON: rows keyed by true cause, columns by verdict.
-pub fn confusion_json(s: &Summary) -> Value {
-    let rows: serde_json::Map<String, Value> = LABELS
+/// A confusion matrix as reported: rows keyed by true cause, columns by
+/// verdict.
+pub type Confusion = BTreeMap<String, BTreeMap<String, usize>>;
+
+/// The confusion matrix of `s`, keyed by label.
+pub fn confusion(s: &Summary) -> Confusion {
+    LABELS
         .iter()
-        .enumerate()
-        .map(|(i, l)| {
-            let row: serde_json::Map<String, Value> = LABELS
+        .zip(&s.confusion)
+        .map(|(l, row)| {
+            let row = LABELS
                 .iter()
-                .enumerate()
-                .map(|(j, v)| (v.to_string(), json!(s.confusion[i][j])))
-                .collect();
-            (l.to_string(), Value::Object(row))
+                .map(|v| v.to_string())
+                .zip(row.iter().copied());
+            (l.to_string(), row.collect())
         })
-        .collect();
-    Value::Object(rows)
+        .collect()
 }
 
-/// The summary as JSON (confusion rows keyed by true cause).
-pub fn summary_json(s: &Summary) -> Value {
-    let by_effect: serde_json::Map<String, Value> = s
-        .shrink_by_effect
-        .iter()
-        .map(|(l, n, lo, med, hi)| {
-            (
-                l.clone(),
-                json!({"n_correct": n, "min_pct": fin(*lo), "median_pct": fin(*med), "max_pct": fin(*hi)}),
-            )
-        })
-        .collect();
-    json!({
-        "labels": LABELS,
-        "confusion": confusion_json(s),
-        "accuracy_pct": fin(s.accuracy_pct),
-        "effect_accuracy_pct": fin(s.effect_accuracy_pct),
-        "false_alarms": s.false_alarms.0,
-        "none_cases": s.false_alarms.1,
-        "false_alarm_rate_pct": fin(s.false_alarm_rate_pct()),
-        "misses": s.misses,
-        "wrong_effect": s.wrong_effect,
-        "spurious_seconds": s.spurious_seconds,
-        "median_shrink_correct_pct": fin(s.median_shrink_correct_pct),
-        "shrink_correct_by_effect": by_effect,
-    })
+/// The held-out shrinks of one cause's correctly identified cases.
+#[derive(Debug, Clone, Serialize)]
+pub struct ShrinkReport {
+    /// Correct cases.
+    pub n_correct: usize,
+    /// Smallest shrink, %.
+    pub min_pct: Option<f64>,
+    /// Median shrink, %.
+    pub median_pct: Option<f64>,
+    /// Largest shrink, %.
+    pub max_pct: Option<f64>,
+}
+
+/// A [`Summary`] as reported (`bench gap --twin --json`, `summary.json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct SummaryReport {
+    /// The causes, in the matrix's order.
+    pub labels: [&'static str; 6],
+    /// True cause x verdict.
+    pub confusion: Confusion,
+    /// Share of all cases right, %.
+    pub accuracy_pct: Option<f64>,
+    /// Share of the effect cases right, %.
+    pub effect_accuracy_pct: Option<f64>,
+    /// `none` cases given an effect.
+    pub false_alarms: usize,
+    /// `none` cases.
+    pub none_cases: usize,
+    /// False alarms over `none` cases, %.
+    pub false_alarm_rate_pct: Option<f64>,
+    /// Effect cases given `none`.
+    pub misses: usize,
+    /// Effect cases given another effect.
+    pub wrong_effect: usize,
+    /// Cases where a second effect was claimed.
+    pub spurious_seconds: usize,
+    /// Median held-out shrink of the correct effect cases, %.
+    pub median_shrink_correct_pct: Option<f64>,
+    /// Per cause, the shrinks of its correct cases.
+    pub shrink_correct_by_effect: BTreeMap<String, ShrinkReport>,
+}
+
+impl SummaryReport {
+    /// The report of `s` (numbers rounded, undefined ones null).
+    pub fn of(s: &Summary) -> Self {
+        let by_effect = s
+            .shrink_by_effect
+            .iter()
+            .map(|(l, n, lo, med, hi)| {
+                let r = ShrinkReport {
+                    n_correct: *n,
+                    min_pct: fin(*lo),
+                    median_pct: fin(*med),
+                    max_pct: fin(*hi),
+                };
+                (l.clone(), r)
+            })
+            .collect();
+        Self {
+            labels: LABELS,
+            confusion: confusion(s),
+            accuracy_pct: fin(s.accuracy_pct),
+            effect_accuracy_pct: fin(s.effect_accuracy_pct),
+            false_alarms: s.false_alarms.0,
+            none_cases: s.false_alarms.1,
+            false_alarm_rate_pct: fin(s.false_alarm_rate_pct()),
+            misses: s.misses,
+            wrong_effect: s.wrong_effect,
+            spurious_seconds: s.spurious_seconds,
+            median_shrink_correct_pct: fin(s.median_shrink_correct_pct),
+            shrink_correct_by_effect: by_effect,
+        }
+    }
 }
 
 /// A finite number rounded, or null (JSON has no NaN).
-pub fn fin(v: f64) -> Value {
-    if v.is_finite() {
-        json!(round(v))
-    } else {
-        Value::Null
-    }
+pub fn fin(v: f64) -> Option<f64> {
+    v.is_finite().then(|| round(v))
 }

@@ -7,6 +7,7 @@
 //! `--json`), progress and notes on stderr, and fails with a one-line error
 //! and a non-zero exit status.
 
+mod bench;
 mod demo;
 mod diagnose;
 mod eval;
@@ -22,7 +23,7 @@ pub mod simulate;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};
-use crate::{bench, show};
+use crate::show;
 
 use clap::error::ErrorKind;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};

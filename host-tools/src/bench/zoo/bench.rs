@@ -4,26 +4,15 @@
 use super::cases::{write_case, ZooCase, ZooPlan, DT_S};
 use super::catalogue;
 use super::plant::PlantFacts;
-use super::report;
-use crate::bench::outcome::{diagnose_case, run_parallel, scratch_dir, Diagnosis, Outcome};
-use crate::bench::summary::{confusion_json, summarise_diagnoses, Summary};
+use crate::bench::gap::Scratch;
+use crate::bench::outcome::{diagnose_case, run_parallel, Diagnosis, Outcome};
+use crate::bench::summary::{confusion, summarise_diagnoses, Confusion, Summary};
 use crate::diagnose::candidates::round;
 use anyhow::Result;
 use serde::Serialize;
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
-
-/// Where and how to report a run.
-#[derive(Debug, Clone, Default)]
-pub struct RunOptions {
-    /// Write the tables, summary.json and SVGs here.
-    pub out: Option<PathBuf>,
-    /// Keep each case's run files (under OUT/runs).
-    pub keep_runs: bool,
-    /// Print one JSON object instead of the text tables.
-    pub json: bool,
-}
 
 /// The score of one plant (or of all plants of a run pooled).
 #[derive(Debug, Clone, Serialize)]
@@ -55,7 +44,7 @@ pub struct PlantScore {
     /// Median held-out shrink of the correctly identified effect cases, %.
     pub median_shrink_correct_pct: Option<f64>,
     /// Confusion matrix: rows by true cause, columns by verdict.
-    pub confusion: Value,
+    pub confusion: Confusion,
     /// The summary the score was made from (tables, SVG).
     #[serde(skip)]
     pub summary: Summary,
@@ -165,7 +154,7 @@ pub fn score(plant: &str, name: &str, outs: &[&Outcome<ZooCase>]) -> PlantScore 
             .median_shrink_correct_pct
             .is_finite()
             .then(|| round(s.median_shrink_correct_pct)),
-        confusion: confusion_json(&s),
+        confusion: confusion(&s),
         summary: s,
     }
 }
@@ -219,33 +208,11 @@ pub fn summarise_zoo(plan: &ZooPlan, outs: &[Outcome<ZooCase>], wall_s: f64) -> 
     })
 }
 
-/// Runs the zoo benchmark of `plan` and reports it.
-pub fn run(plan: &ZooPlan, opts: &RunOptions) -> Result<()> {
-    eprintln!(
-        "bench gap (zoo): {} cases on plant(s) {}{}",
-        plan.cases.len(),
-        plan.plants.join(", "),
-        if plan.scored_heldout {
-            " (the held-out plant: final score)".to_string()
-        } else {
-            format!(" (plant {} held out)", plan.heldout)
-        }
-    );
-    let work = scratch_dir(opts.out.as_deref())?;
+/// The zoo benchmark of `plan`: every case written and diagnosed blind in
+/// `scratch`; the outcomes and their summary.
+pub fn bench_zoo(plan: &ZooPlan, scratch: &Scratch) -> Result<(ZooSummary, Vec<Outcome<ZooCase>>)> {
     let started = Instant::now();
-    let outs = run_all(plan.cases.clone(), &work, opts.keep_runs);
-    if !opts.keep_runs {
-        let _ = std::fs::remove_dir_all(&work);
-    }
-    let outs = outs?;
+    let outs = scratch.run(|work| run_all(plan.cases.clone(), work, scratch.keep_runs))?;
     let summary = summarise_zoo(plan, &outs, started.elapsed().as_secs_f64())?;
-    if let Some(out) = &opts.out {
-        report::write(out, &outs, &summary)?;
-    }
-    if opts.json {
-        crate::data::fsio::print_line(&serde_json::to_string(&summary)?)?;
-    } else {
-        crate::data::fsio::print(&report::text(&summary))?;
-    }
-    Ok(())
+    Ok((summary, outs))
 }
