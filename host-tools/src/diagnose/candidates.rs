@@ -94,8 +94,11 @@ pub struct Scored {
     pub params: Map<String, Value>,
     /// Which model form was used.
     pub model: String,
-    /// Prediction on every row.
-    pub pred: Vec<f64>,
+    /// Whether its prediction is the baseline's on every row (no usable
+    /// input, or its regressors are zero): then it is no test. The
+    /// prediction itself is not kept (a run's length per candidate and
+    /// look); [`prediction`] fits it again where it is drawn.
+    pub as_baseline: bool,
     /// One-sided block-bootstrap p-value that the candidate's held-out
     /// errors are smaller than the baseline's (`None` for the baseline).
     pub p_value: Option<f64>,
@@ -131,13 +134,11 @@ impl Scored {
     pub fn confidence(&self) -> Option<f64> {
         self.p_adjusted.map(|p| 1.0 - p)
     }
+}
 
-    /// Held-out errors left by this candidate on `p`'s channel.
-    pub fn held_out_errors(&self, p: &Problem) -> Vec<f64> {
-        p.test_rows()
-            .map(|k| p.ch.resid[k] - self.pred[k])
-            .collect()
-    }
+/// The errors a prediction `pred` leaves on `p`'s test rows, in time order.
+fn errors_of(p: &Problem, pred: &[f64]) -> Vec<f64> {
+    p.test_rows().map(|k| p.ch.resid[k] - pred[k]).collect()
 }
 
 /// Rounds to 4 significant-ish decimals for output.
@@ -242,19 +243,21 @@ fn below(a: f64, b: f64) -> bool {
     a.total_cmp(&b).is_lt()
 }
 
-/// Scores a fit on the hold-out rows of `p`'s channel (p-values unset).
+/// Scores a fit on the hold-out rows of `p`'s channel (p-values unset),
+/// `base_pred` the baseline's prediction; also returns the held-out errors
+/// (the test rows only: the prediction is dropped).
 fn score(
     name: &str,
     p: &Problem,
-    f: &LinearFit,
+    (f, base_pred): (&LinearFit, &[f64]),
     model: String,
     params: Map<String, Value>,
-) -> Scored {
+) -> (Scored, Vec<f64>) {
     let r = &p.ch.resid;
-    let after: Vec<f64> = p.test_rows().map(|k| r[k] - f.pred[k]).collect();
+    let after = errors_of(p, &f.pred);
     let rms_before = lsq::rms(&r[p.test_rows()]);
     let rms_after = lsq::rms(&after);
-    Scored {
+    let scored = Scored {
         name: name.to_string(),
         rms_before,
         rms_after,
@@ -266,11 +269,12 @@ fn score(
         fit_rms: (f.sse_fit / p.fit_rows().len().max(1) as f64).sqrt(),
         params,
         model,
-        pred: f.pred.clone(),
+        as_baseline: f.pred == base_pred,
         p_value: None,
         p_adjusted: None,
         ratio_to_none: 1.0,
-    }
+    };
+    (scored, after)
 }
 
 /// The parameters of variant `v` fitted with coefficients `coef` (the
@@ -305,7 +309,7 @@ fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
 }
 
 /// The baseline's fit scored as the `none` candidate.
-fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> Scored {
+fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> (Scored, Vec<f64>) {
     let mut params: Map<String, Value> = base
         .names
         .iter()
@@ -316,7 +320,7 @@ fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> Scored {
     score(
         "none",
         p,
-        bf,
+        (bf, &bf.pred),
         "mismatch baseline: offset + drift + twin gain + twin time-constant error + speed and speed^2 heat gains at the channel's time constant (every candidate adds to it)".into(),
         params,
     )
@@ -331,23 +335,26 @@ fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> Scored {
 /// candidate without a usable input falls back to the baseline (and says so
 /// in `model`; p = 1).
 pub fn fit_all(p: &Problem) -> Vec<Scored> {
-    let mut forward = fit_fold(p);
-    if forward.is_empty() {
-        return forward;
-    }
+    let Some(Fold {
+        scored: mut forward,
+        errors: e_fwd,
+    }) = fit_fold(p)
+    else {
+        return Vec::new();
+    };
     let back = p.swapped();
-    let backward = fit_fold(&back);
+    let e_back = fit_fold(&back).map_or_else(Vec::new, |f| f.errors);
     // Held-out errors of candidate `i`, both folds in time order, in the
     // band the candidate is judged in.
     let errors = |i: usize, band: Option<f64>| -> Vec<f64> {
-        let mut e = backward
+        let mut e = e_back
             .get(i)
-            .map_or_else(Vec::new, |s| judged(&back, band, s.held_out_errors(&back)));
-        e.extend(judged(p, band, forward[i].held_out_errors(p)));
+            .map_or_else(Vec::new, |e| judged(&back, band, e.clone()));
+        e.extend(judged(p, band, e_fwd[i].clone()));
         e
     };
     let tested: Vec<usize> = (1..forward.len())
-        .filter(|&i| forward[i].pred != forward[0].pred)
+        .filter(|&i| !forward[i].as_baseline)
         .collect();
     let raw: Vec<f64> = tested
         .iter()
@@ -359,8 +366,8 @@ pub fn fit_all(p: &Problem) -> Vec<Scored> {
     set_p_values(&mut forward, &tested, &raw);
     for i in 1..forward.len() {
         let band = judged_band(&forward[i].name);
-        let e0 = judged(p, band, forward[0].held_out_errors(p));
-        let ei = judged(p, band, forward[i].held_out_errors(p));
+        let e0 = judged(p, band, e_fwd[0].clone());
+        let ei = judged(p, band, e_fwd[i].clone());
         forward[i].ratio_to_none = lsq::rms(&ei) / lsq::rms(&e0).max(f64::MIN_POSITIVE);
     }
     forward
@@ -382,27 +389,80 @@ fn judged(p: &Problem, band: Option<f64>, e: Vec<f64>) -> Vec<f64> {
     }
 }
 
+/// One fold: the baseline (first) and every candidate, scored, and the
+/// errors each leaves on the fold's test rows.
+struct Fold {
+    scored: Vec<Scored>,
+    errors: Vec<Vec<f64>>,
+}
+
 /// The baseline (first) and every candidate fitted on `p`'s fit rows and
-/// scored on its test rows (p-values unset); empty if the baseline fails.
-fn fit_fold(p: &Problem) -> Vec<Scored> {
+/// scored on its test rows (p-values unset); `None` if the baseline fails.
+/// Each fit's prediction is dropped once scored (only the errors on the
+/// test rows are kept).
+fn fit_fold(p: &Problem) -> Option<Fold> {
     let d = Design::of(p);
-    let y = &p.ch.resid;
-    let Some(bf) = d.fit_alone(y, &p.fit_rows()) else {
-        return Vec::new();
+    let bf = d.fit_alone(&p.ch.resid, &p.fit_rows())?;
+    let (none, e_none) = score_none(p, &d.base, &bf);
+    let mut fold = Fold {
+        scored: vec![none],
+        errors: vec![e_none],
     };
-    let mut out = vec![score_none(p, &d.base, &bf)];
     for name in NAMES {
-        let (vars, model) = variants(name, p, &bf.pred);
-        let s = match d.best(vars, y, &p.fit_rows()) {
+        let (best, model) = fit_candidate(p, &d, &bf, name);
+        let (s, e) = match best {
             Some((f, v)) => {
                 let params = params_of(&v, &f.coef, d.len());
-                score(name, p, &f, model, params)
+                score(name, p, (&f, &bf.pred), model, params)
             }
-            None => score(name, p, &bf, format!("{model} (baseline only)"), Map::new()),
+            None => score(
+                name,
+                p,
+                (&bf, &bf.pred),
+                format!("{model} (baseline only)"),
+                Map::new(),
+            ),
         };
-        out.push(s);
+        fold.scored.push(s);
+        fold.errors.push(e);
     }
-    out
+    Some(fold)
+}
+
+/// Candidate `name` fitted with the baseline `d` (fitted alone as `bf`) on
+/// `p`'s fit rows: the best grid point's fit and variant (`None` when it
+/// has no usable input or every fit fails), and the model form's text.
+fn fit_candidate(
+    p: &Problem,
+    d: &Design,
+    bf: &LinearFit,
+    name: &str,
+) -> (Option<(LinearFit, Variant)>, String) {
+    let (vars, model) = variants(name, p, &bf.pred);
+    (d.best(vars, &p.ch.resid, &p.fit_rows()), model)
+}
+
+/// The prediction of candidate `name` (or `none`) on every row of `p`'s
+/// channel, fitted again exactly as [`fit_all`] fits it (the baseline's
+/// when the candidate falls back to it); `None` if the baseline fails.
+/// For the few places that need a whole prediction after the looks (the
+/// pair test, the report's plot), so no look keeps one.
+pub fn prediction(p: &Problem, name: &str) -> Option<Vec<f64>> {
+    let d = Design::of(p);
+    let bf = d.fit_alone(&p.ch.resid, &p.fit_rows())?;
+    if name == "none" {
+        return Some(bf.pred);
+    }
+    Some(
+        fit_candidate(p, &d, &bf, name)
+            .0
+            .map_or(bf.pred, |(f, _)| f.pred),
+    )
+}
+
+/// The errors candidate `name` leaves on `p`'s test rows ([`prediction`]).
+pub fn held_out_errors(p: &Problem, name: &str) -> Option<Vec<f64>> {
+    prediction(p, name).map(|pred| errors_of(p, &pred))
 }
 
 /// Seed of the bootstrap of candidate `i` (fixed: the same files give the
@@ -511,10 +571,24 @@ fn merged(a: &Variant, b: &Variant) -> Variant {
     m
 }
 
+/// A joint model of two effects ([`best_pair`]).
+#[derive(Debug, Clone)]
+pub struct Pair {
+    /// The joint fit, scored (named `a+b`).
+    pub joint: Scored,
+    /// The more important member (its removal from the joint prediction
+    /// raises the held-out rms more).
+    pub first: String,
+    /// The other member.
+    pub second: String,
+    /// The errors the joint fit leaves on the test rows.
+    pub errors: Vec<f64>,
+}
+
 /// The joint fit of two grids' selected variants, scored, with its members
 /// ordered by importance (the one whose removal from the joint prediction
 /// raises the held-out rms more first).
-fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<(Scored, String, String)> {
+fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<Pair> {
     let y = &p.ch.resid;
     let (sel_a, sel_b) = descend(d, &ga.1, &gb.1, y, &p.fit_rows())?;
     let both = merged(&sel_a, &sel_b);
@@ -526,10 +600,10 @@ fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<(Scored, Strin
             params.insert(format!("{prefix}.{k}"), val);
         }
     }
-    let s = score(
+    let (s, errors) = score(
         &format!("{}+{}", ga.0, gb.0),
         p,
-        &f,
+        (&f, &[]),
         format!("{}; {}", ga.2, gb.2),
         params,
     );
@@ -542,14 +616,19 @@ fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<(Scored, Strin
     };
     let (wa, wb) = (without(&sel_a, ka), without(&sel_b, kb));
     let (first, second) = if wa >= wb { (ga.0, gb.0) } else { (gb.0, ga.0) };
-    Some((s, first.to_string(), second.to_string()))
+    Some(Pair {
+        joint: s,
+        first: first.to_string(),
+        second: second.to_string(),
+        errors,
+    })
 }
 
 /// The best joint model of two effects: for each pair, coordinate descent
 /// over the two grids, each cut to its 8 best variants on their own.
 /// Returns the joint fit (named `a+b`) with its members ordered by
 /// importance.
-pub fn best_pair(p: &Problem) -> Option<(Scored, String, String)> {
+pub fn best_pair(p: &Problem) -> Option<Pair> {
     let d = Design::of(p);
     let y = &p.ch.resid;
     let bf = d.fit_alone(y, &p.fit_rows())?;
@@ -561,7 +640,7 @@ pub fn best_pair(p: &Problem) -> Option<(Scored, String, String)> {
         })
         .filter(|g| !g.1.is_empty())
         .collect();
-    let mut best_pair: Option<(Scored, String, String)> = None;
+    let mut best_pair: Option<Pair> = None;
     for i in 0..grids.len() {
         for j in i + 1..grids.len() {
             let Some(cand) = joint(p, &d, &grids[i], &grids[j]) else {
@@ -569,7 +648,7 @@ pub fn best_pair(p: &Problem) -> Option<(Scored, String, String)> {
             };
             if best_pair
                 .as_ref()
-                .is_none_or(|b| cand.0.rms_after < b.0.rms_after)
+                .is_none_or(|b| cand.joint.rms_after < b.joint.rms_after)
             {
                 best_pair = Some(cand);
             }
@@ -599,8 +678,7 @@ pub fn effect_part(name: &str, p: &Problem) -> Option<EffectPart> {
     let d = Design::of(p);
     let y = &p.ch.resid;
     let bf = d.fit_alone(y, &p.fit_rows())?;
-    let (vars, _) = variants(name, p, &bf.pred);
-    let (f, v) = d.best(vars, y, &p.fit_rows())?;
+    let (f, v) = fit_candidate(p, &d, &bf, name).0?;
     let n_fit = p.fit_rows().len().max(1) as f64;
     Some(EffectPart {
         values: (0..y.len())
@@ -623,7 +701,7 @@ pub fn test_scored(name: &str, after: f64, none_after: f64, p: f64) -> Scored {
         fit_rms: 0.0,
         params: serde_json::Map::new(),
         model: String::new(),
-        pred: Vec::new(),
+        as_baseline: false,
         p_value: Some(p),
         p_adjusted: Some(p),
         ratio_to_none: after / none_after,

@@ -262,7 +262,20 @@ pub fn diagnose_aligned(
     }
     if let Some(dir) = report {
         let extra = physical.as_ref().map_or("", |p| p.html.as_str());
-        report::write(dir, &al, main, n_fit, &look.scored, &v, extra)?;
+        // The best candidate's prediction, for its plot (no look keeps one).
+        let pred = look
+            .scored
+            .first()
+            .and_then(|b| candidates::prediction(&p, &b.name));
+        report::write(
+            dir,
+            &al,
+            main,
+            n_fit,
+            (&look.scored, pred.as_deref()),
+            &v,
+            extra,
+        )?;
     }
     Ok(v)
 }
@@ -399,10 +412,13 @@ fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value)
         return (look.verdict.clone(), Value::Null);
     };
     let none = look.scored.iter().find(|s| s.name == "none");
-    let pair = candidates::best_pair(p).filter(|(joint, _, _)| {
-        let e_joint = joint.held_out_errors(p);
+    let pair = candidates::best_pair(p).filter(|pair| {
+        let joint = &pair.joint;
+        // The looks keep no predictions: the two compared with the pair
+        // are fitted again, only when the figures leave the test to decide.
         let beats = |s: &Scored, level: f64| {
-            signif::p_better(&s.held_out_errors(p), &e_joint, PAIR_SEED) <= level
+            candidates::held_out_errors(p, &s.name)
+                .is_some_and(|e| signif::p_better(&e, &pair.errors, PAIR_SEED) <= level)
         };
         gap_significant
             && single.rms_after > MIN_GAP_SNR * noise
@@ -413,7 +429,12 @@ fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value)
             && none.is_some_and(|n| beats(n, ALPHA / 10.0))
     });
     match pair {
-        Some((joint, first, second)) => {
+        Some(candidates::Pair {
+            joint,
+            first,
+            second,
+            ..
+        }) => {
             let mut j = joint.to_json();
             j["name"] = json!(second);
             j["pair"] = json!(joint.name);
@@ -476,13 +497,7 @@ fn judge(al: &align::Aligned, main: usize, snr: &[f64], n_fit: usize) -> Result<
         ..FALLBACK_RULE
     };
     for t in temps {
-        let mut look = look_at(al, t, snr, n_fit, rule)?;
-        if look.verdict == "none" {
-            // Never the deciding look ([`decisive`]): its predictions (a
-            // run's length per candidate) are not needed again.
-            look.scored.iter_mut().for_each(|s| s.pred = Vec::new());
-        }
-        looks.push(look);
+        looks.push(look_at(al, t, snr, n_fit, rule)?);
     }
     Ok(looks)
 }
