@@ -249,7 +249,7 @@ mod tests {
             ambient_c: None,
             coolant_c: coolant,
             sim_coolant_cycles: false,
-            channels: Vec::new(),
+            channels: super::super::align::Channels::new(n).unwrap(),
             memo: Default::default(),
         }
     }

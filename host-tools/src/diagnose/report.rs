@@ -315,7 +315,7 @@ fn candidates_html(
         &bars,
     ));
     html.push_str(&candidates_table(scored));
-    let ch = &al.channels[main];
+    let ch = &al.channels.load(main);
     if let (Some(best), Some(pred)) = (scored.first(), best_pred) {
         let after: Vec<f64> = ch.resid.iter().zip(pred).map(|(r, p)| r - p).collect();
         html.push_str(&line_chart(
@@ -368,7 +368,7 @@ fn where_html(v: &Value, t0: f64) -> String {
 /// and temperature channel.
 fn channels_html(al: &Aligned, ax: &Axis) -> String {
     let mut html = String::from("<h2>Sim vs real</h2>");
-    for c in al.channels.iter().filter(|c| c.is_displacement()) {
+    for c in al.channels.each().filter(|c| c.is_displacement()) {
         html.push_str(&line_chart(
             &format!("{} (um)", c.name),
             &ax.t_h,
@@ -378,7 +378,7 @@ fn channels_html(al: &Aligned, ax: &Axis) -> String {
         ));
     }
     html.push_str("<h2>Residual real - sim per channel</h2>");
-    for c in al.channels.iter().filter(|c| !c.name.starts_with('S')) {
+    for c in al.channels.each().filter(|c| !c.name.starts_with('S')) {
         let unit = if c.is_displacement() { "um" } else { "K" };
         html.push_str(&line_chart(
             &format!("{} residual ({unit})", c.name),
