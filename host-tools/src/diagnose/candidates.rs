@@ -15,7 +15,7 @@
 use super::align::{Aligned, Channel};
 use super::baseline::{self, Baseline};
 use super::signif;
-use super::variants::{high_pass, variants, Variant, Vars, CHILLER_BAND_S};
+use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
 use crate::num::lsq::{self, LinearFit};
 use serde_json::{json, Map, Value};
 
@@ -153,26 +153,26 @@ pub fn round(v: f64) -> f64 {
 /// The baseline of a channel as a design: its columns and their ridge
 /// penalties for the channel's residual.
 #[derive(Debug, Clone)]
-struct Design {
+pub(super) struct Design {
     base: Baseline,
     penalty: Vec<f64>,
 }
 
 impl Design {
     /// The mismatch baseline of `p`'s channel.
-    fn of(p: &Problem) -> Self {
+    pub(super) fn of(p: &Problem) -> Self {
         let base = baseline::mismatch_baseline(p.al, p.ch);
         let penalty = base.penalties(&p.ch.resid, p.fit_rows());
         Design { base, penalty }
     }
 
     /// Number of baseline columns (where a variant's gains start).
-    fn len(&self) -> usize {
+    pub(super) fn len(&self) -> usize {
         self.base.cols.len()
     }
 
     /// The baseline fitted alone.
-    fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+    pub(super) fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
         lsq::fit_streamed(&self.base.slices(), y, None, rows.clone(), &self.penalty)
     }
 
@@ -181,7 +181,7 @@ impl Design {
     /// One streamed pass over the shared columns, none copied. Returns the
     /// fit (coefficients: baseline, then `v`'s regressors), or `None` if
     /// the fit fails or breaks `v`'s sign rule.
-    fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+    pub(super) fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
         let cols: Vec<&[f64]> = self
             .base
             .cols
@@ -205,7 +205,7 @@ impl Design {
 
     /// Fits each variant of the grid (walked once) and keeps the best on
     /// the fit part (the first of equal ones).
-    fn best(
+    pub(super) fn best(
         &self,
         vars: impl IntoIterator<Item = Variant>,
         y: &[f64],
@@ -223,10 +223,22 @@ impl Design {
         best
     }
 
+    /// `self` with `v`'s regressors appended to the baseline (free) and
+    /// `v`'s fixed part returned apart (the columns are shared, not
+    /// copied).
+    pub(super) fn with_variant(&self, v: &Variant) -> (Design, Option<Vec<f64>>) {
+        let mut e = self.clone();
+        e.penalty.extend(v.extra.iter().map(|_| 0.0));
+        e.base.cols.extend(v.extra.iter().cloned());
+        e.base.names.extend(v.gains.iter().cloned());
+        e.base.prior_sd.extend(v.extra.iter().map(|_| None));
+        (e, v.fixed_part.clone())
+    }
+
     /// What variant `v` fitted as `f` adds on row `k`: its regressors
     /// (coefficients from `from` on) times their coefficients plus its
     /// fixed part.
-    fn part(v: &Variant, f: &LinearFit, from: usize, k: usize) -> f64 {
+    pub(super) fn part(v: &Variant, f: &LinearFit, from: usize, k: usize) -> f64 {
         let lin: f64 = v
             .extra
             .iter()
@@ -239,14 +251,14 @@ impl Design {
 
 /// Whether fit-part error `a` is smaller than `b` (the first of equal
 /// errors is kept, as `min_by` and a stable sort keep it).
-fn below(a: f64, b: f64) -> bool {
+pub(super) fn below(a: f64, b: f64) -> bool {
     a.total_cmp(&b).is_lt()
 }
 
 /// Scores a fit on the hold-out rows of `p`'s channel (p-values unset),
 /// `base_pred` the baseline's prediction; also returns the held-out errors
 /// (the test rows only: the prediction is dropped).
-fn score(
+pub(super) fn score(
     name: &str,
     p: &Problem,
     (f, base_pred): (&LinearFit, &[f64]),
@@ -280,7 +292,7 @@ fn score(
 /// The parameters of variant `v` fitted with coefficients `coef` (the
 /// variant's own start at `n_base`): grid point, labels, gains, their sum
 /// and the dominant time constant.
-fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
+pub(super) fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
     let mut m = Map::new();
     let g = &coef[n_base..(n_base + v.gains.len()).min(coef.len())];
     for (k, val) in &v.fixed {
@@ -483,178 +495,6 @@ fn set_p_values(scored: &mut [Scored], tested: &[usize], raw: &[f64]) {
         scored[i].p_value = Some(raw[k]);
         scored[i].p_adjusted = Some(adj[k]);
     }
-}
-
-/// Grid points kept per candidate for the pair search.
-const PAIR_GRID: usize = 8;
-
-/// The `PAIR_GRID` variants with the smallest fit-part error on their own
-/// (sign rule applied), best first.
-fn top_variants(d: &Design, vars: Vars, y: &[f64], rows: &Rows) -> Vec<Variant> {
-    // The `PAIR_GRID` best so far, in the order a stable sort of the whole
-    // grid would give them (ties: the earlier variant first), so only
-    // that many grid points are held.
-    let mut top: Vec<(f64, Variant)> = Vec::with_capacity(PAIR_GRID + 1);
-    for v in vars {
-        let Some(f) = d.fit(&v, y, rows) else {
-            continue;
-        };
-        let at = top.partition_point(|(e, _)| !below(f.sse_fit, *e));
-        if at < PAIR_GRID {
-            top.insert(at, (f.sse_fit, v));
-            top.truncate(PAIR_GRID);
-        }
-    }
-    top.into_iter().map(|x| x.1).collect()
-}
-
-/// One candidate's grid cut for the pair search: name, variants, model.
-type Grid = (&'static str, Vec<Variant>, String);
-
-/// `d` with `v`'s regressors appended to the baseline (free) and `v`'s
-/// fixed part returned apart.
-fn with_variant(d: &Design, v: &Variant) -> (Design, Option<Vec<f64>>) {
-    let mut e = d.clone(); // the columns are shared, not copied
-    e.penalty.extend(v.extra.iter().map(|_| 0.0));
-    e.base.cols.extend(v.extra.iter().cloned());
-    e.base.names.extend(v.gains.iter().cloned());
-    e.base.prior_sd.extend(v.extra.iter().map(|_| None));
-    (e, v.fixed_part.clone())
-}
-
-/// `y` minus a fixed part, if any.
-fn minus(y: &[f64], fixed: &Option<Vec<f64>>) -> Vec<f64> {
-    match fixed {
-        Some(fp) => y.iter().zip(fp).map(|(a, b)| a - b).collect(),
-        None => y.to_vec(),
-    }
-}
-
-/// Coordinate descent over two grids on top of the baseline: start from
-/// `b`'s best, then best of `a` given `b`, best of `b` given `a`, twice.
-fn descend(
-    d: &Design,
-    va: &[Variant],
-    vb: &[Variant],
-    y: &[f64],
-    rows: &Rows,
-) -> Option<(Variant, Variant)> {
-    let mut sel_b = vb.first()?.clone();
-    let mut sel_a = None;
-    for _ in 0..2 {
-        let (db, fb) = with_variant(d, &sel_b);
-        let Some((_, a)) = db.best(va.iter().cloned(), &minus(y, &fb), rows) else {
-            break;
-        };
-        let (da, fa) = with_variant(d, &a);
-        let Some((_, b)) = da.best(vb.iter().cloned(), &minus(y, &fa), rows) else {
-            break;
-        };
-        sel_a = Some(a);
-        sel_b = b;
-    }
-    Some((sel_a?, sel_b))
-}
-
-/// Variants `a` and `b` as one (regressors of `a` first, fixed parts
-/// summed).
-fn merged(a: &Variant, b: &Variant) -> Variant {
-    let mut m = a.clone();
-    m.extra.extend(b.extra.iter().cloned());
-    m.gains.extend(b.gains.iter().cloned());
-    m.sign = None;
-    m.fixed_part = match (&a.fixed_part, &b.fixed_part) {
-        (Some(x), Some(y)) => Some(x.iter().zip(y).map(|(u, v)| u + v).collect()),
-        (Some(x), None) | (None, Some(x)) => Some(x.clone()),
-        (None, None) => None,
-    };
-    m
-}
-
-/// A joint model of two effects ([`best_pair`]).
-#[derive(Debug, Clone)]
-pub struct Pair {
-    /// The joint fit, scored (named `a+b`).
-    pub joint: Scored,
-    /// The more important member (its removal from the joint prediction
-    /// raises the held-out rms more).
-    pub first: String,
-    /// The other member.
-    pub second: String,
-    /// The errors the joint fit leaves on the test rows.
-    pub errors: Vec<f64>,
-}
-
-/// The joint fit of two grids' selected variants, scored, with its members
-/// ordered by importance (the one whose removal from the joint prediction
-/// raises the held-out rms more first).
-fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<Pair> {
-    let y = &p.ch.resid;
-    let (sel_a, sel_b) = descend(d, &ga.1, &gb.1, y, &p.fit_rows())?;
-    let both = merged(&sel_a, &sel_b);
-    let f = d.fit(&both, y, &p.fit_rows())?;
-    let (ka, kb) = (d.len(), d.len() + sel_a.extra.len());
-    let mut params = Map::new();
-    for (prefix, v, from) in [(ga.0, &sel_a, ka), (gb.0, &sel_b, kb)] {
-        for (k, val) in params_of(v, &f.coef[from - d.len()..], d.len()) {
-            params.insert(format!("{prefix}.{k}"), val);
-        }
-    }
-    let (s, errors) = score(
-        &format!("{}+{}", ga.0, gb.0),
-        p,
-        (&f, &[]),
-        format!("{}; {}", ga.2, gb.2),
-        params,
-    );
-    let without = |v: &Variant, from: usize| -> f64 {
-        let left: Vec<f64> = p
-            .test_rows()
-            .map(|k| y[k] - (f.pred[k] - Design::part(v, &f, from, k)))
-            .collect();
-        lsq::rms(&left)
-    };
-    let (wa, wb) = (without(&sel_a, ka), without(&sel_b, kb));
-    let (first, second) = if wa >= wb { (ga.0, gb.0) } else { (gb.0, ga.0) };
-    Some(Pair {
-        joint: s,
-        first: first.to_string(),
-        second: second.to_string(),
-        errors,
-    })
-}
-
-/// The best joint model of two effects: for each pair, coordinate descent
-/// over the two grids, each cut to its 8 best variants on their own.
-/// Returns the joint fit (named `a+b`) with its members ordered by
-/// importance.
-pub fn best_pair(p: &Problem) -> Option<Pair> {
-    let d = Design::of(p);
-    let y = &p.ch.resid;
-    let bf = d.fit_alone(y, &p.fit_rows())?;
-    let grids: Vec<Grid> = NAMES
-        .iter()
-        .map(|&n| {
-            let (v, m) = variants(n, p, &bf.pred);
-            (n, top_variants(&d, v, y, &p.fit_rows()), m)
-        })
-        .filter(|g| !g.1.is_empty())
-        .collect();
-    let mut best_pair: Option<Pair> = None;
-    for i in 0..grids.len() {
-        for j in i + 1..grids.len() {
-            let Some(cand) = joint(p, &d, &grids[i], &grids[j]) else {
-                continue;
-            };
-            if best_pair
-                .as_ref()
-                .is_none_or(|b| cand.joint.rms_after < b.joint.rms_after)
-            {
-                best_pair = Some(cand);
-            }
-        }
-    }
-    best_pair
 }
 
 /// An effect's part of one channel (see [`effect_part`]).

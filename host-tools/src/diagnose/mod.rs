@@ -20,6 +20,7 @@ pub mod baseline;
 pub mod candidates;
 pub mod deploy;
 pub mod gates;
+pub mod pair;
 pub mod physical;
 pub mod regime;
 pub mod report;
@@ -428,7 +429,7 @@ fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value)
         return (look.verdict.clone(), Value::Null);
     };
     let none = look.scored.iter().find(|s| s.name == "none");
-    let pair = candidates::best_pair(p).filter(|pair| {
+    let pair = pair::best_pair(p).filter(|pair| {
         let joint = &pair.joint;
         // The looks keep no predictions: the two compared with the pair
         // are fitted again, only when the figures leave the test to decide.
@@ -445,7 +446,7 @@ fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value)
             && none.is_some_and(|n| beats(n, ALPHA / 10.0))
     });
     match pair {
-        Some(candidates::Pair {
+        Some(pair::Pair {
             joint,
             first,
             second,
