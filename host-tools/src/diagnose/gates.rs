@@ -73,17 +73,25 @@ impl CoolantCycle {
     }
 }
 
-/// Centred mean of `x` over `t +- half_s` at every row (prefix sums).
+/// Centred mean of `x` over `t +- half_s` at every row (prefix sums; the
+/// window's ends move forward with the row, so the work is linear in the
+/// rows: `t` is increasing).
 fn centred_mean(t: &[f64], x: &[f64], half_s: f64) -> Vec<f64> {
     let mut cum = Vec::with_capacity(x.len() + 1);
     cum.push(0.0);
     for v in x {
         cum.push(cum[cum.len() - 1] + v);
     }
+    let (mut a, mut b) = (0, 0);
     t.iter()
         .map(|&tk| {
-            let a = t.partition_point(|&u| u < tk - half_s);
-            let b = t.partition_point(|&u| u <= tk + half_s);
+            // The first rows at or after tk - half_s, and after tk + half_s.
+            while a < t.len() && t[a] < tk - half_s {
+                a += 1;
+            }
+            while b < t.len() && t[b] <= tk + half_s {
+                b += 1;
+            }
             (cum[b] - cum[a]) / (b - a).max(1) as f64
         })
         .collect()
@@ -100,8 +108,8 @@ fn white_sigma(x: &[f64]) -> f64 {
     if d.is_empty() {
         return 0.0;
     }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2] / 0.6745 / 6f64.sqrt()
+    let k = d.len() / 2;
+    crate::num::stats::kth_smallest(&mut d, k) / 0.6745 / 6f64.sqrt()
 }
 
 /// The fast content of the logged `coolant_c` (`None` when it is not
