@@ -251,10 +251,9 @@ fn diagnose_compares_any_um_column_both_files_share() {
     std::fs::write(&sim, s).unwrap_or_else(|e| panic!("{e}"));
     std::fs::write(&real, r).unwrap_or_else(|e| panic!("{e}"));
     let al = host_tools::diagnose::align::read(&sim, &real).unwrap_or_else(|e| panic!("{e:#}"));
-    let names: Vec<&str> = al.channels.iter().map(|c| c.name.as_str()).collect();
-    assert_eq!(names, ["ch3_um", "T1"]);
-    assert!(al.channels[0].is_displacement());
-    assert!((al.channels[0].resid[10] + 0.2).abs() < 1e-12);
+    assert_eq!(al.channels.names(), ["ch3_um", "T1"]);
+    assert!(al.channels.is_displacement(0));
+    assert!((al.channels.load(0).resid[10] + 0.2).abs() < 1e-12);
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //! `r = real - sim` of every channel both files have.
 
 use super::baseline::Col;
+use super::spill::Spill;
 use crate::data::runfile::{is_temperature_column, resample_linear, ReadOptions, RunFile};
 use anyhow::{bail, Context, Result};
 use std::collections::HashMap;
@@ -55,6 +56,116 @@ impl Channel {
     }
 }
 
+/// The compared channels of an [`Aligned`]: their names in memory, their
+/// simulated values and residuals spilled ([`Spill`]: column `2 i` is
+/// channel `i`'s sim, `2 i + 1` its residual) and loaded one channel, or a
+/// block of rows, at a time: on the heap a channel is its name only
+/// ([`Aligned::heap_bytes`]).
+#[derive(Debug)]
+pub struct Channels {
+    names: Vec<String>,
+    spill: Spill,
+}
+
+impl Channels {
+    /// No channels yet, for runs of `rows` rows.
+    pub fn new(rows: usize) -> std::io::Result<Self> {
+        Ok(Channels {
+            names: Vec::new(),
+            spill: Spill::new(rows)?,
+        })
+    }
+
+    /// Adds channel `name` with its simulated values and residual.
+    pub fn push(&mut self, name: &str, sim: &[f64], resid: &[f64]) -> std::io::Result<()> {
+        self.spill.push(sim)?;
+        self.spill.push(resid)?;
+        self.names.push(name.to_string());
+        Ok(())
+    }
+
+    /// Number of channels.
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    /// Whether every channel read back so far came back whole
+    /// ([`Spill::check`]).
+    pub fn check(&self) -> std::io::Result<()> {
+        self.spill.check()
+    }
+
+    /// Whether there is no channel.
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+
+    /// The channels' names, in order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Name of channel `i`.
+    pub fn name(&self, i: usize) -> &str {
+        &self.names[i]
+    }
+
+    /// Index of the channel named `name`.
+    pub fn position(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    /// Whether channel `i` is a displacement ([`is_displacement`]).
+    pub fn is_displacement(&self, i: usize) -> bool {
+        is_displacement(&self.names[i])
+    }
+
+    /// Channel `i` with its columns (read back: the bytes live while the
+    /// returned value does).
+    pub fn load(&self, i: usize) -> Channel {
+        Channel {
+            name: self.names[i].clone(),
+            sim: Col::new(self.spill.column(2 * i)),
+            resid: self.spill.column(2 * i + 1),
+        }
+    }
+
+    /// Every channel, loaded one at a time as the iterator is walked.
+    pub fn each(&self) -> impl Iterator<Item = Channel> + '_ {
+        (0..self.len()).map(|i| self.load(i))
+    }
+
+    /// Channel `i`'s residual alone.
+    pub fn resid(&self, i: usize) -> Vec<f64> {
+        self.spill.column(2 * i + 1)
+    }
+
+    /// Channel `i`'s simulated values on `rows`.
+    pub fn sim_rows(&self, i: usize, rows: std::ops::Range<usize>) -> Vec<f64> {
+        self.spill.rows_of(2 * i, rows)
+    }
+
+    /// Channel `i`'s measured values on `rows` (`sim + resid`, as
+    /// [`Channel::real_at`]).
+    pub fn real_rows(&self, i: usize, rows: std::ops::Range<usize>) -> Vec<f64> {
+        let resid = self.spill.rows_of(2 * i + 1, rows.clone());
+        let mut v = self.sim_rows(i, rows);
+        v.iter_mut().zip(&resid).for_each(|(s, r)| *s += r);
+        v
+    }
+
+    /// The same channels on rows `keep` only.
+    fn picked(&self, keep: &[usize]) -> std::io::Result<Channels> {
+        let mut out = Channels::new(keep.len())?;
+        for i in 0..self.len() {
+            let c = self.load(i);
+            let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&k| v[k]).collect() };
+            out.push(&c.name, &pick(&c.sim), &pick(&c.resid))?;
+        }
+        Ok(out)
+    }
+}
+
 /// A displacement channel: any `*_um` column (the tool-tip `dx_um, dy_um,
 /// dz_um`, or a real machine's own channels such as `ch3_um`); the probe
 /// readings `S<n>` carry no unit suffix.
@@ -68,7 +179,7 @@ fn is_probe(name: &str) -> bool {
 }
 
 /// Both runs on the real run's time base.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Aligned {
     /// Time of each common row, s (the real run's).
     pub t_s: Vec<f64>,
@@ -85,10 +196,26 @@ pub struct Aligned {
     /// gates.rs).
     pub sim_coolant_cycles: bool,
     /// Compared channels: displacements first, then T, then S, each in
-    /// file order.
-    pub channels: Vec<Channel>,
+    /// file order (kept off the heap, loaded one at a time).
+    pub channels: Channels,
     /// Figures computed once and looked up again (see [`Memo`]).
     pub memo: Memo,
+}
+
+impl Aligned {
+    /// Bytes its columns hold on the heap (allocated capacity): the time,
+    /// the speed and the optional inputs, 8 bytes a row each; the compared
+    /// channels are spilled ([`Channels`]), so they add nothing a row.
+    pub fn heap_bytes(&self) -> usize {
+        let optional = [&self.power_kw, &self.ambient_c, &self.coolant_c];
+        let cols = [&self.t_s, &self.speed_rpm]
+            .into_iter()
+            .chain(optional.into_iter().flatten());
+        let names: usize = self.channels.names().iter().map(String::capacity).sum();
+        cols.map(|c| c.capacity() * std::mem::size_of::<f64>())
+            .sum::<usize>()
+            + names
+    }
 }
 
 /// Small per-channel figures the diagnosis needs many times (a channel's
@@ -128,19 +255,18 @@ impl Memo {
 /// column is not there (or not read).
 fn filled(run: &RunFile, name: &str, grid: &[f64]) -> Option<Vec<f64>> {
     let col = run.column(name)?;
-    Some(
-        resample_linear(&run.t_s, col, grid)
-            .into_iter()
-            .map(|v| v.unwrap_or(f64::NAN))
-            .collect(),
-    )
+    // Collected from a borrow, not in place: an in-place collect would keep
+    // the 16-byte `Option` cells' allocation (twice the bytes a row).
+    let values = resample_linear(&run.t_s, col, grid);
+    Some(values.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
 }
 
 /// Compared channels read per pass over the files in [`read`]: a run
-/// file holds 16 bytes a cell (`Option<f64>`), so 8 channels of two
-/// files at 10^6 rows are 256 MB at a time instead of 740 MB for all 23
-/// columns of two FL_THERMAL-shaped files.
-const CHANNELS_PER_PASS: usize = 8;
+/// file holds 16 bytes a cell (`Option<f64>`), so 4 channels of two
+/// files at 10^6 rows are 128 MB at a time instead of 740 MB for all 23
+/// columns of two FL_THERMAL-shaped files (each pass scans both files
+/// again: 6 passes for 21 channels).
+const CHANNELS_PER_PASS: usize = 4;
 
 /// Reads both files and aligns them. Rows of the real run outside the
 /// simulation's time span, or where a compared channel or the speed cannot
@@ -156,7 +282,7 @@ pub fn read(sim_path: &Path, real_path: &Path) -> Result<Aligned> {
     let real = RunFile::read(real_path, &only(Vec::new()))?;
     check_lengths(&sim, &real)?;
     let names = compared_names(&sim, &real)?;
-    let mut b = Builder::new(real.t_s);
+    let mut b = Builder::new(real.t_s)?;
     for (i, group) in names.chunks(CHANNELS_PER_PASS).enumerate() {
         let mut cols = group.to_vec();
         if i == 0 {
@@ -182,7 +308,7 @@ pub fn is_compared(name: &str) -> bool {
 pub fn align(sim: &RunFile, real: &RunFile) -> Result<Aligned> {
     check_lengths(sim, real)?;
     let names = compared_names(sim, real)?;
-    let mut b = Builder::new(real.t_s.clone());
+    let mut b = Builder::new(real.t_s.clone())?;
     b.add(sim, real, &names, true)?;
     b.finish(&sim.path, &real.path)
 }
@@ -246,20 +372,26 @@ struct Builder {
     ambient: Option<Vec<f64>>,
     coolant: Option<Vec<f64>>,
     sim_coolant_cycles: bool,
-    channels: Vec<Channel>,
+    channels: Channels,
+    /// Rows where every channel added so far is known.
+    known: Vec<bool>,
 }
 
 impl Builder {
-    fn new(grid: Vec<f64>) -> Self {
-        Builder {
+    fn new(mut grid: Vec<f64>) -> Result<Self> {
+        // A reader's column may be allocated for more rows than it has.
+        grid.shrink_to_fit();
+        let n = grid.len();
+        Ok(Builder {
             grid,
             speed: Vec::new(),
             power: None,
             ambient: None,
             coolant: None,
             sim_coolant_cycles: false,
-            channels: Vec::new(),
-        }
+            channels: Channels::new(n).context("cannot create a temporary file for diagnose")?,
+            known: vec![true; n],
+        })
     }
 
     /// Adds channels `names` of both runs (checked), and with `inputs` the
@@ -291,12 +423,13 @@ impl Builder {
         for name in names {
             let s = filled(sim, name, grid).unwrap_or_else(|| vec![f64::NAN; grid.len()]);
             let r = filled(real, name, grid).unwrap_or_else(|| vec![f64::NAN; grid.len()]);
-            let resid = r.iter().zip(&s).map(|(a, b)| a - b).collect();
-            self.channels.push(Channel {
-                name: name.clone(),
-                sim: Col::new(s),
-                resid,
-            });
+            let resid: Vec<f64> = r.iter().zip(&s).map(|(a, b)| a - b).collect();
+            for (k, v) in self.known.iter_mut().zip(&resid) {
+                *k &= !v.is_nan();
+            }
+            self.channels
+                .push(name, &s, &resid)
+                .context("cannot write diagnose's temporary file")?;
         }
         Ok(())
     }
@@ -306,9 +439,7 @@ impl Builder {
     fn finish(self, sim_path: &Path, real_path: &Path) -> Result<Aligned> {
         let n = self.grid.len();
         let keep: Vec<usize> = (0..n)
-            .filter(|&k| {
-                !self.speed[k].is_nan() && self.channels.iter().all(|c| !c.resid[k].is_nan())
-            })
+            .filter(|&k| !self.speed[k].is_nan() && self.known[k])
             .collect();
         if keep.len() < 20 {
             bail!(
@@ -338,21 +469,13 @@ impl Builder {
             let v = pick(v?);
             v.iter().all(|x| !x.is_nan()).then_some(v)
         };
-        let channels = self
-            .channels
-            .into_iter()
-            .map(|c| {
-                let sim = match Col::try_unwrap(c.sim) {
-                    Ok(v) => Col::new(pick(v)),
-                    Err(shared) => Col::new(pick(shared.to_vec())),
-                };
-                Channel {
-                    name: c.name,
-                    sim,
-                    resid: pick(c.resid),
-                }
-            })
-            .collect();
+        let channels = if keep.len() == n {
+            self.channels
+        } else {
+            self.channels
+                .picked(&keep)
+                .context("cannot write diagnose's temporary file")?
+        };
         Ok(Aligned {
             t_s: pick(self.grid),
             speed_rpm: pick(self.speed),
@@ -363,5 +486,85 @@ impl Builder {
             channels,
             memo: Memo::default(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run file of `n` rows at 1 s: speed, `temps` temperatures and two
+    /// displacements, values shifted by `shift` (6 significant digits).
+    fn run(dir: &Path, name: &str, n: usize, temps: usize, shift: f64) -> std::path::PathBuf {
+        let cols: Vec<String> = (1..=temps)
+            .map(|i| format!("T{i}"))
+            .chain(["dx_um".into(), "dz_um".into()])
+            .collect();
+        let mut text = format!("t_s,speed_rpm,{}\n", cols.join(","));
+        for k in 0..n {
+            let vals: Vec<String> = (0..cols.len())
+                .map(|j| {
+                    format!(
+                        "{:.6}",
+                        20.0 + shift + (k as f64 * 1e-3 * (j + 1) as f64).sin()
+                    )
+                })
+                .collect();
+            text.push_str(&format!(
+                "{k},{},{}\n",
+                1000 * (k / 500 % 3),
+                vals.join(",")
+            ));
+        }
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn the_aligned_runs_hold_no_channel_bytes_a_row() {
+        // 16 bytes a row (t_s and speed, 8 each, allocated to length) and
+        // no more however many channels: before the spill, 16 + 16 per
+        // channel (sim and residual; 24 for an in-place-collected sim).
+        // Tolerance 0.1 byte a row for the channels' names (a few dozen
+        // bytes over 3000 rows).
+        let dir = tempfile::tempdir().unwrap();
+        let n = 3000;
+        for temps in [2, 16] {
+            let sim = run(dir.path(), "sim.csv", n, temps, 0.0);
+            let real = run(dir.path(), "real.csv", n, temps, 0.5);
+            let al = read(&sim, &real).unwrap();
+            assert_eq!(al.channels.len(), temps + 2);
+            let per_row = al.heap_bytes() as f64 / n as f64;
+            assert!(
+                (16.0..16.1).contains(&per_row),
+                "{temps} temperatures: {per_row} B a row"
+            );
+            // The spilled columns come back exact: real - sim of the file's
+            // values, and sim + resid the real value.
+            let t2 = al.channels.position("T2").unwrap();
+            let c = al.channels.load(t2);
+            let (s, r) = (20.0 + (7.0f64 * 2e-3).sin(), 20.5 + (7.0f64 * 2e-3).sin());
+            let parse = |v: f64| format!("{v:.6}").parse::<f64>().unwrap();
+            assert_eq!(c.sim[7], parse(s));
+            assert_eq!(c.resid[7], parse(r) - parse(s));
+            assert_eq!(al.channels.real_rows(t2, 7..8)[0], c.real_at(7));
+        }
+    }
+
+    #[test]
+    fn rows_outside_the_simulation_are_dropped_from_the_spilled_channels() {
+        let dir = tempfile::tempdir().unwrap();
+        let sim = run(dir.path(), "sim.csv", 800, 2, 0.0);
+        let real = run(dir.path(), "real.csv", 1000, 2, 0.5);
+        let al = read(&sim, &real).unwrap();
+        assert_eq!(al.t_s.len(), 800);
+        let c = al.channels.load(0);
+        assert_eq!((c.sim.len(), c.resid.len()), (800, 800));
+        assert!(
+            c.resid.iter().all(|v| (v - 0.5).abs() < 2e-6),
+            "{:?}",
+            &c.resid[..3]
+        );
     }
 }

@@ -15,7 +15,7 @@
 use super::align::{Aligned, Channel};
 use super::baseline::{self, Baseline};
 use super::signif;
-use super::variants::{high_pass, variants, Variant, Vars, CHILLER_BAND_S};
+use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
 use crate::num::lsq::{self, LinearFit};
 use serde_json::{json, Map, Value};
 
@@ -94,8 +94,11 @@ pub struct Scored {
     pub params: Map<String, Value>,
     /// Which model form was used.
     pub model: String,
-    /// Prediction on every row.
-    pub pred: Vec<f64>,
+    /// Whether its prediction is the baseline's on every row (no usable
+    /// input, or its regressors are zero): then it is no test. The
+    /// prediction itself is not kept (a run's length per candidate and
+    /// look); [`prediction`] fits it again where it is drawn.
+    pub as_baseline: bool,
     /// One-sided block-bootstrap p-value that the candidate's held-out
     /// errors are smaller than the baseline's (`None` for the baseline).
     pub p_value: Option<f64>,
@@ -146,13 +149,11 @@ impl Scored {
     pub fn confidence(&self) -> Option<f64> {
         self.p_adjusted.map(|p| 1.0 - p)
     }
+}
 
-    /// Held-out errors left by this candidate on `p`'s channel.
-    pub fn held_out_errors(&self, p: &Problem) -> Vec<f64> {
-        p.test_rows()
-            .map(|k| p.ch.resid[k] - self.pred[k])
-            .collect()
-    }
+/// The errors a prediction `pred` leaves on `p`'s test rows, in time order.
+fn errors_of(p: &Problem, pred: &[f64]) -> Vec<f64> {
+    p.test_rows().map(|k| p.ch.resid[k] - pred[k]).collect()
 }
 
 /// Rounds to 4 significant-ish decimals for output.
@@ -167,26 +168,26 @@ pub fn round(v: f64) -> f64 {
 /// The baseline of a channel as a design: its columns and their ridge
 /// penalties for the channel's residual.
 #[derive(Debug, Clone)]
-struct Design {
+pub(super) struct Design {
     base: Baseline,
     penalty: Vec<f64>,
 }
 
 impl Design {
     /// The mismatch baseline of `p`'s channel.
-    fn of(p: &Problem) -> Self {
+    pub(super) fn of(p: &Problem) -> Self {
         let base = baseline::mismatch_baseline(p.al, p.ch);
         let penalty = base.penalties(&p.ch.resid, p.fit_rows());
         Design { base, penalty }
     }
 
     /// Number of baseline columns (where a variant's gains start).
-    fn len(&self) -> usize {
+    pub(super) fn len(&self) -> usize {
         self.base.cols.len()
     }
 
     /// The baseline fitted alone.
-    fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+    pub(super) fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
         lsq::fit_streamed(&self.base.slices(), y, None, rows.clone(), &self.penalty)
     }
 
@@ -195,7 +196,7 @@ impl Design {
     /// One streamed pass over the shared columns, none copied. Returns the
     /// fit (coefficients: baseline, then `v`'s regressors), or `None` if
     /// the fit fails or breaks `v`'s sign rule.
-    fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+    pub(super) fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
         let cols: Vec<&[f64]> = self
             .base
             .cols
@@ -219,7 +220,7 @@ impl Design {
 
     /// Fits each variant of the grid (walked once) and keeps the best on
     /// the fit part (the first of equal ones).
-    fn best(
+    pub(super) fn best(
         &self,
         vars: impl IntoIterator<Item = Variant>,
         y: &[f64],
@@ -237,10 +238,22 @@ impl Design {
         best
     }
 
+    /// `self` with `v`'s regressors appended to the baseline (free) and
+    /// `v`'s fixed part returned apart (the columns are shared, not
+    /// copied).
+    pub(super) fn with_variant(&self, v: &Variant) -> (Design, Option<Vec<f64>>) {
+        let mut e = self.clone();
+        e.penalty.extend(v.extra.iter().map(|_| 0.0));
+        e.base.cols.extend(v.extra.iter().cloned());
+        e.base.names.extend(v.gains.iter().cloned());
+        e.base.prior_sd.extend(v.extra.iter().map(|_| None));
+        (e, v.fixed_part.clone())
+    }
+
     /// What variant `v` fitted as `f` adds on row `k`: its regressors
     /// (coefficients from `from` on) times their coefficients plus its
     /// fixed part.
-    fn part(v: &Variant, f: &LinearFit, from: usize, k: usize) -> f64 {
+    pub(super) fn part(v: &Variant, f: &LinearFit, from: usize, k: usize) -> f64 {
         let lin: f64 = v
             .extra
             .iter()
@@ -253,23 +266,25 @@ impl Design {
 
 /// Whether fit-part error `a` is smaller than `b` (the first of equal
 /// errors is kept, as `min_by` and a stable sort keep it).
-fn below(a: f64, b: f64) -> bool {
+pub(super) fn below(a: f64, b: f64) -> bool {
     a.total_cmp(&b).is_lt()
 }
 
-/// Scores a fit on the hold-out rows of `p`'s channel (p-values unset).
-fn score(
+/// Scores a fit on the hold-out rows of `p`'s channel (p-values unset),
+/// `base_pred` the baseline's prediction; also returns the held-out errors
+/// (the test rows only: the prediction is dropped).
+pub(super) fn score(
     name: &str,
     p: &Problem,
-    f: &LinearFit,
+    (f, base_pred): (&LinearFit, &[f64]),
     model: String,
     params: Map<String, Value>,
-) -> Scored {
+) -> (Scored, Vec<f64>) {
     let r = &p.ch.resid;
-    let after: Vec<f64> = p.test_rows().map(|k| r[k] - f.pred[k]).collect();
+    let after = errors_of(p, &f.pred);
     let rms_before = lsq::rms(&r[p.test_rows()]);
     let rms_after = lsq::rms(&after);
-    Scored {
+    let scored = Scored {
         name: name.to_string(),
         rms_before,
         rms_after,
@@ -281,17 +296,18 @@ fn score(
         fit_rms: (f.sse_fit / p.fit_rows().len().max(1) as f64).sqrt(),
         params,
         model,
-        pred: f.pred.clone(),
+        as_baseline: f.pred == base_pred,
         p_value: None,
         p_adjusted: None,
         ratio_to_none: 1.0,
-    }
+    };
+    (scored, after)
 }
 
 /// The parameters of variant `v` fitted with coefficients `coef` (the
 /// variant's own start at `n_base`): grid point, labels, gains, their sum
 /// and the dominant time constant.
-fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
+pub(super) fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
     let mut m = Map::new();
     let g = &coef[n_base..(n_base + v.gains.len()).min(coef.len())];
     for (k, val) in &v.fixed {
@@ -320,7 +336,7 @@ fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
 }
 
 /// The baseline's fit scored as the `none` candidate.
-fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> Scored {
+fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> (Scored, Vec<f64>) {
     let mut params: Map<String, Value> = base
         .names
         .iter()
@@ -331,7 +347,7 @@ fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> Scored {
     score(
         "none",
         p,
-        bf,
+        (bf, &bf.pred),
         "mismatch baseline: offset + drift + twin gain + twin time-constant error + speed and speed^2 heat gains at the channel's time constant (every candidate adds to it)".into(),
         params,
     )
@@ -346,23 +362,26 @@ fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> Scored {
 /// candidate without a usable input falls back to the baseline (and says so
 /// in `model`; p = 1).
 pub fn fit_all(p: &Problem) -> Vec<Scored> {
-    let mut forward = fit_fold(p);
-    if forward.is_empty() {
-        return forward;
-    }
+    let Some(Fold {
+        scored: mut forward,
+        errors: e_fwd,
+    }) = fit_fold(p)
+    else {
+        return Vec::new();
+    };
     let back = p.swapped();
-    let backward = fit_fold(&back);
+    let e_back = fit_fold(&back).map_or_else(Vec::new, |f| f.errors);
     // Held-out errors of candidate `i`, both folds in time order, in the
     // band the candidate is judged in.
     let errors = |i: usize, band: Option<f64>| -> Vec<f64> {
-        let mut e = backward
+        let mut e = e_back
             .get(i)
-            .map_or_else(Vec::new, |s| judged(&back, band, s.held_out_errors(&back)));
-        e.extend(judged(p, band, forward[i].held_out_errors(p)));
+            .map_or_else(Vec::new, |e| judged(&back, band, e.clone()));
+        e.extend(judged(p, band, e_fwd[i].clone()));
         e
     };
     let tested: Vec<usize> = (1..forward.len())
-        .filter(|&i| forward[i].pred != forward[0].pred)
+        .filter(|&i| !forward[i].as_baseline)
         .collect();
     let raw: Vec<f64> = tested
         .iter()
@@ -374,8 +393,8 @@ pub fn fit_all(p: &Problem) -> Vec<Scored> {
     set_p_values(&mut forward, &tested, &raw);
     for i in 1..forward.len() {
         let band = judged_band(&forward[i].name);
-        let e0 = judged(p, band, forward[0].held_out_errors(p));
-        let ei = judged(p, band, forward[i].held_out_errors(p));
+        let e0 = judged(p, band, e_fwd[0].clone());
+        let ei = judged(p, band, e_fwd[i].clone());
         forward[i].ratio_to_none = lsq::rms(&ei) / lsq::rms(&e0).max(f64::MIN_POSITIVE);
     }
     forward
@@ -397,27 +416,80 @@ fn judged(p: &Problem, band: Option<f64>, e: Vec<f64>) -> Vec<f64> {
     }
 }
 
+/// One fold: the baseline (first) and every candidate, scored, and the
+/// errors each leaves on the fold's test rows.
+struct Fold {
+    scored: Vec<Scored>,
+    errors: Vec<Vec<f64>>,
+}
+
 /// The baseline (first) and every candidate fitted on `p`'s fit rows and
-/// scored on its test rows (p-values unset); empty if the baseline fails.
-fn fit_fold(p: &Problem) -> Vec<Scored> {
+/// scored on its test rows (p-values unset); `None` if the baseline fails.
+/// Each fit's prediction is dropped once scored (only the errors on the
+/// test rows are kept).
+fn fit_fold(p: &Problem) -> Option<Fold> {
     let d = Design::of(p);
-    let y = &p.ch.resid;
-    let Some(bf) = d.fit_alone(y, &p.fit_rows()) else {
-        return Vec::new();
+    let bf = d.fit_alone(&p.ch.resid, &p.fit_rows())?;
+    let (none, e_none) = score_none(p, &d.base, &bf);
+    let mut fold = Fold {
+        scored: vec![none],
+        errors: vec![e_none],
     };
-    let mut out = vec![score_none(p, &d.base, &bf)];
     for name in NAMES {
-        let (vars, model) = variants(name, p, &bf.pred);
-        let s = match d.best(vars, y, &p.fit_rows()) {
+        let (best, model) = fit_candidate(p, &d, &bf, name);
+        let (s, e) = match best {
             Some((f, v)) => {
                 let params = params_of(&v, &f.coef, d.len());
-                score(name, p, &f, model, params)
+                score(name, p, (&f, &bf.pred), model, params)
             }
-            None => score(name, p, &bf, format!("{model} (baseline only)"), Map::new()),
+            None => score(
+                name,
+                p,
+                (&bf, &bf.pred),
+                format!("{model} (baseline only)"),
+                Map::new(),
+            ),
         };
-        out.push(s);
+        fold.scored.push(s);
+        fold.errors.push(e);
     }
-    out
+    Some(fold)
+}
+
+/// Candidate `name` fitted with the baseline `d` (fitted alone as `bf`) on
+/// `p`'s fit rows: the best grid point's fit and variant (`None` when it
+/// has no usable input or every fit fails), and the model form's text.
+fn fit_candidate(
+    p: &Problem,
+    d: &Design,
+    bf: &LinearFit,
+    name: &str,
+) -> (Option<(LinearFit, Variant)>, String) {
+    let (vars, model) = variants(name, p, &bf.pred);
+    (d.best(vars, &p.ch.resid, &p.fit_rows()), model)
+}
+
+/// The prediction of candidate `name` (or `none`) on every row of `p`'s
+/// channel, fitted again exactly as [`fit_all`] fits it (the baseline's
+/// when the candidate falls back to it); `None` if the baseline fails.
+/// For the few places that need a whole prediction after the looks (the
+/// pair test, the report's plot), so no look keeps one.
+pub fn prediction(p: &Problem, name: &str) -> Option<Vec<f64>> {
+    let d = Design::of(p);
+    let bf = d.fit_alone(&p.ch.resid, &p.fit_rows())?;
+    if name == "none" {
+        return Some(bf.pred);
+    }
+    Some(
+        fit_candidate(p, &d, &bf, name)
+            .0
+            .map_or(bf.pred, |(f, _)| f.pred),
+    )
+}
+
+/// The errors candidate `name` leaves on `p`'s test rows ([`prediction`]).
+pub fn held_out_errors(p: &Problem, name: &str) -> Option<Vec<f64>> {
+    prediction(p, name).map(|pred| errors_of(p, &pred))
 }
 
 /// Seed of the bootstrap of candidate `i` (fixed: the same files give the
@@ -438,159 +510,6 @@ fn set_p_values(scored: &mut [Scored], tested: &[usize], raw: &[f64]) {
         scored[i].p_value = Some(raw[k]);
         scored[i].p_adjusted = Some(adj[k]);
     }
-}
-
-/// Grid points kept per candidate for the pair search.
-const PAIR_GRID: usize = 8;
-
-/// The `PAIR_GRID` variants with the smallest fit-part error on their own
-/// (sign rule applied), best first.
-fn top_variants(d: &Design, vars: Vars, y: &[f64], rows: &Rows) -> Vec<Variant> {
-    // The `PAIR_GRID` best so far, in the order a stable sort of the whole
-    // grid would give them (ties: the earlier variant first), so only
-    // that many grid points are held.
-    let mut top: Vec<(f64, Variant)> = Vec::with_capacity(PAIR_GRID + 1);
-    for v in vars {
-        let Some(f) = d.fit(&v, y, rows) else {
-            continue;
-        };
-        let at = top.partition_point(|(e, _)| !below(f.sse_fit, *e));
-        if at < PAIR_GRID {
-            top.insert(at, (f.sse_fit, v));
-            top.truncate(PAIR_GRID);
-        }
-    }
-    top.into_iter().map(|x| x.1).collect()
-}
-
-/// One candidate's grid cut for the pair search: name, variants, model.
-type Grid = (&'static str, Vec<Variant>, String);
-
-/// `d` with `v`'s regressors appended to the baseline (free) and `v`'s
-/// fixed part returned apart.
-fn with_variant(d: &Design, v: &Variant) -> (Design, Option<Vec<f64>>) {
-    let mut e = d.clone(); // the columns are shared, not copied
-    e.penalty.extend(v.extra.iter().map(|_| 0.0));
-    e.base.cols.extend(v.extra.iter().cloned());
-    e.base.names.extend(v.gains.iter().cloned());
-    e.base.prior_sd.extend(v.extra.iter().map(|_| None));
-    (e, v.fixed_part.clone())
-}
-
-/// `y` minus a fixed part, if any.
-fn minus(y: &[f64], fixed: &Option<Vec<f64>>) -> Vec<f64> {
-    match fixed {
-        Some(fp) => y.iter().zip(fp).map(|(a, b)| a - b).collect(),
-        None => y.to_vec(),
-    }
-}
-
-/// Coordinate descent over two grids on top of the baseline: start from
-/// `b`'s best, then best of `a` given `b`, best of `b` given `a`, twice.
-fn descend(
-    d: &Design,
-    va: &[Variant],
-    vb: &[Variant],
-    y: &[f64],
-    rows: &Rows,
-) -> Option<(Variant, Variant)> {
-    let mut sel_b = vb.first()?.clone();
-    let mut sel_a = None;
-    for _ in 0..2 {
-        let (db, fb) = with_variant(d, &sel_b);
-        let Some((_, a)) = db.best(va.iter().cloned(), &minus(y, &fb), rows) else {
-            break;
-        };
-        let (da, fa) = with_variant(d, &a);
-        let Some((_, b)) = da.best(vb.iter().cloned(), &minus(y, &fa), rows) else {
-            break;
-        };
-        sel_a = Some(a);
-        sel_b = b;
-    }
-    Some((sel_a?, sel_b))
-}
-
-/// Variants `a` and `b` as one (regressors of `a` first, fixed parts
-/// summed).
-fn merged(a: &Variant, b: &Variant) -> Variant {
-    let mut m = a.clone();
-    m.extra.extend(b.extra.iter().cloned());
-    m.gains.extend(b.gains.iter().cloned());
-    m.sign = None;
-    m.fixed_part = match (&a.fixed_part, &b.fixed_part) {
-        (Some(x), Some(y)) => Some(x.iter().zip(y).map(|(u, v)| u + v).collect()),
-        (Some(x), None) | (None, Some(x)) => Some(x.clone()),
-        (None, None) => None,
-    };
-    m
-}
-
-/// The joint fit of two grids' selected variants, scored, with its members
-/// ordered by importance (the one whose removal from the joint prediction
-/// raises the held-out rms more first).
-fn joint(p: &Problem, d: &Design, ga: &Grid, gb: &Grid) -> Option<(Scored, String, String)> {
-    let y = &p.ch.resid;
-    let (sel_a, sel_b) = descend(d, &ga.1, &gb.1, y, &p.fit_rows())?;
-    let both = merged(&sel_a, &sel_b);
-    let f = d.fit(&both, y, &p.fit_rows())?;
-    let (ka, kb) = (d.len(), d.len() + sel_a.extra.len());
-    let mut params = Map::new();
-    for (prefix, v, from) in [(ga.0, &sel_a, ka), (gb.0, &sel_b, kb)] {
-        for (k, val) in params_of(v, &f.coef[from - d.len()..], d.len()) {
-            params.insert(format!("{prefix}.{k}"), val);
-        }
-    }
-    let s = score(
-        &format!("{}+{}", ga.0, gb.0),
-        p,
-        &f,
-        format!("{}; {}", ga.2, gb.2),
-        params,
-    );
-    let without = |v: &Variant, from: usize| -> f64 {
-        let left: Vec<f64> = p
-            .test_rows()
-            .map(|k| y[k] - (f.pred[k] - Design::part(v, &f, from, k)))
-            .collect();
-        lsq::rms(&left)
-    };
-    let (wa, wb) = (without(&sel_a, ka), without(&sel_b, kb));
-    let (first, second) = if wa >= wb { (ga.0, gb.0) } else { (gb.0, ga.0) };
-    Some((s, first.to_string(), second.to_string()))
-}
-
-/// The best joint model of two effects: for each pair, coordinate descent
-/// over the two grids, each cut to its 8 best variants on their own.
-/// Returns the joint fit (named `a+b`) with its members ordered by
-/// importance.
-pub fn best_pair(p: &Problem) -> Option<(Scored, String, String)> {
-    let d = Design::of(p);
-    let y = &p.ch.resid;
-    let bf = d.fit_alone(y, &p.fit_rows())?;
-    let grids: Vec<Grid> = NAMES
-        .iter()
-        .map(|&n| {
-            let (v, m) = variants(n, p, &bf.pred);
-            (n, top_variants(&d, v, y, &p.fit_rows()), m)
-        })
-        .filter(|g| !g.1.is_empty())
-        .collect();
-    let mut best_pair: Option<(Scored, String, String)> = None;
-    for i in 0..grids.len() {
-        for j in i + 1..grids.len() {
-            let Some(cand) = joint(p, &d, &grids[i], &grids[j]) else {
-                continue;
-            };
-            if best_pair
-                .as_ref()
-                .is_none_or(|b| cand.0.rms_after < b.0.rms_after)
-            {
-                best_pair = Some(cand);
-            }
-        }
-    }
-    best_pair
 }
 
 /// An effect's part of one channel (see [`effect_part`]).
@@ -614,8 +533,7 @@ pub fn effect_part(name: &str, p: &Problem) -> Option<EffectPart> {
     let d = Design::of(p);
     let y = &p.ch.resid;
     let bf = d.fit_alone(y, &p.fit_rows())?;
-    let (vars, _) = variants(name, p, &bf.pred);
-    let (f, v) = d.best(vars, y, &p.fit_rows())?;
+    let (f, v) = fit_candidate(p, &d, &bf, name).0?;
     let n_fit = p.fit_rows().len().max(1) as f64;
     Some(EffectPart {
         values: (0..y.len())
@@ -638,7 +556,7 @@ pub fn test_scored(name: &str, after: f64, none_after: f64, p: f64) -> Scored {
         fit_rms: 0.0,
         params: serde_json::Map::new(),
         model: String::new(),
-        pred: Vec::new(),
+        as_baseline: false,
         p_value: Some(p),
         p_adjusted: Some(p),
         ratio_to_none: after / none_after,

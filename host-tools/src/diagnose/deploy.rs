@@ -18,10 +18,12 @@
 //! real displacement to match). If 2 beats 1 the effect is worth adding to
 //! the twin before training compensation on it.
 
-use super::align::{Aligned, Channel};
-use super::candidates::{self, round, Problem};
+use super::align::Aligned;
+use super::candidates::{self, round, Problem, Rows};
+use super::spill::Spill;
 use crate::num::linalg;
 use crate::num::lsq;
+use anyhow::{Context, Result};
 use serde_json::{json, Value};
 
 /// The effect is added to a channel only where it explains at least this
@@ -31,36 +33,48 @@ use serde_json::{json, Value};
 /// training data.
 const MIN_FIT_SHRINK: f64 = 0.2;
 
+/// Rows of every channel used read back per block while training and
+/// scoring (the channels are spilled, [`super::align::Channels`]).
+const BLOCK_ROWS: usize = 1 << 16;
+
+/// `rows` in blocks of [`BLOCK_ROWS`].
+fn blocks(rows: Rows) -> impl Iterator<Item = Rows> {
+    rows.clone()
+        .step_by(BLOCK_ROWS)
+        .map(move |a| a..(a + BLOCK_ROWS).min(rows.end))
+}
+
+/// A channel's values on a block of rows: `(channel, rows) -> values`.
+type Values<'a> = dyn Fn(usize, Rows) -> Vec<f64> + 'a;
+
 /// The compensation target: the main channel if it is a displacement, else
 /// `dz_um` (the axial error compensation cares most about), else the first
 /// displacement.
 fn target(al: &Aligned, main: usize) -> Option<usize> {
-    if al.channels[main].is_displacement() {
+    let ch = &al.channels;
+    if ch.is_displacement(main) {
         return Some(main);
     }
-    al.channels
-        .iter()
-        .position(|c| c.name == "dz_um")
-        .or_else(|| al.channels.iter().position(Channel::is_displacement))
+    ch.position("dz_um")
+        .or_else(|| (0..ch.len()).find(|&i| ch.is_displacement(i)))
 }
 
 /// Trains `y ~ b0 + sum b_i x_i` on rows `0..n_fit`, the inputs and the
-/// target streamed from `value(channel, row)` ([`linalg::least_squares_visit`]:
-/// the rows are not copied); `None` if the solver refuses (too few rows,
-/// SVD failure).
-fn train(
-    value: &dyn Fn(usize, usize) -> f64,
-    inputs: &[usize],
-    tgt: usize,
-    n_fit: usize,
-) -> Option<(f64, Vec<f64>)> {
+/// target streamed a block of rows at a time from `value`
+/// ([`linalg::least_squares_visit`]: the rows are not copied whole);
+/// `None` if the solver refuses (too few rows, SVD failure).
+fn train(value: &Values, inputs: &[usize], tgt: usize, n_fit: usize) -> Option<(f64, Vec<f64>)> {
     let mut x = vec![0.0; inputs.len()];
     linalg::least_squares_visit(inputs.len(), &mut |f| {
-        for k in 0..n_fit {
-            for (v, &i) in x.iter_mut().zip(inputs) {
-                *v = value(i, k);
+        for rows in blocks(0..n_fit) {
+            let cols: Vec<Vec<f64>> = inputs.iter().map(|&i| value(i, rows.clone())).collect();
+            let y = value(tgt, rows.clone());
+            for (k, yk) in y.iter().enumerate() {
+                for (v, c) in x.iter_mut().zip(&cols) {
+                    *v = c[k];
+                }
+                f(&x, *yk);
             }
-            f(&x, value(tgt, k));
         }
     })
     .ok()
@@ -79,17 +93,18 @@ fn score(
     let (b0, b) = model;
     let mut r = Vec::with_capacity(n - n_fit);
     let (mut abs_r, mut abs_y) = (0.0, 0.0);
-    for k in n_fit..n {
-        let yk = al.channels[tgt].real_at(k);
-        let yhat = b0
-            + inputs
-                .iter()
-                .zip(b)
-                .map(|(&i, w)| w * al.channels[i].real_at(k))
-                .sum::<f64>();
-        r.push(yk - yhat);
-        abs_r += (yk - yhat).abs();
-        abs_y += yk.abs();
+    for rows in blocks(n_fit..n) {
+        let y = al.channels.real_rows(tgt, rows.clone());
+        let cols: Vec<Vec<f64>> = inputs
+            .iter()
+            .map(|&i| al.channels.real_rows(i, rows.clone()))
+            .collect();
+        for (k, yk) in y.iter().enumerate() {
+            let yhat = b0 + cols.iter().zip(b).map(|(c, w)| w * c[k]).sum::<f64>();
+            r.push(yk - yhat);
+            abs_r += (yk - yhat).abs();
+            abs_y += yk.abs();
+        }
     }
     let reduction = if abs_y > 0.0 {
         100.0 * (1.0 - abs_r / abs_y)
@@ -100,32 +115,32 @@ fn score(
 }
 
 /// The `deployment` object of the diagnose JSON (see the module doc).
-pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Value {
+/// `Err` only when the effect parts cannot be written to their temporary
+/// file or read back from it.
+pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Result<Value> {
     let Some(tgt) = target(al, main) else {
-        return json!({"model": "mlr", "note": "no displacement channel to compensate"});
+        return Ok(json!({"model": "mlr", "note": "no displacement channel to compensate"}));
     };
-    let inputs: Vec<usize> = (0..al.channels.len())
-        .filter(|&i| !al.channels[i].is_displacement() && !al.channels[i].name.starts_with('S'))
+    let ch = &al.channels;
+    let inputs: Vec<usize> = (0..ch.len())
+        .filter(|&i| !ch.is_displacement(i) && !ch.name(i).starts_with('S'))
         .collect();
     if inputs.is_empty() {
-        return json!({"model": "mlr", "note": "no temperature channel shared by both files"});
+        return Ok(json!({"model": "mlr", "note": "no temperature channel shared by both files"}));
     }
-    let names: Vec<&str> = inputs
-        .iter()
-        .map(|&i| al.channels[i].name.as_str())
-        .collect();
-    let held_out_rms = lsq::rms(&al.channels[tgt].real()[n_fit..]);
-    let fit_on = |value: &dyn Fn(usize, usize) -> f64| -> Value {
+    let names: Vec<&str> = inputs.iter().map(|&i| ch.name(i)).collect();
+    let held_out_rms = lsq::rms(&ch.real_rows(tgt, n_fit..al.t_s.len()));
+    let fit_on = |value: &Values| -> Value {
         match train(value, &inputs, tgt, n_fit) {
             Some(m) => score(&m, al, &inputs, tgt, n_fit),
             None => json!({"error": "least squares failed"}),
         }
     };
-    let on_sim = fit_on(&|i, k| al.channels[i].sim[k]);
-    let on_real = fit_on(&|i, k| al.channels[i].real_at(k));
+    let on_sim = fit_on(&|i, rows| ch.sim_rows(i, rows));
+    let on_real = fit_on(&|i, rows| ch.real_rows(i, rows));
     let mut out = json!({
         "model": "mlr",
-        "target": al.channels[tgt].name,
+        "target": ch.name(tgt),
         "inputs": names,
         "trained_on": "fit rows (before holdout_from_t_s); scored on the real run's held-out rows",
         "held_out_uncompensated_rms_um": round(held_out_rms),
@@ -136,31 +151,59 @@ pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Val
         out["trained_on_sim_plus_effect"] = Value::Null;
         out["note"] =
             json!("verdict none: no effect to add; only the model trained on the nominal sim");
-        return out;
+        return Ok(out);
     }
-    // The effect's part of each channel used, where it is added (else the
-    // sim alone).
-    let effect: Vec<Option<Vec<f64>>> = (0..al.channels.len())
-        .map(|i| {
-            if i != tgt && !inputs.contains(&i) {
-                return None;
-            }
-            let p = Problem::new(al, &al.channels[i], n_fit);
-            candidates::effect_part(verdict, &p)
-                .filter(|e| e.fit_rms_with <= (1.0 - MIN_FIT_SHRINK) * e.fit_rms_base)
-                .map(|e| e.values)
-        })
-        .collect();
-    let on_eff = fit_on(&|i, k| {
-        let s = al.channels[i].sim[k];
-        effect[i].as_ref().map_or(s, |e| s + e[k])
+    let effect = effects(al, &inputs, tgt, n_fit, verdict)
+        .context("cannot write diagnose's temporary file")?;
+    let on_eff = fit_on(&|i, rows: Rows| {
+        let mut s = ch.sim_rows(i, rows.clone());
+        if let Some(col) = effect.cols[i] {
+            let e = effect.spill.rows_of(col, rows);
+            s.iter_mut().zip(&e).for_each(|(s, e)| *s += e);
+        }
+        s
     });
     let gain = match (on_sim["rmse_um"].as_f64(), on_eff["rmse_um"].as_f64()) {
         (Some(a), Some(b)) if a > 0.0 => json!(round(100.0 * (1.0 - b / a))),
         _ => Value::Null,
     };
+    effect.spill.check()?;
     out["trained_on_sim_plus_effect"] = on_eff;
     out["effect"] = json!(verdict);
     out["improvement_pct"] = gain;
-    out
+    Ok(out)
+}
+
+/// The effect's part of each channel used, where it is added (else the
+/// sim alone), spilled as it is made: `cols[i]` is channel `i`'s column
+/// in `spill`, if any.
+struct Effects {
+    spill: Spill,
+    cols: Vec<Option<usize>>,
+}
+
+/// The verdict's part of the target and of each input channel where it
+/// explains [`MIN_FIT_SHRINK`] of the fit part ([`candidates::effect_part`]),
+/// one channel loaded at a time.
+fn effects(
+    al: &Aligned,
+    inputs: &[usize],
+    tgt: usize,
+    n_fit: usize,
+    verdict: &str,
+) -> std::io::Result<Effects> {
+    let mut out = Effects {
+        spill: Spill::new(al.t_s.len())?,
+        cols: vec![None; al.channels.len()],
+    };
+    for i in (0..al.channels.len()).filter(|&i| i == tgt || inputs.contains(&i)) {
+        let ch = al.channels.load(i);
+        let p = Problem::new(al, &ch, n_fit);
+        let part = candidates::effect_part(verdict, &p)
+            .filter(|e| e.fit_rms_with <= (1.0 - MIN_FIT_SHRINK) * e.fit_rms_base);
+        if let Some(e) = part {
+            out.cols[i] = Some(out.spill.push(&e.values)?);
+        }
+    }
+    Ok(out)
 }

@@ -47,7 +47,7 @@
 //!    a Bonferroni level of 0.006-0.025. Seed 1: 356 -> 361 right; seed 2
 //!    (checked): 344 -> 347; no false alarm either way; twin set unchanged.
 
-use super::align::Aligned;
+use super::align::{is_displacement, Aligned};
 use super::variants::CHILLER_BAND_S;
 use super::{seen_on, Look, MAX_RATIO_TO_NONE, STRONG_ALPHA};
 use crate::data::runfile::{is_temperature_column, resample_linear, RunFile};
@@ -97,17 +97,25 @@ impl CoolantCycle {
     }
 }
 
-/// Centred mean of `x` over `t +- half_s` at every row (prefix sums).
+/// Centred mean of `x` over `t +- half_s` at every row (prefix sums; the
+/// window's ends move forward with the row, so the work is linear in the
+/// rows: `t` is increasing).
 fn centred_mean(t: &[f64], x: &[f64], half_s: f64) -> Vec<f64> {
     let mut cum = Vec::with_capacity(x.len() + 1);
     cum.push(0.0);
     for v in x {
         cum.push(cum[cum.len() - 1] + v);
     }
+    let (mut a, mut b) = (0, 0);
     t.iter()
         .map(|&tk| {
-            let a = t.partition_point(|&u| u < tk - half_s);
-            let b = t.partition_point(|&u| u <= tk + half_s);
+            // The first rows at or after tk - half_s, and after tk + half_s.
+            while a < t.len() && t[a] < tk - half_s {
+                a += 1;
+            }
+            while b < t.len() && t[b] <= tk + half_s {
+                b += 1;
+            }
             (cum[b] - cum[a]) / (b - a).max(1) as f64
         })
         .collect()
@@ -124,8 +132,8 @@ fn white_sigma(x: &[f64]) -> f64 {
     if d.is_empty() {
         return 0.0;
     }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2] / 0.6745 / 6f64.sqrt()
+    let k = d.len() / 2;
+    crate::num::stats::kth_smallest(&mut d, k) / 0.6745 / 6f64.sqrt()
 }
 
 /// The fast content of the logged `coolant_c` (`None` when it is not
@@ -248,8 +256,9 @@ pub fn gate(
 /// Whether look `l` is at a displacement channel.
 fn at_axis(al: &Aligned, l: &Look) -> bool {
     al.channels
+        .names()
         .get(l.channel)
-        .is_some_and(|c| c.is_displacement())
+        .is_some_and(|n| is_displacement(n))
 }
 
 /// Gate 3: `motor_loss` the best significant candidate of one look
@@ -289,8 +298,9 @@ fn lag_gate(al: &Aligned, looks: &[Look]) -> Option<Gated> {
         .enumerate()
         .filter(|(_, l)| {
             al.channels
+                .names()
                 .get(l.channel)
-                .is_some_and(|c| is_temperature_column(&c.name))
+                .is_some_and(|n| is_temperature_column(n))
         })
         .filter_map(|(i, l)| lag_of(l).map(|r| (i, r)))
         .min_by(|a, b| a.1.total_cmp(&b.1))?;
@@ -320,7 +330,7 @@ mod tests {
             ambient_c: None,
             coolant_c: coolant,
             sim_coolant_cycles: false,
-            channels: Vec::new(),
+            channels: super::super::align::Channels::new(n).unwrap(),
             memo: Default::default(),
         }
     }
@@ -369,14 +379,11 @@ mod tests {
 
     /// `al` with channels named `names` (no data: the gates read names).
     fn named(mut al: Aligned, names: &[&str]) -> Aligned {
-        al.channels = names
-            .iter()
-            .map(|n| crate::diagnose::align::Channel {
-                name: n.to_string(),
-                sim: Default::default(),
-                resid: Vec::new(),
-            })
-            .collect();
+        let n = al.t_s.len();
+        let zeros = vec![0.0; n];
+        for name in names {
+            al.channels.push(name, &zeros, &zeros).unwrap();
+        }
         al
     }
 

@@ -20,11 +20,13 @@ pub mod baseline;
 pub mod candidates;
 pub mod deploy;
 pub mod gates;
+pub mod pair;
 pub mod physical;
 pub mod regime;
 pub mod report;
 pub mod signif;
 pub mod spectrum;
+pub mod spill;
 pub mod summary;
 pub mod variants;
 
@@ -166,7 +168,7 @@ impl Look {
             })
             .collect();
         json!({
-            "channel": al.channels[self.channel].name, "verdict": self.verdict,
+            "channel": al.channels.name(self.channel), "verdict": self.verdict,
             "alpha": self.rule.alpha, "max_ratio_to_none": self.rule.max_ratio_to_none,
             "candidates": cands,
         })
@@ -235,8 +237,9 @@ pub fn diagnose_aligned(
             n_fit
         );
     }
-    let (gap, snr) = gap_table(&al);
-    let first = main_channel(&al, &snr);
+    let gaps = gap_table(&al);
+    let first = main_channel(&al, &gaps);
+    let (gap, snr) = (gaps.json, gaps.snr);
     let mut looks = judge(&al, first, &snr, n_fit)?;
     admit(&mut looks);
     let decided = decisive(&looks);
@@ -251,19 +254,21 @@ pub fn diagnose_aligned(
     let look = gated.as_ref().map_or(decided, |g| &looks[g.look]);
     let main = look.channel;
     let (where_, bands) = where_and_bands(&al, main);
-    let p = Problem::new(&al, &al.channels[main], n_fit);
+    let main_ch = al.channels.load(main);
+    let p = Problem::new(&al, &main_ch, n_fit);
     let (verdict, second) = match &gated {
         Some(g) => (g.verdict.clone(), Value::Null),
         None => with_pair(&p, look, snr[main] >= MIN_GAP_SNR),
     };
-    let deployment = deploy::deployment(&al, main, n_fit, &verdict);
+    let deployment = deploy::deployment(&al, main, n_fit, &verdict)?;
+    al.channels.check()?;
     let mut v = json!({
         "holdout_from_t_s": round(holdout),
         "gap": gap,
         "where": where_,
         "effects": look.scored.iter().map(Scored::to_json).collect::<Vec<_>>(),
         "verdict": verdict,
-        "main_channel": al.channels[main].name,
+        "main_channel": al.channels.name(main),
         "main_gap_snr": round(snr[main]),
         "bands": bands,
         "second": second,
@@ -288,8 +293,22 @@ pub fn diagnose_aligned(
     }
     if let Some(dir) = report {
         let extra = physical.as_ref().map_or("", |p| p.html.as_str());
-        report::write(dir, &al, main, n_fit, &look.scored, &v, extra)?;
+        // The best candidate's prediction, for its plot (no look keeps one).
+        let pred = look
+            .scored
+            .first()
+            .and_then(|b| candidates::prediction(&p, &b.name));
+        report::write(
+            dir,
+            &al,
+            main,
+            n_fit,
+            (&look.scored, pred.as_deref()),
+            &v,
+            extra,
+        )?;
     }
+    al.channels.check()?;
     Ok(v)
 }
 
@@ -304,9 +323,9 @@ fn physical_channel<'a>(
     verdict: &str,
 ) -> &'a str {
     if verdict == "sensor_lag" {
-        &al.channels[decided].name
+        al.channels.name(decided)
     } else {
-        &al.channels[first].name
+        al.channels.name(first)
     }
 }
 
@@ -340,20 +359,33 @@ fn rule_text() -> String {
     )
 }
 
-/// Gap per channel (JSON `gap`) and each channel's rms over its noise.
-fn gap_table(al: &align::Aligned) -> (serde_json::Map<String, Value>, Vec<f64>) {
-    let mut gap = serde_json::Map::new();
-    let mut snr = Vec::with_capacity(al.channels.len());
-    for ch in &al.channels {
-        let rms = lsq::rms(&ch.resid);
-        let max_abs = ch.resid.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        gap.insert(
-            ch.name.clone(),
+/// Each channel's gap: the JSON `gap`, each channel's rms over its
+/// noise, and its rms.
+struct Gaps {
+    json: serde_json::Map<String, Value>,
+    snr: Vec<f64>,
+    rms: Vec<f64>,
+}
+
+/// The gap of every channel (one residual loaded at a time).
+fn gap_table(al: &align::Aligned) -> Gaps {
+    let mut g = Gaps {
+        json: serde_json::Map::new(),
+        snr: Vec::with_capacity(al.channels.len()),
+        rms: Vec::with_capacity(al.channels.len()),
+    };
+    for (i, name) in al.channels.names().iter().enumerate() {
+        let resid = al.channels.resid(i);
+        let rms = lsq::rms(&resid);
+        let max_abs = resid.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        g.json.insert(
+            name.clone(),
             json!({"rms": round(rms), "max_abs": round(max_abs)}),
         );
-        snr.push(rms / lsq::noise_sigma(&ch.resid).max(1e-12));
+        g.snr.push(rms / lsq::noise_sigma(&resid).max(1e-12));
+        g.rms.push(rms);
     }
-    (gap, snr)
+    g
 }
 
 /// Where: regime shares and bands of the main channel (and of dz_um if it
@@ -362,7 +394,7 @@ fn where_and_bands(al: &align::Aligned, main: usize) -> (Vec<Value>, Vec<Value>)
     let t = &al.t_s;
     let segs = regime::segments(t, &al.speed_rpm, al.power_kw.as_deref());
     let mut focus = vec![main];
-    if let Some(dz) = al.channels.iter().position(|c| c.name == "dz_um") {
+    if let Some(dz) = al.channels.position("dz_um") {
         if dz != main {
             focus.push(dz);
         }
@@ -370,7 +402,7 @@ fn where_and_bands(al: &align::Aligned, main: usize) -> (Vec<Value>, Vec<Value>)
     let mut where_ = Vec::new();
     let mut bands = Vec::new();
     for &c in &focus {
-        let chc = &al.channels[c];
+        let chc = &al.channels.load(c);
         where_.extend(segment_shares(t, chc, &segs));
         let b = spectrum::bands(t, &chc.resid);
         let peak = spectrum::peak_period_s(
@@ -430,10 +462,13 @@ fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value)
         return (look.verdict.clone(), Value::Null);
     };
     let none = look.scored.iter().find(|s| s.name == "none");
-    let pair = candidates::best_pair(p).filter(|(joint, _, _)| {
-        let e_joint = joint.held_out_errors(p);
+    let pair = pair::best_pair(p).filter(|pair| {
+        let joint = &pair.joint;
+        // The looks keep no predictions: the two compared with the pair
+        // are fitted again, only when the figures leave the test to decide.
         let beats = |s: &Scored, level: f64| {
-            signif::p_better(&s.held_out_errors(p), &e_joint, PAIR_SEED) <= level
+            candidates::held_out_errors(p, &s.name)
+                .is_some_and(|e| signif::p_better(&e, &pair.errors, PAIR_SEED) <= level)
         };
         gap_significant
             && single.rms_after > MIN_GAP_SNR * noise
@@ -444,7 +479,12 @@ fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value)
             && none.is_some_and(|n| beats(n, ALPHA / 10.0))
     });
     match pair {
-        Some((joint, first, second)) => {
+        Some(pair::Pair {
+            joint,
+            first,
+            second,
+            ..
+        }) => {
             let mut j = joint.to_json();
             j["name"] = json!(second);
             j["pair"] = json!(joint.name);
@@ -465,7 +505,8 @@ const PAIR_SEED: u64 = 0x9A12_5EED;
 
 /// Fits, tests and judges the candidates on channel `c` under `rule`.
 fn look_at(al: &align::Aligned, c: usize, snr: &[f64], n_fit: usize, rule: Rule) -> Result<Look> {
-    let p = Problem::new(al, &al.channels[c], n_fit);
+    let ch = al.channels.load(c);
+    let p = Problem::new(al, &ch, n_fit);
     let mut scored = candidates::fit_all(&p);
     if scored.is_empty() {
         bail!(
@@ -497,8 +538,8 @@ fn judge(al: &align::Aligned, main: usize, snr: &[f64], n_fit: usize) -> Result<
     let mut temps: Vec<usize> = (0..al.channels.len())
         .filter(|&i| i != main && snr[i] >= MIN_GAP_SNR)
         .filter(|&i| {
-            let c = &al.channels[i];
-            crate::data::runfile::is_temperature_column(&c.name) || c.is_displacement()
+            crate::data::runfile::is_temperature_column(al.channels.name(i))
+                || al.channels.is_displacement(i)
         })
         .collect();
     temps.sort_by(|&a, &b| snr[b].total_cmp(&snr[a]));
@@ -507,13 +548,7 @@ fn judge(al: &align::Aligned, main: usize, snr: &[f64], n_fit: usize) -> Result<
         ..FALLBACK_RULE
     };
     for t in temps {
-        let mut look = look_at(al, t, snr, n_fit, rule)?;
-        if look.verdict == "none" {
-            // Never the deciding look ([`decisive`]): its predictions (a
-            // run's length per candidate) are not needed again.
-            look.scored.iter_mut().for_each(|s| s.pred = Vec::new());
-        }
-        looks.push(look);
+        looks.push(look_at(al, t, snr, n_fit, rule)?);
     }
     Ok(looks)
 }
@@ -621,12 +656,11 @@ fn decisive(looks: &[Look]) -> &Look {
 /// The main channel: the displacement with the largest residual rms if its
 /// gap stands out of the noise; else the channel (any) whose gap stands out
 /// most (e.g. a lagging temperature sensor leaves displacements alone).
-fn main_channel(al: &align::Aligned, snr: &[f64]) -> usize {
+fn main_channel(al: &align::Aligned, gaps: &Gaps) -> usize {
+    let (snr, rms) = (&gaps.snr, &gaps.rms);
     let disp = (0..al.channels.len())
-        .filter(|&i| al.channels[i].is_displacement())
-        .max_by(|&a, &b| {
-            lsq::rms(&al.channels[a].resid).total_cmp(&lsq::rms(&al.channels[b].resid))
-        });
+        .filter(|&i| al.channels.is_displacement(i))
+        .max_by(|&a, &b| rms[a].total_cmp(&rms[b]));
     match disp {
         Some(d) if snr[d] >= MIN_GAP_SNR => d,
         _ => {

@@ -47,8 +47,8 @@ pub fn air_power_kw(speed_rpm: &[f64], power_kw: &[f64]) -> Vec<f64> {
     let q20: HashMap<i64, f64> = by_bin
         .into_iter()
         .map(|(b, mut v)| {
-            v.sort_by(f64::total_cmp);
-            (b, v[(v.len() - 1) / 5])
+            let k = (v.len() - 1) / 5;
+            (b, crate::num::stats::kth_smallest(&mut v, k))
         })
         .collect();
     let envelope = air_envelope_kw(speed_rpm, power_kw);
@@ -106,11 +106,11 @@ pub fn air_envelope_kw(speed_rpm: &[f64], power_kw: &[f64]) -> Vec<f64> {
         .into_iter()
         .filter(|(_, v)| v.len() >= ENVELOPE_MIN_ROWS)
         .map(|(b, mut v)| {
-            v.sort_by(f64::total_cmp);
+            let k = (v.len() - 1) / 5;
             (
                 v.len(),
                 (100.0 * b as f64 / top).max(1e-6),
-                v[(v.len() - 1) / 5],
+                crate::num::stats::kth_smallest(&mut v, k),
             )
         })
         .collect();

@@ -247,7 +247,7 @@ pub fn write(
     al: &Aligned,
     main: usize,
     n_fit: usize,
-    scored: &[Scored],
+    best: (&[Scored], Option<&[f64]>),
     v: &Value,
     extra: &str,
 ) -> Result<()> {
@@ -267,7 +267,7 @@ pub fn write(
         v["holdout_from_t_s"],
         esc(v["rule"].as_str().unwrap_or(""))
     );
-    html.push_str(&candidates_html(al, main, scored, &ax));
+    html.push_str(&candidates_html(al, main, best, &ax));
     html.push_str(&deployment_html(&v["deployment"]));
     html.push_str(&where_html(v, t0));
     html.push_str(&channels_html(al, &ax));
@@ -285,7 +285,14 @@ pub fn write(
 
 /// The candidates: held-out shrink bars (with confidences), their table,
 /// and the main channel's residual with the best candidate's prediction.
-fn candidates_html(al: &Aligned, main: usize, scored: &[Scored], ax: &Axis) -> String {
+/// `scored`: the main look's candidates, best first, and the best one's
+/// prediction on every row.
+fn candidates_html(
+    al: &Aligned,
+    main: usize,
+    (scored, best_pred): (&[Scored], Option<&[f64]>),
+    ax: &Axis,
+) -> String {
     let mut html = String::from("<h2>How far each candidate shrinks the held-out gap</h2>");
     let bars: Vec<(String, f64)> = scored
         .iter()
@@ -308,14 +315,9 @@ fn candidates_html(al: &Aligned, main: usize, scored: &[Scored], ax: &Axis) -> S
         &bars,
     ));
     html.push_str(&candidates_table(scored));
-    let ch = &al.channels[main];
-    if let Some(best) = scored.first() {
-        let after: Vec<f64> = ch
-            .resid
-            .iter()
-            .zip(&best.pred)
-            .map(|(r, p)| r - p)
-            .collect();
+    let ch = &al.channels.load(main);
+    if let (Some(best), Some(pred)) = (scored.first(), best_pred) {
+        let after: Vec<f64> = ch.resid.iter().zip(pred).map(|(r, p)| r - p).collect();
         html.push_str(&line_chart(
             &format!(
                 "{}: residual, best candidate ({}) and what is left",
@@ -324,7 +326,7 @@ fn candidates_html(al: &Aligned, main: usize, scored: &[Scored], ax: &Axis) -> S
             &ax.t_h,
             &[
                 ("residual", &ch.resid),
-                (&best.name, &best.pred),
+                (&best.name, pred),
                 ("left", &after),
             ],
             ax.hold_h,
@@ -366,7 +368,7 @@ fn where_html(v: &Value, t0: f64) -> String {
 /// and temperature channel.
 fn channels_html(al: &Aligned, ax: &Axis) -> String {
     let mut html = String::from("<h2>Sim vs real</h2>");
-    for c in al.channels.iter().filter(|c| c.is_displacement()) {
+    for c in al.channels.each().filter(|c| c.is_displacement()) {
         html.push_str(&line_chart(
             &format!("{} (um)", c.name),
             &ax.t_h,
@@ -376,7 +378,7 @@ fn channels_html(al: &Aligned, ax: &Axis) -> String {
         ));
     }
     html.push_str("<h2>Residual real - sim per channel</h2>");
-    for c in al.channels.iter().filter(|c| !c.name.starts_with('S')) {
+    for c in al.channels.each().filter(|c| !c.name.starts_with('S')) {
         let unit = if c.is_displacement() { "um" } else { "K" };
         html.push_str(&line_chart(
             &format!("{} residual ({unit})", c.name),

@@ -34,9 +34,7 @@ pub fn periodogram(t_s: &[f64], x: &[f64]) -> (Vec<(f64, f64)>, f64) {
         return (Vec::new(), 0.0);
     }
     let span = t_s[n - 1] - t_s[0];
-    let mut dts: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    let dt = dts[dts.len() / 2].max(span / (MAX_POINTS - 1) as f64);
+    let dt = grid_step_s(t_s);
     let m = ((span / dt).floor() as usize + 1).min(MAX_POINTS);
     let grid: Vec<f64> = (0..m).map(|k| t_s[0] + k as f64 * dt).collect();
     let xo: Vec<Option<f64>> = x.iter().map(|&v| Some(v)).collect();
@@ -64,6 +62,20 @@ pub fn periodogram(t_s: &[f64], x: &[f64]) -> (Vec<(f64, f64)>, f64) {
     (bins, power(0))
 }
 
+/// Step of the uniform grid for `t_s`: `max(median dt, span / 4095)` (0
+/// for fewer than two samples).
+fn grid_step_s(t_s: &[f64]) -> f64 {
+    let span = t_s.last().copied().unwrap_or(0.0) - t_s.first().copied().unwrap_or(0.0);
+    let mut dts: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    let k = dts.len() / 2;
+    let median = if dts.is_empty() {
+        0.0
+    } else {
+        crate::num::stats::kth_smallest(&mut dts, k)
+    };
+    median.max(span / (MAX_POINTS - 1) as f64)
+}
+
 /// Energy shares of `x` (typically a residual) in the three bands.
 pub fn bands(t_s: &[f64], x: &[f64]) -> Bands {
     let (bins, dc) = periodogram(t_s, x);
@@ -78,14 +90,7 @@ pub fn bands(t_s: &[f64], x: &[f64]) -> Bands {
         }
     }
     let total = (slow + mid + fast).max(f64::MIN_POSITIVE);
-    let span = t_s.last().copied().unwrap_or(0.0) - t_s.first().copied().unwrap_or(0.0);
-    let mut dts: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    let grid_dt_s = dts
-        .get(dts.len() / 2)
-        .copied()
-        .unwrap_or(0.0)
-        .max(span / (MAX_POINTS - 1) as f64);
+    let grid_dt_s = grid_step_s(t_s);
     Bands {
         slow_pct: 100.0 * slow / total,
         mid_pct: 100.0 * mid / total,

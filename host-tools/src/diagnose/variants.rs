@@ -294,9 +294,9 @@ fn signal_variants<'a>(
 /// Whether channel `src` may track a chiller for explaining `ch`: a
 /// temperature always; a displacement only for a temperature (two
 /// displacements may share probes, hence noise).
-fn tracks(ch: &super::align::Channel, src: &super::align::Channel) -> bool {
-    crate::data::runfile::is_temperature_column(&src.name)
-        || (src.is_displacement() && !ch.is_displacement())
+fn tracks(ch: &super::align::Channel, src: &str) -> bool {
+    crate::data::runfile::is_temperature_column(src)
+        || (super::align::is_displacement(src) && !ch.is_displacement())
 }
 
 /// Channels other than the one explained ([`tracks`]) whose residual,
@@ -311,26 +311,31 @@ fn chiller_sources(p: &Problem) -> Vec<(String, Vec<f64>)> {
     // The level of every candidate source depends on the source and the
     // fit rows only: computed once per channel and fold, and the band-passed
     // component again for the (at most two) sources kept.
-    let mut found: Vec<(f64, &super::align::Channel)> = al
-        .channels
-        .iter()
-        .filter(|c| c.name != p.ch.name && tracks(p.ch, c))
-        .filter_map(|c| {
-            let key = format!("chiller snr {} {}..{}", c.name, rows.start, rows.end);
+    // A source channel is loaded only to compute its level (once) or its
+    // component.
+    let mut found: Vec<(f64, usize)> = (0..al.channels.len())
+        .filter(|&i| al.channels.name(i) != p.ch.name && tracks(p.ch, al.channels.name(i)))
+        .filter_map(|i| {
+            let name = al.channels.name(i);
+            let key = format!("chiller snr {name} {}..{}", rows.start, rows.end);
             let snr = *al
                 .memo
                 .get_or(&key, || {
-                    chiller_component(al, c, &rows).map_or_else(Vec::new, |(snr, _)| vec![snr])
+                    chiller_component(al, &al.channels.load(i), &rows)
+                        .map_or_else(Vec::new, |(snr, _)| vec![snr])
                 })
                 .first()?;
-            (snr >= MIN_TRACK_SNR).then_some((snr, c))
+            (snr >= MIN_TRACK_SNR).then_some((snr, i))
         })
         .collect();
     found.sort_by(|a, b| b.0.total_cmp(&a.0));
     found
         .into_iter()
         .take(MAX_TRACK_SOURCES)
-        .filter_map(|(_, c)| Some((c.name.clone(), chiller_component(al, c, &rows)?.1)))
+        .filter_map(|(_, i)| {
+            let c = al.channels.load(i);
+            Some((c.name.clone(), chiller_component(al, &c, &rows)?.1))
+        })
         .collect()
 }
 

@@ -226,8 +226,8 @@ pub fn noise_sigma(x: &[f64]) -> f64 {
         return 0.0;
     }
     let mut d: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2] / 0.6745 / std::f64::consts::SQRT_2
+    let k = d.len() / 2;
+    crate::num::stats::kth_smallest(&mut d, k) / 0.6745 / std::f64::consts::SQRT_2
 }
 
 #[cfg(test)]

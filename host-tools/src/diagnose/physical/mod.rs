@@ -413,7 +413,7 @@ fn to_json(
     effects.sort_by(|a, b| a.0.total_cmp(&b.0));
     let sim_gap: Map<String, Value> = al
         .channels
-        .iter()
+        .each()
         .filter(|c| recal.channels.iter().any(|r| r.name == c.name))
         .map(|c| (c.name.clone(), json!(round(lsq::rms(&c.resid[n_fit..])))))
         .collect();
