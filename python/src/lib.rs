@@ -7,9 +7,9 @@
 
 use anyhow::{anyhow, bail, Result};
 use clap::ValueEnum;
+use host_tools::cli::fit::options_from_pairs;
 use host_tools::data::dataset::InputForm;
 use host_tools::data::runfile::{ReadOptions, RunFile};
-use host_tools::cli::fit::options_from_pairs;
 use host_tools::fit::{FitKind, FitParams};
 use host_tools::runner::ColumnMap;
 use model_core::ValidModel;
@@ -49,12 +49,15 @@ fn f64s(bytes: &[u8], what: &str) -> Result<Vec<f64>> {
         .collect())
 }
 
-/// A run: a CSV path (read as the CLI reads it), or
-/// `(name, t_s bytes, [(column, bytes or None)])`.
-fn run_from(obj: &Bound<'_, PyAny>) -> Result<RunFile> {
-    if obj.is_instance_of::<PyString>() {
-        let path: PathBuf = obj.extract().map_err(|e| anyhow!("{e}"))?;
-        return Ok(RunFile::read(&path, &ReadOptions::default())?);
+/// A run: a CSV path (read as the CLI reads it: every column, or `only`
+/// these), or `(name, t_s bytes, [(column, bytes or None)])`.
+fn run_from(obj: &Bound<'_, PyAny>, only: Option<&[String]>) -> Result<RunFile> {
+    if let Some(path) = csv_path(obj)? {
+        let opts = ReadOptions {
+            only: only.map(<[String]>::to_vec),
+            ..ReadOptions::default()
+        };
+        return Ok(RunFile::read(&path, &opts)?);
     }
     type Memory<'py> = (
         String,
@@ -75,8 +78,16 @@ fn run_from(obj: &Bound<'_, PyAny>) -> Result<RunFile> {
     Ok(RunFile::from_columns(&name, t_s, columns)?)
 }
 
-fn runs_from(list: &[Bound<'_, PyAny>]) -> Result<Vec<RunFile>> {
-    list.iter().map(run_from).collect()
+/// The path of a run given as a CSV path.
+fn csv_path(obj: &Bound<'_, PyAny>) -> Result<Option<PathBuf>> {
+    if !obj.is_instance_of::<PyString>() {
+        return Ok(None);
+    }
+    obj.extract().map(Some).map_err(|e| anyhow!("{e}"))
+}
+
+fn runs_from(list: &[Bound<'_, PyAny>], only: Option<&[String]>) -> Result<Vec<RunFile>> {
+    list.iter().map(|r| run_from(r, only)).collect()
 }
 
 /// A validated model from blob bytes.
@@ -139,7 +150,14 @@ fn fit<'py>(
             options: options_from_pairs(&options)?,
         };
         let valid = params.check()?;
-        let (runs, validate) = (runs_from(&runs)?, runs_from(&validate)?);
+        // CSV paths: only the columns the fit reads, as the CLI does (the
+        // default inputs from the first run's header when it is a path).
+        let only = match runs.first().map(csv_path).transpose()?.flatten() {
+            Some(first) => Some(valid.columns_read(&first)?),
+            None => None,
+        };
+        let only = only.as_deref();
+        let (runs, validate) = (runs_from(&runs, only)?, runs_from(&validate, only)?);
         let o = host_tools::fit::fit(&valid, &runs, &validate)?;
         let json = serde_json::to_value(&o.report)?.to_string();
         Ok((o.bytes, json))
@@ -178,9 +196,9 @@ fn save(blob: Vec<u8>, path: PathBuf) -> PyResult<()> {
 fn predict(blob: Vec<u8>, run: Bound<'_, PyAny>, interval: bool) -> PyResult<(Vec<f64>, Columns)> {
     let job = || -> Result<(Vec<f64>, Columns)> {
         let model = model_from(&blob)?;
-        let run = run_from(&run)?;
-        let table =
-            host_tools::predict::predict_run(&model, &run, &ColumnMap::default(), interval)?;
+        let map = ColumnMap::default();
+        let run = run_from(&run, Some(&map.model_columns(&model, false)))?;
+        let table = host_tools::predict::predict_run(&model, &run, &map, interval)?;
         for note in &table.notes {
             eprintln!("note: {}: {note}", run.path.display());
         }
@@ -194,8 +212,9 @@ fn predict(blob: Vec<u8>, run: Bound<'_, PyAny>, interval: bool) -> PyResult<(Ve
 fn evaluate(blob: Vec<u8>, runs: Vec<Bound<'_, PyAny>>) -> PyResult<String> {
     let job = || -> Result<String> {
         let model = model_from(&blob)?;
-        let runs = runs_from(&runs)?;
-        let out = host_tools::eval::evaluate(&model, &runs, &ColumnMap::default())?;
+        let map = ColumnMap::default();
+        let runs = runs_from(&runs, Some(&map.model_columns(&model, true)))?;
+        let out = host_tools::eval::evaluate(&model, &runs, &map)?;
         Ok(serde_json::to_value(&out)?.to_string())
     };
     job().map_err(py_err)
@@ -210,7 +229,7 @@ fn select(runs: Vec<Bound<'_, PyAny>>, options: Vec<(String, String)>) -> PyResu
         let args: host_tools::cli::select::SelectArgs =
             host_tools::cli::pairs::args_from_pairs("select", &pairs)?;
         let params = args.params().check()?;
-        let runs = runs_from(&runs)?;
+        let runs = runs_from(&runs, None)?;
         let out = host_tools::select::select(&params, &runs)?;
         Ok(serde_json::to_value(&out)?.to_string())
     };
@@ -258,7 +277,7 @@ fn diagnose(
             .as_deref()
             .map(host_tools::diagnose::physical::Twin::load)
             .transpose()?;
-        let (sim, real) = (run_from(&sim)?, run_from(&real)?);
+        let (sim, real) = (run_from(&sim, None)?, run_from(&real, None)?);
         let v =
             host_tools::diagnose::diagnose_runs(&sim, &real, holdout_from_s, None, twin.as_ref())?;
         Ok(v.to_string())

@@ -6,7 +6,7 @@
 
 use crate::data::dataset::InputForm;
 use crate::data::fsio;
-use crate::data::runfile::{ReadOptions, RunFile};
+use crate::data::runfile::ReadOptions;
 use crate::fit::arma::{yule_walker, ArmaOptions};
 use crate::fit::auto::AutoOptions;
 use crate::fit::bp::{BpOptions, HiddenActivation};
@@ -386,21 +386,10 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
     let first = a.data.first().ok_or_else(|| anyhow!("no --data"))?;
     check_paths(a)?;
     let params = a.params().check()?;
-    // Read only the columns the fit uses; the inputs default needs the header first.
-    let header_only = ReadOptions {
-        skip_bad_rows: true,
-        only: Some(Vec::new()),
-    };
-    let inputs = if a.inputs.is_empty() && a.model != FitKind::Arma {
-        let header = RunFile::read(first, &header_only)?;
-        params.inputs_for(&header.columns, &first.display().to_string())?
-    } else {
-        params.inputs_for(&[], "")?
-    };
-    let needed: Vec<String> = inputs.iter().chain(&a.target).cloned().collect();
+    // Read only the columns the fit uses.
     let opts = ReadOptions {
         skip_bad_rows: a.skip_bad_rows,
-        only: Some(needed),
+        only: Some(params.columns_read(first)?),
     };
     let runs = crate::data::source::read_runs(&a.data, &opts)?;
     let validate = crate::data::source::read_runs(&a.validate, &opts)?;

@@ -5,7 +5,7 @@
 
 use super::{arma, arx, auto, bp, gain, mlr, pcr, tfbank, FitKind, Fitted, AUTO_EXTRA_INPUTS};
 use crate::data::dataset::{Dataset, InputForm};
-use crate::data::runfile::RunFile;
+use crate::data::runfile::{ReadOptions, RunFile};
 use crate::eval::MetricsReport;
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
@@ -105,6 +105,24 @@ impl ValidFitParams {
     /// The checked parameters.
     pub fn params(&self) -> &FitParams {
         &self.params
+    }
+
+    /// The columns a fit reads from run files (inputs, then targets);
+    /// `first`, the first calibration run's file, is read for its header
+    /// only when the default inputs depend on it.
+    pub fn columns_read(&self, first: &std::path::Path) -> Result<Vec<String>> {
+        let p = &self.params;
+        let inputs = if p.inputs.is_empty() && p.kind != FitKind::Arma {
+            let header_only = ReadOptions {
+                skip_bad_rows: true,
+                only: Some(Vec::new()),
+            };
+            let header = RunFile::read(first, &header_only)?;
+            self.inputs_for(&header.columns, &first.display().to_string())?
+        } else {
+            self.inputs_for(&[], "")?
+        };
+        Ok(inputs.iter().chain(&p.targets).cloned().collect())
     }
 
     /// The inputs a fit on runs with `columns` reads (`source` names the
