@@ -75,6 +75,20 @@ pub struct Prediction {
     pub notes: Vec<String>,
 }
 
+/// The error of a run without the column model input `name` is read from
+/// (`col`, which a `--map` may have renamed), listing the run's columns.
+pub fn missing_input(file: &str, name: &str, col: &str, columns: &[String]) -> anyhow::Error {
+    let via = if col == name {
+        String::new()
+    } else {
+        format!(" (mapped to \"{col}\")")
+    };
+    anyhow::anyhow!(
+        "{file}: the model needs input \"{name}\"{via} but the run has no such column (columns: {})",
+        columns.join(", ")
+    )
+}
+
 /// The input columns of `model` in `run`, in channel order.
 fn input_columns<'r>(
     model: &ValidModel,
@@ -87,17 +101,7 @@ fn input_columns<'r>(
         .map(|ch| {
             let col = map.column(&ch.name);
             run.column(col).ok_or_else(|| {
-                let via = if col == ch.name.as_str() {
-                    String::new()
-                } else {
-                    format!(" (mapped to \"{col}\")")
-                };
-                anyhow::anyhow!(
-                    "{}: the model needs input \"{}\"{via} but the run has no such column (columns: {})",
-                    run.path.display(),
-                    ch.name,
-                    run.columns.join(", ")
-                )
+                missing_input(&run.path.display().to_string(), &ch.name, col, &run.columns)
             })
         })
         .collect()

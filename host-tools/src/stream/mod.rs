@@ -19,7 +19,7 @@ mod regrid;
 use crate::data::runfile::{ReadOptions, RowError, RowStream, SkippedRow, StreamItem};
 use crate::fivepoint::TOOL_COLUMN;
 use crate::runner::{self, ColumnMap, RowStepper};
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use model_core::ValidModel;
 use std::fs::File;
 use std::path::Path;
@@ -238,17 +238,7 @@ fn input_indices<R>(
         .map(|ch| {
             let col = map.column(&ch.name);
             stream.index_of(col).ok_or_else(|| {
-                let via = if col == ch.name.as_str() {
-                    String::new()
-                } else {
-                    format!(" (mapped to \"{col}\")")
-                };
-                anyhow!(
-                    "{}: the model needs input \"{}\"{via} but the run has no such column (columns: {})",
-                    stream.file(),
-                    ch.name,
-                    stream.columns().join(", ")
-                )
+                runner::missing_input(stream.file(), &ch.name, col, stream.columns())
             })
         })
         .collect()
