@@ -300,59 +300,35 @@ fn early_model(dir: &Path, fit_args: &[&str]) -> PathBuf {
     blob
 }
 
+/// `refit --json` (with `extra` flags) of an early model fitted with
+/// `fit_args`, on the whole example run, against `fixture`.
+fn refit_pinned(fit_args: &[&str], extra: &[&str], fixture: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let old = early_model(dir.path(), fit_args);
+    let out = dir.path().join("new.bin");
+    let mut args = vec!["refit", "--json"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--model", p(&old), "--data", SPINDLE, "--out", p(&out)]);
+    pinned(&debug_bin(), &args, fixture);
+}
+
 /// `refit --json` of an early mlr model on the whole example run:
 /// changed, updated by RLS, the update kept. Fixtures refit_*.json were
 /// captured with the release binary of commit 1bb5791, before refit
 /// became a typed job.
 #[test]
 fn refit_rls_json_is_unchanged() {
-    let dir = tempfile::tempdir().unwrap();
-    let old = early_model(
-        dir.path(),
-        &["mlr", "--target", "dz_um,dx_um", "--inputs", "T1,T2,T3"],
-    );
-    let out = dir.path().join("new.bin");
-    pinned(
-        &debug_bin(),
-        &[
-            "refit",
-            "--json",
-            "--model",
-            p(&old),
-            "--data",
-            SPINDLE,
-            "--out",
-            p(&out),
-        ],
-        "refit_rls.json",
-    );
+    let mlr = ["mlr", "--target", "dz_um,dx_um", "--inputs", "T1,T2,T3"];
+    refit_pinned(&mlr, &[], "refit_rls.json");
 }
 
 /// See [`refit_rls_json_is_unchanged`]: `--method window`.
 #[test]
 fn refit_window_json_is_unchanged() {
-    let dir = tempfile::tempdir().unwrap();
-    let old = early_model(
-        dir.path(),
-        &["mlr", "--target", "dz_um,dx_um", "--inputs", "T1,T2,T3"],
-    );
-    let out = dir.path().join("new.bin");
-    pinned(
-        &debug_bin(),
-        &[
-            "refit",
-            "--json",
-            "--method",
-            "window",
-            "--window-h",
-            "6",
-            "--model",
-            p(&old),
-            "--data",
-            SPINDLE,
-            "--out",
-            p(&out),
-        ],
+    let mlr = ["mlr", "--target", "dz_um,dx_um", "--inputs", "T1,T2,T3"];
+    refit_pinned(
+        &mlr,
+        &["--method", "window", "--window-h", "6"],
         "refit_window.json",
     );
 }
@@ -360,26 +336,8 @@ fn refit_window_json_is_unchanged() {
 /// See [`refit_rls_json_is_unchanged`]: a TF bank (least-squares entry gains).
 #[test]
 fn refit_tf_json_is_unchanged() {
-    let dir = tempfile::tempdir().unwrap();
-    let old = early_model(
-        dir.path(),
-        &[
-            "tf", "--target", "dz_um", "--inputs", "T1,T2", "--na", "1", "--nb", "1", "--nk", "0",
-        ],
-    );
-    let out = dir.path().join("new.bin");
-    pinned(
-        &debug_bin(),
-        &[
-            "refit",
-            "--json",
-            "--model",
-            p(&old),
-            "--data",
-            SPINDLE,
-            "--out",
-            p(&out),
-        ],
-        "refit_tf.json",
-    );
+    let tf = [
+        "tf", "--target", "dz_um", "--inputs", "T1,T2", "--na", "1", "--nb", "1", "--nk", "0",
+    ];
+    refit_pinned(&tf, &[], "refit_tf.json");
 }
