@@ -5,6 +5,27 @@
 use super::tsqr::Tsqr;
 use nalgebra::{DMatrix, DVector};
 
+/// The coefficients, one per column (0 for a dead one), from the
+/// triangle `R` and `Q^T b` of the scaled live columns: an SVD of the
+/// small `R` solved with a rank tolerance of 1e-10 of its largest singular
+/// value, then each solution unscaled (`coef_j = x_k / scale_j`). The
+/// dense and the streamed fit end here alike.
+fn solve_triangle(
+    r: DMatrix<f64>,
+    qtb: DVector<f64>,
+    live: &[usize],
+    scales: &[f64],
+) -> Option<Vec<f64>> {
+    let svd = crate::num::linalg::svd(r).ok()?;
+    let smax = svd.singular_values.max();
+    let x = svd.solve(&qtb, smax * 1e-10).ok()?;
+    let mut coef = vec![0.0; scales.len()];
+    for (k, &j) in live.iter().enumerate() {
+        coef[j] = x[k] / scales[j];
+    }
+    Some(coef)
+}
+
 /// Each column's rms over `rows` (its scale) and the columns worth
 /// solving for: a finite scale above 1e-12 (a column that is zero or not
 /// finite there carries nothing).
@@ -117,15 +138,7 @@ pub fn fit_rows_penalised(
     let qr = a.qr();
     qr.q_tr_mul(&mut b);
     let k = live.len();
-    let r = qr.r();
-    let qtb = b.rows(0, k).into_owned();
-    let svd = crate::num::linalg::svd(r).ok()?;
-    let smax = svd.singular_values.max();
-    let x = svd.solve(&qtb, smax * 1e-10).ok()?;
-    let mut coef = vec![0.0; cols.len()];
-    for (k, &j) in live.iter().enumerate() {
-        coef[j] = x[k] / scales[j];
-    }
+    let coef = solve_triangle(qr.r(), b.rows(0, k).into_owned(), &live, &scales)?;
     let pred: Vec<f64> = (0..n)
         .map(|i| cols.iter().zip(&coef).map(|(c, w)| c[i] * w).sum())
         .collect();
@@ -188,13 +201,7 @@ pub fn fit_streamed(
         }
     }
     let (r, qtb) = qr.triangle()?;
-    let svd = crate::num::linalg::svd(r).ok()?;
-    let smax = svd.singular_values.max();
-    let x = svd.solve(&qtb, smax * 1e-10).ok()?;
-    let mut coef = vec![0.0; cols.len()];
-    for (k, &j) in live.iter().enumerate() {
-        coef[j] = x[k] / scales[j];
-    }
+    let coef = solve_triangle(r, qtb, &live, &scales)?;
     let mut pred = fixed.map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
     for (c, w) in cols.iter().zip(&coef) {
         for (q, v) in pred.iter_mut().zip(*c) {
