@@ -831,6 +831,23 @@ mod tests {
         (hottest, largest, taus[0], taus[taus.len() - 1])
     }
 
+    /// Plant `id` on the zoo's common scale at top speed (hottest sensor
+    /// 15-25 K, largest axis 30-60 um), its fastest time constant 20-200 s
+    /// and its slowest in `slow_h` hours.
+    fn assert_zoo_scale(id: &str, slow_h: std::ops::RangeInclusive<f64>) {
+        let (hottest, largest, slow, fast) = scale_of(&plant(id).unwrap());
+        assert!(
+            (15.0..=25.0).contains(&hottest),
+            "{id}: hottest sensor {hottest} K"
+        );
+        assert!(
+            (30.0..=60.0).contains(&largest),
+            "{id}: largest axis {largest} um"
+        );
+        assert!((20.0..=200.0).contains(&fast), "{id}: fastest {fast} s");
+        assert!(slow_h.contains(&(slow / 3600.0)), "{id}: slowest {slow} s");
+    }
+
     #[test]
     fn turning_centre_rises_and_time_constants_lie_in_their_documented_ranges() {
         // docs/gap-benchmark.md, plants table: at top speed the hottest
@@ -839,20 +856,7 @@ mod tests {
         // relative size on every plant). Network time constants: about a
         // minute (the bearings) to ~3.7 h, the bed; the thermosiphon makes
         // the bed faster than the 6-11 h of the other plants' foundations.
-        let (hottest, largest, slow, fast) = scale_of(&plant("f").unwrap());
-        assert!(
-            (15.0..=25.0).contains(&hottest),
-            "hottest sensor {hottest} K"
-        );
-        assert!(
-            (30.0..=60.0).contains(&largest),
-            "largest axis {largest} um"
-        );
-        assert!((20.0..=200.0).contains(&fast), "fastest {fast} s");
-        assert!(
-            (2.0 * 3600.0..=6.0 * 3600.0).contains(&slow),
-            "slowest {slow} s"
-        );
+        assert_zoo_scale("f", 2.0..=6.0);
     }
 
     #[test]
@@ -861,20 +865,7 @@ mod tests {
         // on the largest axis at top speed); time constants from the
         // bearings' ~1 min to the bed's casting, 6-14 h as the other
         // plants' foundations (f's thermosiphon bed aside).
-        let (hottest, largest, slow, fast) = scale_of(&plant("g").unwrap());
-        assert!(
-            (15.0..=25.0).contains(&hottest),
-            "hottest sensor {hottest} K"
-        );
-        assert!(
-            (30.0..=60.0).contains(&largest),
-            "largest axis {largest} um"
-        );
-        assert!((20.0..=200.0).contains(&fast), "fastest {fast} s");
-        assert!(
-            (6.0 * 3600.0..=14.0 * 3600.0).contains(&slow),
-            "slowest {slow} s"
-        );
+        assert_zoo_scale("g", 6.0..=14.0);
     }
 
     #[test]
@@ -924,20 +915,7 @@ mod tests {
         // on the largest axis at top speed); time constants from the quill
         // nose's ~1 min to the foundation's, 6-14 h as the other plants'
         // foundations (f's thermosiphon bed aside).
-        let (hottest, largest, slow, fast) = scale_of(&plant("h").unwrap());
-        assert!(
-            (15.0..=25.0).contains(&hottest),
-            "hottest sensor {hottest} K"
-        );
-        assert!(
-            (30.0..=60.0).contains(&largest),
-            "largest axis {largest} um"
-        );
-        assert!((20.0..=200.0).contains(&fast), "fastest {fast} s");
-        assert!(
-            (6.0 * 3600.0..=14.0 * 3600.0).contains(&slow),
-            "slowest {slow} s"
-        );
+        assert_zoo_scale("h", 6.0..=14.0);
     }
 
     #[test]
