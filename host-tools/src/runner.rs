@@ -334,17 +334,12 @@ impl ModelGrid {
         self.dt
     }
 
-    /// Points, the extra step included.
-    pub fn len(&self) -> usize {
+    /// Points, the extra step included (at least one: a run has a row).
+    pub fn points(&self) -> usize {
         self.whole + usize::from(self.extra)
     }
 
-    /// Whether the grid has no point (never: a run has a first row).
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Point `k` (`k < len`).
+    /// Point `k` (`k < points`).
     pub fn point(&self, k: usize) -> f64 {
         let t = self.t0 + k as f64 * self.dt;
         if k < self.whole {
@@ -428,7 +423,7 @@ fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result
             let tail = run.t_s.iter().filter(|&&t| t > last).count();
             notes.push(grid.extra_step_note(tail));
         }
-        (0..grid.len()).map(|k| grid.point(k)).collect()
+        (0..grid.points()).map(|k| grid.point(k)).collect()
     };
     // The times at which the inputs are read for each grid point: the grid
     // itself, except a point past the run's end, which reads the inputs at

@@ -263,7 +263,7 @@ impl<'m> Regrid<'m> {
     /// The model's grid: each point whose inputs are known, stepped, its
     /// outputs and bands into the output tracks.
     fn step_grid(&mut self, grid: ModelGrid) {
-        while self.stepped < grid.len() && self.inputs_at(grid.input_time(self.stepped)) {
+        while self.stepped < grid.points() && self.inputs_at(grid.input_time(self.stepped)) {
             let t = grid.point(self.stepped);
             self.stepper
                 .step(self.x.iter().copied(), &mut self.values, &mut self.bands);
@@ -273,7 +273,7 @@ impl<'m> Regrid<'m> {
             }
             self.stepped += 1;
         }
-        if self.stepped == grid.len() {
+        if self.stepped == grid.points() {
             self.outputs.iter_mut().for_each(|t| t.ended = true);
         }
     }
