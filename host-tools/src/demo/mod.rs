@@ -810,7 +810,7 @@ fn diagnose_call(
     real: &Path,
     holdout_from_s: Option<f64>,
     report: Option<&Path>,
-) -> Result<serde_json::Value> {
+) -> Result<crate::diagnose::outcome::Diagnosis> {
     crate::diagnose::diagnose_files(sim, real, holdout_from_s, report)
 }
 
