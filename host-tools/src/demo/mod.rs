@@ -1013,6 +1013,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "cli")]
     fn the_reported_flags_are_the_budgets_set() {
         for quick in [true, false] {
             let budget = Budget::new(quick);
