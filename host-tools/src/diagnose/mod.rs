@@ -278,7 +278,7 @@ pub fn diagnose_aligned(
             physical::diagnose(m, real_path, &al, (n_fit, holdout), channel)
         })
         .transpose()?;
-    d.physical = physical.as_ref().map(|p| p.json.clone());
+    d.physical = physical.as_ref().map(|p| p.outcome.clone());
     if let Some(dir) = report {
         let extra = physical.as_ref().map_or("", |p| p.html.as_str());
         write_report(dir, (&p, look), &d, extra)?;

@@ -34,10 +34,10 @@ pub struct Diagnosis {
     pub main_channel: String,
     /// The main channel's gap rms over its noise.
     pub main_gap_snr: f64,
-    /// With the twin's machine file: the physical diagnosis (its own
-    /// object, [`super::physical`]); absent from the JSON without it.
+    /// With the twin's machine file: the physical diagnosis
+    /// ([`super::physical`]); absent from the JSON without it.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub physical: Option<Value>,
+    pub physical: Option<Physical>,
     /// The verdict rule in words.
     pub rule: String,
     /// A second effect claimed with the verdict (a joint pair's other
@@ -115,7 +115,7 @@ pub struct Effect {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pair: Option<String>,
     /// Its parameters: nonlinear ones, labels and gains.
-    pub params: BTreeMap<String, Param>,
+    pub params: Params,
     /// Held-out rms over the baseline's.
     pub ratio_to_none: f64,
     /// Held-out rms after subtracting its prediction.
@@ -137,15 +137,25 @@ pub enum Param {
     Number(f64),
     /// A label (an input's name, ...).
     Label(String),
+    /// Numbers by name (a time constant per sensor, ...).
+    Table(BTreeMap<String, f64>),
 }
 
+/// Parameters by name.
+pub type Params = BTreeMap<String, Param>;
+
 impl Param {
-    /// The parameter a candidate's JSON value holds (a number or a string;
-    /// anything else as a number that is not finite, printed `null`).
+    /// The parameter a candidate's JSON value holds (a number, a string or
+    /// an object of numbers; anything else as a number that is not finite,
+    /// printed `null`).
     pub fn of(v: &Value) -> Param {
+        let number = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
         match v {
             Value::String(s) => Param::Label(s.clone()),
-            v => Param::Number(v.as_f64().unwrap_or(f64::NAN)),
+            Value::Object(m) => {
+                Param::Table(m.iter().map(|(k, v)| (k.clone(), number(v))).collect())
+            }
+            v => Param::Number(number(v)),
         }
     }
 
@@ -153,7 +163,7 @@ impl Param {
     pub fn as_f64(&self) -> Option<f64> {
         match self {
             Param::Number(x) => Some(*x),
-            Param::Label(_) => None,
+            Param::Label(_) | Param::Table(_) => None,
         }
     }
 }
@@ -281,6 +291,79 @@ impl Trained {
             Trained::Failed { .. } => None,
         }
     }
+}
+
+/// The physical diagnosis ([`super::physical`]): the twin recalibrated on
+/// the fit part, then each effect switched on in it and refitted; held-out
+/// rms on `channel`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Physical {
+    /// The effect whose twin leaves the smallest held-out rms (a
+    /// description, not a verdict).
+    pub best: Option<String>,
+    /// The channel the shrink is reported on.
+    pub channel: Option<String>,
+    /// Each effect, smallest held-out rms first.
+    pub effects: Vec<PhysicalEffect>,
+    /// Held-out rms per channel of the recalibrated twin (`None` where it
+    /// has no hold-out figure).
+    pub gap_after_recalibration: BTreeMap<String, Option<f64>>,
+    /// Held-out rms per channel of the sim as given.
+    pub gap_of_sim: BTreeMap<String, f64>,
+    /// The recalibrated twin's held-out rms on `channel` over the noise.
+    pub gap_snr: f64,
+    /// The machine file, as given.
+    pub machine: String,
+    /// The method in words.
+    pub method: String,
+    /// The noise on `channel` (of the whitest held-out residual).
+    pub noise_sigma: f64,
+    /// The machine's factors refitted on the fit part.
+    pub recalibrated: TwinFit,
+    /// Wall time, s.
+    pub seconds: f64,
+    /// Twin simulations run in all.
+    pub simulations: usize,
+}
+
+/// One effect switched on in the twin and refitted (or why not).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhysicalEffect {
+    /// Held-out rms per channel of the twin with the effect (`None` if it
+    /// was not fitted).
+    pub held_out_rms: Option<BTreeMap<String, Option<f64>>>,
+    /// The effect's form in words, or why it was not fitted.
+    pub model: String,
+    /// The vocabulary name.
+    pub name: String,
+    /// The effect's fitted parameters.
+    pub params: Params,
+    /// Held-out rms on `channel` of the twin with the effect.
+    pub rms_after: f64,
+    /// ... of the recalibrated twin.
+    pub rms_before: f64,
+    /// `100 (1 - after / before)`.
+    pub shrink_pct: f64,
+    /// The machine's factors refitted with the effect (`None` if not fitted).
+    pub twin: Option<TwinFit>,
+}
+
+/// The machine's refitted factors (relative to the machine file) and how
+/// the fit went.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TwinFit {
+    /// Exponent of the bearing loss in speed.
+    pub bearing_exponent: f64,
+    /// Factor on every node's heat capacity.
+    pub capacity_factor: f64,
+    /// Whether the fit converged.
+    pub converged: bool,
+    /// Factor on every conductance to the room air.
+    pub g_ambient_factor: f64,
+    /// Factor on every heat source.
+    pub heat_factor: f64,
+    /// Simulations the fit ran.
+    pub simulations: usize,
 }
 
 /// `x` if it is finite (a figure the JSON prints as a number).
