@@ -1,7 +1,10 @@
 //! `thermcomp`'s library: the spec reader, run-file reader, runner and
 //! subcommands, kept apart from `main` so tests can call them directly.
+//! The command line ([`cli`]: clap, text tables, printing) is the default
+//! feature `cli`; without it the typed jobs alone build, without clap.
 
 pub mod bench;
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod data;
 pub mod demo;

@@ -91,7 +91,14 @@ fn runs(dir: &Path, effects: &str, seed: u64, drop_boundaries: bool) -> (PathBuf
 fn diagnose(effects: &str, seed: u64, drop_boundaries: bool) -> Value {
     let dir = tempfile::tempdir().unwrap();
     let (sim, real) = runs(dir.path(), effects, seed, drop_boundaries);
-    diagnose_files(&sim, &real, None, None).unwrap_or_else(|e| panic!("{e:#}"))
+    diagnosed(&sim, &real)
+}
+
+/// The library's diagnosis of a pair of files as the JSON object the CLI
+/// prints (the contract these tests check).
+fn diagnosed(sim: &Path, real: &Path) -> Value {
+    let d = diagnose_files(sim, real, None, None).unwrap_or_else(|e| panic!("{e:#}"));
+    serde_json::to_value(d).unwrap()
 }
 
 fn effect<'a>(v: &'a Value, name: &str) -> &'a Value {
@@ -203,7 +210,7 @@ fn a_chiller_whose_period_drifts_with_load_is_found_as_coolant() {
         assert!(hi > 1.3 * lo, "the period drifts: {lo} .. {hi} s");
         let dir = tempfile::tempdir().unwrap();
         let (sim, real) = cases::write_case(&case, dir.path()).unwrap();
-        let v = diagnose_files(&sim, &real, None, None).unwrap();
+        let v = diagnosed(&sim, &real);
         assert_eq!(
             v["verdict"], "coolant",
             "seed {seed}, logged {logged}: {v:#}"
@@ -326,7 +333,7 @@ fn a_ten_percent_mismatch_alone_is_no_effect() {
         };
         let dir = tempfile::tempdir().unwrap();
         let (sim, real) = write_case(&case, &nominal, dir.path()).unwrap();
-        let v = diagnose_files(&sim, &real, None, None).unwrap();
+        let v = diagnosed(&sim, &real);
         assert_eq!(v["verdict"], "none", "seed {seed}: {v:#}");
     }
 }
@@ -417,7 +424,7 @@ fn json_and_report_follow_the_contract() {
     );
 
     // The same object as the library entry the demo uses.
-    let lib = diagnose_files(&sim, &real, None, None).unwrap();
+    let lib = diagnosed(&sim, &real);
     assert_eq!(lib, v);
 
     // The hold-out time is the user's when given; the text table names the verdict.

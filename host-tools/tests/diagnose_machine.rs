@@ -94,8 +94,9 @@ fn runs(dir: &Path, effects: &str, seed: u64) -> (PathBuf, PathBuf, PathBuf) {
 fn diagnose(effects: &str, seed: u64) -> Value {
     let dir = tempfile::tempdir().unwrap();
     let (sim, real, machine) = runs(dir.path(), effects, seed);
-    diagnose_with_machine(&sim, &real, None, None, Some(&machine))
-        .unwrap_or_else(|e| panic!("{e:#}"))
+    let d = diagnose_with_machine(&sim, &real, None, None, Some(&machine))
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    serde_json::to_value(d).unwrap()
 }
 
 fn num(v: &Value) -> f64 {

@@ -280,7 +280,7 @@ fn diagnose(
         let (sim, real) = (run_from(&sim, None)?, run_from(&real, None)?);
         let v =
             host_tools::diagnose::diagnose_runs(&sim, &real, holdout_from_s, None, twin.as_ref())?;
-        Ok(v.to_string())
+        Ok(serde_json::to_string(&v)?)
     };
     job().map_err(py_err)
 }

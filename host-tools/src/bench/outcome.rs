@@ -4,6 +4,7 @@
 
 use super::cases::Case;
 use crate::diagnose::candidates::round;
+use crate::diagnose::outcome::{self, finite, LookFigures};
 use anyhow::{Context, Result};
 use rayon::prelude::*;
 use serde_json::{json, Value};
@@ -37,8 +38,8 @@ pub struct Diagnosis {
     pub deploy_sim_effect_um: Option<f64>,
     /// Confidence of the true cause's candidate (`None` for `none`).
     pub true_confidence: Option<f64>,
-    /// The diagnosis's looks (channel, candidates' figures; JSON `looks`).
-    pub looks: Value,
+    /// The diagnosis's looks (channel, candidates' figures).
+    pub looks: Vec<LookFigures>,
     /// Wall time of the case (both runs and the diagnosis), s.
     pub elapsed_s: f64,
 }
@@ -52,45 +53,54 @@ pub struct Outcome<C> {
     pub diag: Diagnosis,
 }
 
-/// A field of the candidate `name` in a diagnosis.
-fn effect_field(v: &Value, name: &str, field: &str) -> Option<f64> {
-    v["effects"]
-        .as_array()?
+/// A figure of the candidate `name` in a diagnosis, if it is there and
+/// finite.
+fn effect_field(
+    d: &outcome::Diagnosis,
+    name: &str,
+    field: impl Fn(&outcome::Effect) -> Option<f64>,
+) -> Option<f64> {
+    d.effects
         .iter()
-        .find(|e| e["name"] == name)?[field]
-        .as_f64()
+        .find(|e| e.name == name)
+        .and_then(field)
+        .and_then(finite)
 }
 
 impl Diagnosis {
-    /// Reads the figures out of a diagnosis JSON for a case of cause `truth`.
-    pub fn of_json(truth: &str, v: &Value, elapsed_s: f64) -> Diagnosis {
-        let verdict = v["verdict"].as_str().unwrap_or("none").to_string();
-        let best = v["effects"]
-            .as_array()
-            .and_then(|a| a.iter().find(|e| e["name"] != "none"))
-            .and_then(|e| e["name"].as_str())
-            .unwrap_or("none")
+    /// Reads the figures out of a diagnosis for a case of cause `truth`.
+    pub fn of(truth: &str, d: &outcome::Diagnosis, elapsed_s: f64) -> Diagnosis {
+        let best = d
+            .effects
+            .iter()
+            .find(|e| e.name != "none")
+            .map_or("none", |e| e.name.as_str())
             .to_string();
-        let none_after = effect_field(v, "none", "rms_after").unwrap_or(f64::NAN);
-        let best_after = effect_field(v, &best, "rms_after").unwrap_or(f64::NAN);
-        let dep = &v["deployment"];
+        let shrink = |e: &outcome::Effect| Some(e.shrink_pct);
+        let after = |e: &outcome::Effect| Some(e.rms_after);
+        let none_after = effect_field(d, "none", after).unwrap_or(f64::NAN);
+        let best_after = effect_field(d, &best, after).unwrap_or(f64::NAN);
+        let truth_field = |field: &dyn Fn(&outcome::Effect) -> Option<f64>| {
+            (truth != "none")
+                .then(|| effect_field(d, truth, field))
+                .flatten()
+        };
+        let dep = d.deployment.comparison();
         Diagnosis {
             truth: truth.to_string(),
-            verdict_shrink_pct: effect_field(v, &verdict, "shrink_pct").unwrap_or(f64::NAN),
-            true_shrink_pct: (truth != "none")
-                .then(|| effect_field(v, truth, "shrink_pct"))
-                .flatten(),
-            true_confidence: (truth != "none")
-                .then(|| effect_field(v, truth, "confidence"))
-                .flatten(),
-            looks: v["looks"].clone(),
+            verdict_shrink_pct: effect_field(d, &d.verdict, shrink).unwrap_or(f64::NAN),
+            true_shrink_pct: truth_field(&shrink),
+            true_confidence: truth_field(&|e| e.confidence),
+            looks: d.looks.clone(),
             best_ratio_to_none: best_after / none_after,
             best,
-            second: v["second"]["name"].as_str().map(str::to_string),
-            main_channel: v["main_channel"].as_str().unwrap_or("?").to_string(),
-            deploy_sim_um: dep["trained_on_sim"]["rmse_um"].as_f64(),
-            deploy_sim_effect_um: dep["trained_on_sim_plus_effect"]["rmse_um"].as_f64(),
-            verdict,
+            second: d.second.as_ref().map(|s| s.name.clone()),
+            main_channel: d.main_channel.clone(),
+            deploy_sim_um: dep.and_then(|c| c.trained_on_sim.rmse_um()),
+            deploy_sim_effect_um: dep
+                .and_then(|c| c.trained_on_sim_plus_effect.as_ref())
+                .and_then(|t| t.rmse_um()),
+            verdict: d.verdict.clone(),
             elapsed_s,
         }
     }
@@ -160,7 +170,7 @@ pub fn diagnose_case<C>(
         // Best effort: a leftover temporary file is not worth failing for.
         let _ = std::fs::remove_dir_all(dir);
     }
-    let diag = Diagnosis::of_json(truth, &v, started.elapsed().as_secs_f64());
+    let diag = Diagnosis::of(truth, &v, started.elapsed().as_secs_f64());
     Ok(Outcome { case, diag })
 }
 

@@ -3,10 +3,10 @@
 //! short table or as JSON.
 
 use crate::data::fsio;
+use crate::diagnose::outcome::{finite, json_number, Diagnosis};
 use crate::diagnose::{diagnose_with_machine, physical};
 use anyhow::Result;
 use clap::Args;
-use serde_json::Value;
 use std::path::PathBuf;
 
 /// Arguments of `thermcomp diagnose`.
@@ -43,7 +43,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let mut reads = vec![fsio::named("--sim", &a.sim), fsio::named("--real", &a.real)];
     reads.extend(a.machine.as_deref().map(|m| fsio::named("--machine", m)));
     fsio::check_distinct(&reads, &writes)?;
-    let v = diagnose_with_machine(
+    let d = diagnose_with_machine(
         &a.sim,
         &a.real,
         a.holdout_from_s,
@@ -51,86 +51,108 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         a.machine.as_deref(),
     )?;
     if a.json {
-        fsio::print_line(&v.to_string())?;
+        fsio::print_line(&serde_json::to_string(&d)?)?;
     } else {
-        fsio::print(&(text_table(&v) + &physical::text(&v["physical"])))?;
+        let physical = d.physical.as_ref().map_or_else(String::new, physical::text);
+        fsio::print(&(text_table(&d) + &physical))?;
     }
     eprintln!("diagnose: {:.2} s", started.elapsed().as_secs_f64());
     Ok(())
 }
 
 /// The short text table printed without `--json`.
-fn text_table(v: &Value) -> String {
+fn text_table(d: &Diagnosis) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
-    let main = v["main_channel"].as_str().unwrap_or("?");
+    let main = d.main_channel.as_str();
+    let gap = d.gap.get(main);
     let _ = writeln!(
         s,
         "main channel {main}: gap rms {} max {} ; hold-out from t = {} s",
-        v["gap"][main]["rms"], v["gap"][main]["max_abs"], v["holdout_from_t_s"]
+        json_number(gap.map_or(f64::NAN, |g| g.rms)),
+        json_number(gap.map_or(f64::NAN, |g| g.max_abs)),
+        json_number(d.holdout_from_t_s)
     );
     let _ = writeln!(s, "\nwhere (share of residual energy):");
-    for w in v["where"].as_array().into_iter().flatten().take(6) {
+    for w in d.where_.iter().take(6) {
         let _ = writeln!(
             s,
-            "  {:>6} {:>8} .. {:>8} s  {:<28} {:>6.1} %",
-            w["channel"].as_str().unwrap_or(""),
-            w["from_t_s"],
-            w["to_t_s"],
-            w["regime"].as_str().unwrap_or(""),
-            w["share_pct"].as_f64().unwrap_or(0.0)
+            "  {:>6} {} .. {} s  {:<28} {:>6.1} %",
+            w.channel,
+            json_number(w.from_t_s),
+            json_number(w.to_t_s),
+            w.regime,
+            finite(w.share_pct).unwrap_or(0.0)
         );
     }
-    for b in v["bands"].as_array().into_iter().flatten() {
+    for b in &d.bands {
         let _ = writeln!(
             s,
             "  {} bands: slow (>2 h) {:.1} %, mid (10 min-2 h) {:.1} %, fast (<10 min) {:.1} %",
-            b["channel"].as_str().unwrap_or(""),
-            b["slow_pct"].as_f64().unwrap_or(0.0),
-            b["mid_pct"].as_f64().unwrap_or(0.0),
-            b["fast_pct"].as_f64().unwrap_or(0.0)
+            b.channel,
+            finite(b.slow_pct).unwrap_or(0.0),
+            finite(b.mid_pct).unwrap_or(0.0),
+            finite(b.fast_pct).unwrap_or(0.0)
         );
     }
+    effects_table(&mut s, d);
+    let _ = writeln!(s, "\nverdict: {}", d.verdict);
+    if let Some(sec) = &d.second {
+        let _ = writeln!(
+            s,
+            "second effect: {} (held-out rms {} after both)",
+            sec.name,
+            json_number(sec.rms_after)
+        );
+    }
+    deployment_line(&mut s, d);
+    s
+}
+
+/// The candidates' held-out figures, one line each.
+fn effects_table(s: &mut String, d: &Diagnosis) {
+    use std::fmt::Write as _;
     let _ = writeln!(
         s,
         "\n{:<12} {:>11} {:>10} {:>9} {:>11}",
         "candidate", "rms_before", "rms_after", "shrink %", "confidence"
     );
-    for e in v["effects"].as_array().into_iter().flatten() {
+    for e in &d.effects {
         let _ = writeln!(
             s,
             "{:<12} {:>11.3} {:>10.3} {:>9.1} {:>11}",
-            e["name"].as_str().unwrap_or(""),
-            e["rms_before"].as_f64().unwrap_or(0.0),
-            e["rms_after"].as_f64().unwrap_or(0.0),
-            e["shrink_pct"].as_f64().unwrap_or(0.0),
-            e["confidence"]
-                .as_f64()
+            e.name,
+            finite(e.rms_before).unwrap_or(0.0),
+            finite(e.rms_after).unwrap_or(0.0),
+            finite(e.shrink_pct).unwrap_or(0.0),
+            e.confidence
+                .and_then(finite)
                 .map_or("-".to_string(), |c| format!("{c:.3}"))
         );
     }
-    let _ = writeln!(s, "\nverdict: {}", v["verdict"].as_str().unwrap_or("none"));
-    if let Some(sec) = v["second"].as_object() {
-        let _ = writeln!(
-            s,
-            "second effect: {} (held-out rms {} after both)",
-            sec["name"].as_str().unwrap_or(""),
-            sec["rms_after"]
-        );
-    }
-    let d = &v["deployment"];
-    if let Some(sim) = d["trained_on_sim"]["rmse_um"].as_f64() {
-        let _ = writeln!(
-            s,
-            "\ndeployment ({} on {} temperatures, real held-out rmse): trained on sim {:.3} um{}; trained on the real fit part {:.3} um",
-            d["target"].as_str().unwrap_or("?"),
-            d["inputs"].as_array().map_or(0, Vec::len),
-            sim,
-            d["trained_on_sim_plus_effect"]["rmse_um"]
-                .as_f64()
-                .map_or_else(String::new, |e| format!(", on sim + {} {e:.3} um", d["effect"].as_str().unwrap_or("?"))),
-            d["trained_on_real_fit_part"]["rmse_um"].as_f64().unwrap_or(f64::NAN)
-        );
-    }
-    s
+}
+
+/// The deployment comparison in a line, if the model trained on the sim
+/// was scored.
+fn deployment_line(s: &mut String, d: &Diagnosis) {
+    use std::fmt::Write as _;
+    let Some(c) = d.deployment.comparison() else {
+        return;
+    };
+    let Some(sim) = c.trained_on_sim.rmse_um() else {
+        return;
+    };
+    let with_effect = c
+        .trained_on_sim_plus_effect
+        .as_ref()
+        .and_then(|t| t.rmse_um());
+    let _ = writeln!(
+        s,
+        "\ndeployment ({} on {} temperatures, real held-out rmse): trained on sim {:.3} um{}; trained on the real fit part {:.3} um",
+        c.target,
+        c.inputs.len(),
+        sim,
+        with_effect.map_or_else(String::new, |e| format!(", on sim + {} {e:.3} um", c.effect.as_deref().unwrap_or("?"))),
+        c.trained_on_real_fit_part.rmse_um().unwrap_or(f64::NAN)
+    );
 }

@@ -2,7 +2,7 @@
 //! ([`crate::eval::evaluate_files`]) and its outcome printed as a table or
 //! one JSON object.
 
-use crate::data::source::{ModelSource, RunSource};
+use super::source::{ModelSource, RunSource};
 use crate::eval::evaluate_files;
 use anyhow::{bail, Result};
 use clap::Args;

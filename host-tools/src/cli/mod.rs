@@ -20,6 +20,7 @@ mod refit;
 mod replay;
 pub mod select;
 pub mod simulate;
+mod source;
 
 use crate::data::fsio::{self, named};
 use crate::data::{blobfile, spec};

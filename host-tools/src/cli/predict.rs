@@ -1,8 +1,8 @@
 //! `thermcomp predict`: the flags, the model and runs read, the typed job
 //! ([`crate::predict::predict_files`]) and its summary printed.
 
+use super::source::{ModelSource, RunSource};
 use crate::data::fsio;
-use crate::data::source::{ModelSource, RunSource};
 use crate::predict::{check_interval, predict_files};
 use anyhow::Result;
 use clap::Args;

@@ -1,8 +1,8 @@
 //! `thermcomp replay`: the flags, the typed job ([`crate::replay::replay`])
 //! and its outcome printed as one line per run or one JSON object.
 
+use super::source::RunSource;
 use crate::data::fsio;
-use crate::data::source::RunSource;
 use crate::replay::{replay, ReplayParams};
 use anyhow::Result;
 use clap::Args;

@@ -12,7 +12,8 @@ use anyhow::{anyhow, bail, Result};
 use model_core::Reference;
 
 /// How temperatures enter a model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum InputForm {
     /// Changes from each run's first sample (the model's `reference = "first"`).
     Change,

@@ -810,7 +810,7 @@ fn diagnose_call(
     real: &Path,
     holdout_from_s: Option<f64>,
     report: Option<&Path>,
-) -> Result<serde_json::Value> {
+) -> Result<crate::diagnose::outcome::Diagnosis> {
     crate::diagnose::diagnose_files(sim, real, holdout_from_s, report)
 }
 
@@ -1013,6 +1013,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "cli")]
     fn the_reported_flags_are_the_budgets_set() {
         for quick in [true, false] {
             let budget = Budget::new(quick);

@@ -255,8 +255,8 @@ pub struct DiagnoseStage {
     pub holdout_from_t_s: f64,
     /// Rms of the dz gap, um.
     pub gap_dz_rms_um: Option<f64>,
-    /// `diagnose --json`'s whole object.
-    pub result: Value,
+    /// The whole diagnosis (`diagnose --json`'s object).
+    pub result: crate::diagnose::outcome::Diagnosis,
     /// Wall time, s.
     pub elapsed_s: f64,
 }

@@ -14,6 +14,7 @@
 
 use super::align::{Aligned, Channel};
 use super::baseline::{self, Baseline};
+use super::outcome::{Effect, Param};
 use super::signif;
 use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
 use crate::num::lsq::{self, LinearFit};
@@ -111,22 +112,28 @@ pub struct Scored {
 
 impl Scored {
     /// The CONTRACT's effect object (plus `model`, `fit_rms`, `p_value`,
-    /// `p_adjusted`, `confidence` = 1 - `p_adjusted`; null for `none`).
-    pub fn to_json(&self) -> Value {
-        let opt = |v: Option<f64>| v.map_or(Value::Null, |x| json!(round(x)));
-        json!({
-            "name": self.name,
-            "rms_before": round(self.rms_before),
-            "rms_after": round(self.rms_after),
-            "shrink_pct": round(self.shrink_pct),
-            "params": self.params,
-            "model": self.model,
-            "fit_rms": round(self.fit_rms),
-            "ratio_to_none": round(self.ratio_to_none),
-            "p_value": opt(self.p_value),
-            "p_adjusted": opt(self.p_adjusted),
-            "confidence": opt(self.confidence()),
-        })
+    /// `p_adjusted`, `confidence` = 1 - `p_adjusted`; `None` for `none`),
+    /// figures rounded as printed.
+    pub fn effect(&self) -> Effect {
+        Effect {
+            confidence: self.confidence().map(round),
+            fit_rms: round(self.fit_rms),
+            model: self.model.clone(),
+            name: self.name.clone(),
+            p_adjusted: self.p_adjusted.map(round),
+            p_value: self.p_value.map(round),
+            pair: None,
+            params: self
+                .params
+                .iter()
+                .map(|(k, v)| (k.clone(), Param::of(v)))
+                .collect(),
+            ratio_to_none: round(self.ratio_to_none),
+            rms_after: round(self.rms_after),
+            rms_after_first_alone: None,
+            rms_before: round(self.rms_before),
+            shrink_pct: round(self.shrink_pct),
+        }
     }
 
     /// The held-out rms left over the better of two references: the

@@ -20,11 +20,11 @@
 
 use super::align::Aligned;
 use super::candidates::{self, round, Problem, Rows};
+use super::outcome::{Comparison, Deployment, Trained};
 use super::spill::Spill;
 use crate::num::linalg;
 use crate::num::lsq;
 use anyhow::{Context, Result};
-use serde_json::{json, Value};
 
 /// The effect is added to a channel only where it explains at least this
 /// share of the fit-part residual rms the baseline leaves (the verdict
@@ -88,7 +88,7 @@ fn score(
     inputs: &[usize],
     tgt: usize,
     n_fit: usize,
-) -> Value {
+) -> Trained {
     let n = al.t_s.len();
     let (b0, b) = model;
     let mut r = Vec::with_capacity(n - n_fit);
@@ -111,47 +111,64 @@ fn score(
     } else {
         0.0
     };
-    json!({"rmse_um": round(lsq::rms(&r)), "reduction_pct": round(reduction)})
+    Trained::Scored {
+        reduction_pct: round(reduction),
+        rmse_um: round(lsq::rms(&r)),
+    }
 }
 
-/// The `deployment` object of the diagnose JSON (see the module doc).
-/// `Err` only when the effect parts cannot be written to their temporary
-/// file or read back from it.
-pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Result<Value> {
+/// The compensation model's kind.
+const MODEL: &str = "mlr";
+
+/// No deployment view, and why.
+fn skipped(note: &str) -> Deployment {
+    Deployment::Skipped {
+        model: MODEL.into(),
+        note: note.into(),
+    }
+}
+
+/// The deployment view of a diagnosis (see the module doc). `Err` only
+/// when the effect parts cannot be written to their temporary file or read
+/// back from it.
+pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Result<Deployment> {
     let Some(tgt) = target(al, main) else {
-        return Ok(json!({"model": "mlr", "note": "no displacement channel to compensate"}));
+        return Ok(skipped("no displacement channel to compensate"));
     };
     let ch = &al.channels;
     let inputs: Vec<usize> = (0..ch.len())
         .filter(|&i| !ch.is_displacement(i) && !ch.name(i).starts_with('S'))
         .collect();
     if inputs.is_empty() {
-        return Ok(json!({"model": "mlr", "note": "no temperature channel shared by both files"}));
+        return Ok(skipped("no temperature channel shared by both files"));
     }
-    let names: Vec<&str> = inputs.iter().map(|&i| ch.name(i)).collect();
-    let held_out_rms = lsq::rms(&ch.real_rows(tgt, n_fit..al.t_s.len()));
-    let fit_on = |value: &Values| -> Value {
+    let fit_on = |value: &Values| -> Trained {
         match train(value, &inputs, tgt, n_fit) {
             Some(m) => score(&m, al, &inputs, tgt, n_fit),
-            None => json!({"error": "least squares failed"}),
+            None => Trained::Failed {
+                error: "least squares failed".into(),
+            },
         }
     };
-    let on_sim = fit_on(&|i, rows| ch.sim_rows(i, rows));
-    let on_real = fit_on(&|i, rows| ch.real_rows(i, rows));
-    let mut out = json!({
-        "model": "mlr",
-        "target": ch.name(tgt),
-        "inputs": names,
-        "trained_on": "fit rows (before holdout_from_t_s); scored on the real run's held-out rows",
-        "held_out_uncompensated_rms_um": round(held_out_rms),
-        "trained_on_sim": on_sim,
-        "trained_on_real_fit_part": on_real,
-    });
+    let mut out = Comparison {
+        effect: None,
+        held_out_uncompensated_rms_um: round(lsq::rms(&ch.real_rows(tgt, n_fit..al.t_s.len()))),
+        improvement_pct: None,
+        inputs: inputs.iter().map(|&i| ch.name(i).to_string()).collect(),
+        model: MODEL.into(),
+        note: None,
+        target: ch.name(tgt).to_string(),
+        trained_on: "fit rows (before holdout_from_t_s); scored on the real run's held-out rows"
+            .into(),
+        trained_on_real_fit_part: fit_on(&|i, rows| ch.real_rows(i, rows)),
+        trained_on_sim: fit_on(&|i, rows| ch.sim_rows(i, rows)),
+        trained_on_sim_plus_effect: None,
+    };
     if verdict == "none" {
-        out["trained_on_sim_plus_effect"] = Value::Null;
-        out["note"] =
-            json!("verdict none: no effect to add; only the model trained on the nominal sim");
-        return Ok(out);
+        out.note = Some(
+            "verdict none: no effect to add; only the model trained on the nominal sim".into(),
+        );
+        return Ok(Deployment::Compared(Box::new(out)));
     }
     let effect = effects(al, &inputs, tgt, n_fit, verdict)
         .context("cannot write diagnose's temporary file")?;
@@ -163,15 +180,20 @@ pub fn deployment(al: &Aligned, main: usize, n_fit: usize, verdict: &str) -> Res
         }
         s
     });
-    let gain = match (on_sim["rmse_um"].as_f64(), on_eff["rmse_um"].as_f64()) {
-        (Some(a), Some(b)) if a > 0.0 => json!(round(100.0 * (1.0 - b / a))),
-        _ => Value::Null,
-    };
     effect.spill.check()?;
-    out["trained_on_sim_plus_effect"] = on_eff;
-    out["effect"] = json!(verdict);
-    out["improvement_pct"] = gain;
-    Ok(out)
+    out.improvement_pct = Some(improvement(&out.trained_on_sim, &on_eff));
+    out.trained_on_sim_plus_effect = Some(on_eff);
+    out.effect = Some(verdict.to_string());
+    Ok(Deployment::Compared(Box::new(out)))
+}
+
+/// How much the model trained on the sim plus the effect lowers the held-out
+/// rmse of the one trained on the sim alone, % (not finite without both).
+fn improvement(on_sim: &Trained, on_effect: &Trained) -> f64 {
+    match (on_sim.rmse_um(), on_effect.rmse_um()) {
+        (Some(a), Some(b)) if a > 0.0 => round(100.0 * (1.0 - b / a)),
+        _ => f64::NAN,
+    }
 }
 
 /// The effect's part of each channel used, where it is added (else the

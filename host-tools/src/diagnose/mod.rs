@@ -20,6 +20,7 @@ pub mod baseline;
 pub mod candidates;
 pub mod deploy;
 pub mod gates;
+pub mod outcome;
 pub mod pair;
 pub mod physical;
 pub mod regime;
@@ -33,7 +34,8 @@ pub mod variants;
 use crate::num::lsq;
 use anyhow::{bail, Result};
 use candidates::{round, Problem, Scored};
-use serde_json::{json, Value};
+use outcome::{Band, CandidateFigures, Diagnosis, Effect, Gap, LookFigures, Segment};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Family-wise significance level: a candidate counts only when its
@@ -152,50 +154,53 @@ impl Look {
             .map_or(f64::INFINITY, |s| s.ratio_to_none)
     }
 
-    /// Compact JSON: channel, verdict and per candidate the figures the
-    /// rule looks at.
-    fn to_json(&self, al: &align::Aligned) -> Value {
-        let cands: Vec<Value> = self
+    /// The outcome's compact view: channel, verdict and per candidate the
+    /// figures the rule looks at.
+    fn figures(&self, al: &align::Aligned) -> LookFigures {
+        let candidates = self
             .scored
             .iter()
             .filter(|s| s.name != "none")
-            .map(|s| {
-                json!({
-                    "name": s.name, "shrink_pct": round(s.shrink_pct),
-                    "ratio_to_none": round(s.ratio_to_none),
-                    "p_value": s.p_value.map(round), "p_adjusted": s.p_adjusted.map(round),
-                })
+            .map(|s| CandidateFigures {
+                name: s.name.clone(),
+                p_adjusted: s.p_adjusted.map(round),
+                p_value: s.p_value.map(round),
+                ratio_to_none: round(s.ratio_to_none),
+                shrink_pct: round(s.shrink_pct),
             })
             .collect();
-        json!({
-            "channel": al.channels.name(self.channel), "verdict": self.verdict,
-            "alpha": self.rule.alpha, "max_ratio_to_none": self.rule.max_ratio_to_none,
-            "candidates": cands,
-        })
+        LookFigures {
+            alpha: self.rule.alpha,
+            candidates,
+            channel: al.channels.name(self.channel).to_string(),
+            max_ratio_to_none: self.rule.max_ratio_to_none,
+            verdict: self.verdict.clone(),
+        }
     }
 }
 
-/// The whole diagnosis of `real` against `sim` as the CONTRACT's JSON object
-/// (plus `main_channel`, `bands`, `second`, `looks`, `rule`); writes the
-/// HTML report to `report/index.html` if asked.
+/// The whole diagnosis of `real` against `sim` (serialised: the CONTRACT's
+/// JSON object plus `main_channel`, `bands`, `second`, `looks`, `rule`);
+/// writes the HTML report to `report/index.html` if asked.
 pub fn diagnose_files(
     sim: &Path,
     real: &Path,
     holdout_from_s: Option<f64>,
     report: Option<&Path>,
-) -> Result<Value> {
+) -> Result<Diagnosis> {
     diagnose_with_machine(sim, real, holdout_from_s, report, None)
 }
 
 /// [`diagnose_files`], and with the twin's `machine` file also the physical
-/// diagnosis ([`physical`], JSON key `physical`, a section of the report).
+/// diagnosis ([`physical`], [`Diagnosis::physical`], a section of the
+/// report).
 pub fn diagnose_with_machine(
     sim: &Path,
     real: &Path,
     holdout_from_s: Option<f64>,
     report: Option<&Path>,
     machine: Option<&Path>,
-) -> Result<Value> {
+) -> Result<Diagnosis> {
     let twin = machine.map(physical::Twin::load).transpose()?;
     let al = align::read(sim, real)?;
     diagnose_aligned(al, real, holdout_from_s, report, twin.as_ref())
@@ -210,7 +215,7 @@ pub fn diagnose_runs(
     holdout_from_s: Option<f64>,
     report: Option<&Path>,
     twin: Option<&physical::Twin>,
-) -> Result<Value> {
+) -> Result<Diagnosis> {
     let al = align::align(sim, real)?;
     diagnose_aligned(al, &real.path, holdout_from_s, report, twin)
 }
@@ -224,22 +229,11 @@ pub fn diagnose_aligned(
     holdout_from_s: Option<f64>,
     report: Option<&Path>,
     twin: Option<&physical::Twin>,
-) -> Result<Value> {
-    let t = &al.t_s;
-    let n = t.len();
-    let holdout = holdout_from_s.unwrap_or(0.5 * (t[0] + t[n - 1]));
-    let n_fit = t.partition_point(|&x| x < holdout);
-    if n_fit < 20 || n - n_fit < 10 {
-        bail!(
-            "--holdout-from-s {holdout}: needs at least 20 rows before and 10 from it on (the run spans {} .. {} s, {} rows before)",
-            t[0],
-            t[n - 1],
-            n_fit
-        );
-    }
+) -> Result<Diagnosis> {
+    let (holdout, n_fit) = split(&al, holdout_from_s)?;
     let gaps = gap_table(&al);
     let first = main_channel(&al, &gaps);
-    let (gap, snr) = (gaps.json, gaps.snr);
+    let Gaps { table, snr, .. } = gaps;
     let mut looks = judge(&al, first, &snr, n_fit)?;
     admit(&mut looks);
     let decided = decisive(&looks);
@@ -257,59 +251,83 @@ pub fn diagnose_aligned(
     let main_ch = al.channels.load(main);
     let p = Problem::new(&al, &main_ch, n_fit);
     let (verdict, second) = match &gated {
-        Some(g) => (g.verdict.clone(), Value::Null),
+        Some(g) => (g.verdict.clone(), None),
         None => with_pair(&p, look, snr[main] >= MIN_GAP_SNR),
     };
     let deployment = deploy::deployment(&al, main, n_fit, &verdict)?;
     al.channels.check()?;
-    let mut v = json!({
-        "holdout_from_t_s": round(holdout),
-        "gap": gap,
-        "where": where_,
-        "effects": look.scored.iter().map(Scored::to_json).collect::<Vec<_>>(),
-        "verdict": verdict,
-        "main_channel": al.channels.name(main),
-        "main_gap_snr": round(snr[main]),
-        "bands": bands,
-        "second": second,
-        "looks": looks.iter().map(|l| l.to_json(&al)).collect::<Vec<_>>(),
-        "gate": gated.as_ref().map_or(Value::Null, |g| json!(g.reason)),
-        "deployment": deployment,
-        "rule": rule_text(),
-    });
+    let mut d = Diagnosis {
+        bands,
+        deployment,
+        effects: look.scored.iter().map(Scored::effect).collect(),
+        gap: table,
+        gate: gated.map(|g| g.reason),
+        holdout_from_t_s: round(holdout),
+        looks: looks.iter().map(|l| l.figures(&al)).collect(),
+        main_channel: al.channels.name(main).to_string(),
+        main_gap_snr: round(snr[main]),
+        physical: None,
+        rule: rule_text(),
+        second,
+        verdict,
+        where_,
+    };
     let physical = twin
         .map(|m| {
-            physical::diagnose(
-                m,
-                real_path,
-                &al,
-                (n_fit, holdout),
-                physical_channel(&al, first, main, &verdict),
-            )
+            let channel = physical_channel(&al, first, main, &d.verdict);
+            physical::diagnose(m, real_path, &al, (n_fit, holdout), channel)
         })
         .transpose()?;
-    if let Some(p) = &physical {
-        v["physical"] = p.json.clone();
-    }
+    d.physical = physical.as_ref().map(|p| p.outcome.clone());
     if let Some(dir) = report {
         let extra = physical.as_ref().map_or("", |p| p.html.as_str());
-        // The best candidate's prediction, for its plot (no look keeps one).
-        let pred = look
-            .scored
-            .first()
-            .and_then(|b| candidates::prediction(&p, &b.name));
-        report::write(
-            dir,
-            &al,
-            main,
-            n_fit,
-            (&look.scored, pred.as_deref()),
-            &v,
-            extra,
-        )?;
+        write_report(dir, (&p, look), &d, extra)?;
     }
     al.channels.check()?;
-    Ok(v)
+    Ok(d)
+}
+
+/// The hold-out start (`holdout_from_s`, else the run's middle) and the
+/// number of rows before it; an error unless 20 rows lie before it and
+/// 10 from it on.
+fn split(al: &align::Aligned, holdout_from_s: Option<f64>) -> Result<(f64, usize)> {
+    let t = &al.t_s;
+    let n = t.len();
+    let holdout = holdout_from_s.unwrap_or(0.5 * (t[0] + t[n - 1]));
+    let n_fit = t.partition_point(|&x| x < holdout);
+    if n_fit < 20 || n - n_fit < 10 {
+        bail!(
+            "--holdout-from-s {holdout}: needs at least 20 rows before and 10 from it on (the run spans {} .. {} s, {} rows before)",
+            t[0],
+            t[n - 1],
+            n_fit
+        );
+    }
+    Ok((holdout, n_fit))
+}
+
+/// Writes the HTML report of diagnosis `d` to `dir`: the deciding look's
+/// candidates on the main channel's problem `p`, and `extra` (HTML).
+fn write_report(
+    dir: &Path,
+    (p, look): (&Problem, &Look),
+    d: &Diagnosis,
+    extra: &str,
+) -> Result<()> {
+    // The best candidate's prediction, for its plot (no look keeps one).
+    let pred = look
+        .scored
+        .first()
+        .and_then(|b| candidates::prediction(p, &b.name));
+    report::write(
+        dir,
+        p.al,
+        look.channel,
+        p.n_fit,
+        (&look.scored, pred.as_deref()),
+        d,
+        extra,
+    )
 }
 
 /// The channel the physical diagnosis explains: the main channel (the
@@ -359,10 +377,10 @@ fn rule_text() -> String {
     )
 }
 
-/// Each channel's gap: the JSON `gap`, each channel's rms over its
+/// Each channel's gap: the outcome's `gap`, each channel's rms over its
 /// noise, and its rms.
 struct Gaps {
-    json: serde_json::Map<String, Value>,
+    table: BTreeMap<String, Gap>,
     snr: Vec<f64>,
     rms: Vec<f64>,
 }
@@ -370,7 +388,7 @@ struct Gaps {
 /// The gap of every channel (one residual loaded at a time).
 fn gap_table(al: &align::Aligned) -> Gaps {
     let mut g = Gaps {
-        json: serde_json::Map::new(),
+        table: BTreeMap::new(),
         snr: Vec::with_capacity(al.channels.len()),
         rms: Vec::with_capacity(al.channels.len()),
     };
@@ -378,9 +396,12 @@ fn gap_table(al: &align::Aligned) -> Gaps {
         let resid = al.channels.resid(i);
         let rms = lsq::rms(&resid);
         let max_abs = resid.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        g.json.insert(
+        g.table.insert(
             name.clone(),
-            json!({"rms": round(rms), "max_abs": round(max_abs)}),
+            Gap {
+                max_abs: round(max_abs),
+                rms: round(rms),
+            },
         );
         g.snr.push(rms / lsq::noise_sigma(&resid).max(1e-12));
         g.rms.push(rms);
@@ -390,7 +411,7 @@ fn gap_table(al: &align::Aligned) -> Gaps {
 
 /// Where: regime shares and bands of the main channel (and of dz_um if it
 /// is not the main channel).
-fn where_and_bands(al: &align::Aligned, main: usize) -> (Vec<Value>, Vec<Value>) {
+fn where_and_bands(al: &align::Aligned, main: usize) -> (Vec<Segment>, Vec<Band>) {
     let t = &al.t_s;
     let segs = regime::segments(t, &al.speed_rpm, al.power_kw.as_deref());
     let mut focus = vec![main];
@@ -411,17 +432,21 @@ fn where_and_bands(al: &align::Aligned, main: usize) -> (Vec<Value>, Vec<Value>)
             spectrum::FAST_BELOW_S,
             spectrum::SLOW_ABOVE_S,
         );
-        bands.push(json!({
-            "channel": chc.name, "slow_pct": round(b.slow_pct), "mid_pct": round(b.mid_pct),
-            "fast_pct": round(b.fast_pct), "mid_peak_period_s": peak.map(round), "grid_dt_s": round(b.grid_dt_s),
-        }));
+        bands.push(Band {
+            channel: chc.name.clone(),
+            fast_pct: round(b.fast_pct),
+            grid_dt_s: round(b.grid_dt_s),
+            mid_pct: round(b.mid_pct),
+            mid_peak_period_s: peak.map(round),
+            slow_pct: round(b.slow_pct),
+        });
     }
     (where_, bands)
 }
 
 /// The [`MAX_SEGMENTS`] segments with the largest share of `ch`'s residual
 /// energy, largest first.
-fn segment_shares(t: &[f64], ch: &align::Channel, segs: &[regime::Segment]) -> Vec<Value> {
+fn segment_shares(t: &[f64], ch: &align::Channel, segs: &[regime::Segment]) -> Vec<Segment> {
     let n = t.len();
     let total: f64 = ch
         .resid
@@ -429,7 +454,7 @@ fn segment_shares(t: &[f64], ch: &align::Channel, segs: &[regime::Segment]) -> V
         .map(|v| v * v)
         .sum::<f64>()
         .max(f64::MIN_POSITIVE);
-    let mut rows: Vec<(f64, Value)> = segs
+    let mut rows: Vec<(f64, Segment)> = segs
         .iter()
         .map(|s| {
             let e: f64 = ch.resid[s.from..s.to].iter().map(|v| v * v).sum();
@@ -437,12 +462,15 @@ fn segment_shares(t: &[f64], ch: &align::Channel, segs: &[regime::Segment]) -> V
             let to_t = if s.to < n { t[s.to] } else { t[n - 1] };
             (
                 share,
-                json!({
-                    "channel": ch.name, "from_t_s": t[s.from], "to_t_s": to_t,
-                    "regime": s.regime, "share_pct": round(share),
-                    "rms": round(lsq::rms(&ch.resid[s.from..s.to])),
-                    "cutting_pct": round(s.cutting_pct),
-                }),
+                Segment {
+                    channel: ch.name.clone(),
+                    cutting_pct: round(s.cutting_pct),
+                    from_t_s: t[s.from],
+                    regime: s.regime.clone(),
+                    rms: round(lsq::rms(&ch.resid[s.from..s.to])),
+                    share_pct: round(share),
+                    to_t_s: to_t,
+                },
             )
         })
         .collect();
@@ -455,11 +483,11 @@ fn segment_shares(t: &[f64], ch: &align::Channel, segs: &[regime::Segment]) -> V
 /// the noise, the pair leaves <= 0.8 x what it leaves (and passes the
 /// single rule's shrink and ratio against the baseline), and the pair's
 /// gain over the winner is significant at the level divided by the ten
-/// pairs searched. Returns (verdict, `second` JSON).
-fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value) {
+/// pairs searched. Returns (verdict, `second`).
+fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Option<Effect>) {
     let noise = lsq::noise_sigma(&p.ch.resid);
     let Some(single) = look.scored.iter().find(|s| s.name != "none") else {
-        return (look.verdict.clone(), Value::Null);
+        return (look.verdict.clone(), None);
     };
     let none = look.scored.iter().find(|s| s.name == "none");
     let pair = pair::best_pair(p).filter(|pair| {
@@ -485,18 +513,16 @@ fn with_pair(p: &Problem, look: &Look, gap_significant: bool) -> (String, Value)
             second,
             ..
         }) => {
-            let mut j = joint.to_json();
-            j["name"] = json!(second);
-            j["pair"] = json!(joint.name);
-            j["rms_after_first_alone"] = json!(round(
-                look.scored
-                    .iter()
-                    .find(|s| s.name == first)
-                    .map_or(f64::NAN, |s| s.rms_after)
-            ));
-            (first, j)
+            let alone = look.scored.iter().find(|s| s.name == first);
+            let e = Effect {
+                name: second,
+                pair: Some(joint.name.clone()),
+                rms_after_first_alone: Some(round(alone.map_or(f64::NAN, |s| s.rms_after))),
+                ..joint.effect()
+            };
+            (first, Some(e))
         }
-        None => (look.verdict.clone(), Value::Null),
+        None => (look.verdict.clone(), None),
     }
 }
 

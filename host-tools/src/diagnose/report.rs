@@ -4,8 +4,8 @@
 
 use super::align::Aligned;
 use super::candidates::Scored;
+use super::outcome::{finite, json_number, Band, Deployment, Diagnosis, Segment, Trained};
 use anyhow::{Context, Result};
-use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -197,35 +197,53 @@ fn bar_chart(title: &str, items: &[(String, f64)]) -> String {
 /// The deployment view as a small table: the real held-out error of a
 /// compensation model trained on the sim, on the sim plus the effect and on
 /// the real fit part.
-fn deployment_html(d: &Value) -> String {
+fn deployment_html(d: &Deployment) -> String {
     let mut h = String::from("<h2>Deployment: a compensation model trained on the twin</h2>");
+    let c = d.comparison();
+    let note = match d {
+        Deployment::Compared(c) => c.note.as_deref().unwrap_or(""),
+        Deployment::Skipped { note, .. } => note,
+    };
     let _ = write!(
         h,
         "<p>{} ({}) regressed on {} by least squares, trained on the rows before the hold-out, scored on the real run's held-out rows (uncompensated rms {} um). {}</p><table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\"><tr><th>trained on</th><th>rmse, um</th><th>reduction, %</th></tr>",
-        esc(d["model"].as_str().unwrap_or("mlr")),
-        esc(d["target"].as_str().unwrap_or("?")),
-        esc(&d["inputs"].to_string()),
-        d["held_out_uncompensated_rms_um"],
-        esc(d["note"].as_str().unwrap_or(""))
+        esc(d.model()),
+        esc(c.map_or("?", |c| c.target.as_str())),
+        esc(&serde_json::to_string(&c.map(|c| &c.inputs)).unwrap_or_default()),
+        json_number(c.map_or(f64::NAN, |c| c.held_out_uncompensated_rms_um)),
+        esc(note)
     );
-    let effect = d["effect"].as_str().unwrap_or("effect");
-    for (label, key) in [
-        ("nominal sim".to_string(), "trained_on_sim"),
-        (format!("sim + {effect}"), "trained_on_sim_plus_effect"),
+    let Some(c) = c else {
+        h.push_str("</table>");
+        return h;
+    };
+    let effect = c.effect.as_deref().unwrap_or("effect");
+    for (label, trained) in [
+        ("nominal sim".to_string(), Some(&c.trained_on_sim)),
+        (
+            format!("sim + {effect}"),
+            c.trained_on_sim_plus_effect.as_ref(),
+        ),
         (
             "real fit part (reference)".to_string(),
-            "trained_on_real_fit_part",
+            Some(&c.trained_on_real_fit_part),
         ),
     ] {
-        if d[key].is_object() {
-            let _ = write!(
-                h,
-                "<tr><td>{}</td><td>{}</td><td>{}</td></tr>",
-                esc(&label),
-                d[key]["rmse_um"],
-                d[key]["reduction_pct"]
-            );
-        }
+        let (rmse, reduction) = match trained {
+            Some(Trained::Scored {
+                rmse_um,
+                reduction_pct,
+            }) => (*rmse_um, *reduction_pct),
+            Some(Trained::Failed { .. }) => (f64::NAN, f64::NAN),
+            None => continue,
+        };
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&label),
+            json_number(rmse),
+            json_number(reduction)
+        );
     }
     h.push_str("</table>");
     h
@@ -248,7 +266,7 @@ pub fn write(
     main: usize,
     n_fit: usize,
     best: (&[Scored], Option<&[f64]>),
-    v: &Value,
+    d: &Diagnosis,
     extra: &str,
 ) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -262,17 +280,17 @@ pub fn write(
     let _ = write!(
         html,
         "<h1>Sim-to-real gap diagnosis</h1><p>Verdict: <b>{}</b> &mdash; main channel <b>{}</b>, candidates fitted before t = {} s and scored after it. {}</p>",
-        esc(v["verdict"].as_str().unwrap_or("none")),
-        esc(v["main_channel"].as_str().unwrap_or("")),
-        v["holdout_from_t_s"],
-        esc(v["rule"].as_str().unwrap_or(""))
+        esc(&d.verdict),
+        esc(&d.main_channel),
+        json_number(d.holdout_from_t_s),
+        esc(&d.rule)
     );
     html.push_str(&candidates_html(al, main, best, &ax));
-    html.push_str(&deployment_html(&v["deployment"]));
-    html.push_str(&where_html(v, t0));
+    html.push_str(&deployment_html(&d.deployment));
+    html.push_str(&where_html(&d.where_, &d.bands, t0));
     html.push_str(&channels_html(al, &ax));
     html.push_str(extra);
-    let pretty = serde_json::to_string_pretty(v).unwrap_or_default();
+    let pretty = serde_json::to_string_pretty(d).unwrap_or_default();
     let _ = write!(
         html,
         "<h2>JSON</h2><pre>{}</pre></body></html>",
@@ -337,22 +355,20 @@ fn candidates_html(
 }
 
 /// Where: the regime segments' shares (bars) and the bands table.
-fn where_html(v: &Value, t0: f64) -> String {
+fn where_html(segments: &[Segment], bands: &[Band], t0: f64) -> String {
     let mut html = String::from("<h2>Where: regime segments</h2>");
-    let seg: Vec<(String, f64)> = v["where"]
-        .as_array()
-        .into_iter()
-        .flatten()
+    let seg: Vec<(String, f64)> = segments
+        .iter()
         .map(|w| {
             (
                 format!(
                     "{} {} {:.1}-{:.1} h",
-                    w["channel"].as_str().unwrap_or(""),
-                    w["regime"].as_str().unwrap_or(""),
-                    (w["from_t_s"].as_f64().unwrap_or(0.0) - t0) / 3600.0,
-                    (w["to_t_s"].as_f64().unwrap_or(0.0) - t0) / 3600.0
+                    w.channel,
+                    w.regime,
+                    (w.from_t_s - t0) / 3600.0,
+                    (w.to_t_s - t0) / 3600.0
                 ),
-                w["share_pct"].as_f64().unwrap_or(0.0),
+                w.share_pct,
             )
         })
         .collect();
@@ -360,7 +376,7 @@ fn where_html(v: &Value, t0: f64) -> String {
         "share of the residual energy (sum r^2), largest segments",
         &seg,
     ));
-    html.push_str(&bands_table(&v["bands"]));
+    html.push_str(&bands_table(bands));
     html
 }
 
@@ -417,26 +433,26 @@ fn candidates_table(scored: &[Scored]) -> String {
 }
 
 /// The residual energy by period band, one row per channel analysed.
-fn bands_table(bands: &Value) -> String {
+fn bands_table(bands: &[Band]) -> String {
     let mut t = String::from(
         "<h3>Frequency bands: share of the residual energy</h3>\
          <table border=\"1\" cellpadding=\"4\" style=\"border-collapse:collapse\">\
          <tr><th>channel</th><th>slow (&gt; 2 h), %</th><th>mid (10 min - 2 h), %</th>\
          <th>fast (&lt; 10 min), %</th><th>mid-band peak, min</th></tr>",
     );
-    let rows = bands.as_array().map(Vec::as_slice).unwrap_or(&[]);
-    for b in rows {
-        let pct = |k: &str| b[k].as_f64().map_or("-".into(), |x| format!("{x:.1}"));
-        let peak = b["mid_peak_period_s"]
-            .as_f64()
+    for b in bands {
+        let pct = |x: f64| finite(x).map_or("-".into(), |x| format!("{x:.1}"));
+        let peak = b
+            .mid_peak_period_s
+            .and_then(finite)
             .map_or("-".into(), |s| format!("{:.0}", s / 60.0));
         let _ = write!(
             t,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            esc(b["channel"].as_str().unwrap_or("?")),
-            pct("slow_pct"),
-            pct("mid_pct"),
-            pct("fast_pct"),
+            esc(&b.channel),
+            pct(b.slow_pct),
+            pct(b.mid_pct),
+            pct(b.fast_pct),
             peak
         );
     }

@@ -1,10 +1,8 @@
-//! The figures a caller most often needs of a diagnosis, typed: the
-//! verdict, the deciding look's best candidate, the gap per channel and the
-//! deployment comparison. The whole diagnosis stays `diagnose --json`'s
-//! object (built in mod.rs); this is its one reader, so callers (the demo,
-//! scripts over the library) never index it by key themselves.
+//! The figures a caller most often needs of a diagnosis: the verdict, the
+//! deciding look's best candidate, the gap per channel and the deployment
+//! comparison, read from the typed outcome ([`super::outcome::Diagnosis`]).
 
-use serde_json::Value;
+use super::outcome::{finite, Diagnosis};
 use std::collections::BTreeMap;
 
 /// A diagnosis in brief.
@@ -54,38 +52,35 @@ pub struct Deployment {
 }
 
 impl Summary {
-    /// Reads the brief from a diagnosis object (`diagnose --json`'s).
-    pub fn of(v: &Value) -> Summary {
-        let text = |x: &Value| x.as_str().map(str::to_string);
-        let best = v["effects"].get(0).and_then(|e| {
-            Some(Effect {
-                name: text(&e["name"])?,
-                shrink_pct: e["shrink_pct"].as_f64().unwrap_or(f64::NAN),
-                rms_before: e["rms_before"].as_f64().unwrap_or(f64::NAN),
-                rms_after: e["rms_after"].as_f64().unwrap_or(f64::NAN),
-            })
+    /// The brief of a diagnosis.
+    pub fn of(d: &Diagnosis) -> Summary {
+        let best = d.effects.first().map(|e| Effect {
+            name: e.name.clone(),
+            shrink_pct: e.shrink_pct,
+            rms_before: e.rms_before,
+            rms_after: e.rms_after,
         });
-        let gap_rms = v["gap"]
-            .as_object()
-            .map(|m| {
-                m.iter()
-                    .filter_map(|(k, g)| Some((k.clone(), g["rms"].as_f64()?)))
-                    .collect()
+        let gap_rms = d
+            .gap
+            .iter()
+            .filter_map(|(k, g)| Some((k.clone(), finite(g.rms)?)))
+            .collect();
+        let deployment = d.deployment.comparison().and_then(|c| {
+            Some(Deployment {
+                model: c.model.clone(),
+                effect: c.effect.clone(),
+                on_sim_um: c.trained_on_sim.rmse_um()?,
+                on_sim_plus_effect_um: c
+                    .trained_on_sim_plus_effect
+                    .as_ref()
+                    .and_then(|t| t.rmse_um()),
+                on_real_fit_part_um: c.trained_on_real_fit_part.rmse_um(),
             })
-            .unwrap_or_default();
-        let dep = &v["deployment"];
-        let rmse = |key: &str| dep[key]["rmse_um"].as_f64();
-        let deployment = rmse("trained_on_sim").map(|on_sim_um| Deployment {
-            model: text(&dep["model"]).unwrap_or_default(),
-            effect: text(&dep["effect"]),
-            on_sim_um,
-            on_sim_plus_effect_um: rmse("trained_on_sim_plus_effect"),
-            on_real_fit_part_um: rmse("trained_on_real_fit_part"),
         });
         Summary {
-            verdict: text(&v["verdict"]).unwrap_or_default(),
-            main_channel: text(&v["main_channel"]).unwrap_or_default(),
-            holdout_from_t_s: v["holdout_from_t_s"].as_f64().unwrap_or(f64::NAN),
+            verdict: d.verdict.clone(),
+            main_channel: d.main_channel.clone(),
+            holdout_from_t_s: d.holdout_from_t_s,
             best,
             gap_rms,
             deployment,
@@ -95,21 +90,86 @@ impl Summary {
 
 #[cfg(test)]
 mod tests {
+    use super::super::outcome::{self, Comparison, Gap, Trained};
     use super::*;
-    use serde_json::json;
+
+    fn effect(name: &str, shrink_pct: f64, rms_before: f64, rms_after: f64) -> outcome::Effect {
+        outcome::Effect {
+            confidence: None,
+            fit_rms: 0.0,
+            model: String::new(),
+            name: name.into(),
+            p_adjusted: None,
+            p_value: None,
+            pair: None,
+            params: BTreeMap::new(),
+            ratio_to_none: 1.0,
+            rms_after,
+            rms_after_first_alone: None,
+            rms_before,
+            shrink_pct,
+        }
+    }
+
+    fn gap(rms: f64) -> Gap {
+        Gap { max_abs: rms, rms }
+    }
+
+    fn scored(rmse_um: f64) -> Trained {
+        Trained::Scored {
+            reduction_pct: 0.0,
+            rmse_um,
+        }
+    }
+
+    fn diagnosis(
+        verdict: &str,
+        effects: Vec<outcome::Effect>,
+        deployment: outcome::Deployment,
+    ) -> Diagnosis {
+        Diagnosis {
+            bands: Vec::new(),
+            deployment,
+            effects,
+            gap: BTreeMap::from([("dz_um".into(), gap(1.5)), ("T2".into(), gap(0.2))]),
+            gate: None,
+            holdout_from_t_s: 43200.0,
+            looks: Vec::new(),
+            main_channel: "T2".into(),
+            main_gap_snr: 10.0,
+            physical: None,
+            rule: String::new(),
+            second: None,
+            verdict: verdict.into(),
+            where_: Vec::new(),
+        }
+    }
 
     #[test]
     fn reads_the_verdict_the_best_effect_and_the_deployment() {
-        let v = json!({
-            "verdict": "ambient", "main_channel": "T2", "holdout_from_t_s": 43200.0,
-            "effects": [{"name": "ambient", "shrink_pct": 75.3, "rms_before": 0.14, "rms_after": 0.03},
-                        {"name": "none", "shrink_pct": 0.0, "rms_before": 0.14, "rms_after": 0.14}],
-            "gap": {"dz_um": {"rms": 1.5}, "T2": {"rms": 0.2}},
-            "deployment": {"model": "mlr", "effect": "ambient",
-                "trained_on_sim": {"rmse_um": 3.4}, "trained_on_sim_plus_effect": {"rmse_um": 3.42},
-                "trained_on_real_fit_part": {"rmse_um": 0.22}},
-        });
-        let s = Summary::of(&v);
+        let dep = Comparison {
+            effect: Some("ambient".into()),
+            held_out_uncompensated_rms_um: 30.0,
+            improvement_pct: Some(-0.6),
+            inputs: vec!["T1".into()],
+            model: "mlr".into(),
+            note: None,
+            target: "dz_um".into(),
+            trained_on: String::new(),
+            trained_on_real_fit_part: scored(0.22),
+            trained_on_sim: scored(3.4),
+            trained_on_sim_plus_effect: Some(scored(3.42)),
+        };
+        let effects = vec![
+            effect("ambient", 75.3, 0.14, 0.03),
+            effect("none", 0.0, 0.14, 0.14),
+        ];
+        let d = diagnosis(
+            "ambient",
+            effects,
+            outcome::Deployment::Compared(Box::new(dep)),
+        );
+        let s = Summary::of(&d);
         assert_eq!(
             (s.verdict.as_str(), s.main_channel.as_str()),
             ("ambient", "T2")
@@ -130,8 +190,11 @@ mod tests {
 
     #[test]
     fn a_verdict_without_a_deployment_has_none() {
-        let v = json!({"verdict": "none", "effects": [], "deployment": {"model": "mlr", "note": "no displacement channel"}});
-        let s = Summary::of(&v);
+        let skipped = outcome::Deployment::Skipped {
+            model: "mlr".into(),
+            note: "no displacement channel".into(),
+        };
+        let s = Summary::of(&diagnosis("none", Vec::new(), skipped));
         assert!(s.best.is_none() && s.deployment.is_none());
         assert_eq!(s.verdict, "none");
     }

@@ -21,13 +21,13 @@ pub use job::{fit, FitOptions, FitOutcome, FitParams, FitReport, ValidFitParams}
 
 use crate::data::dataset::Dataset;
 use anyhow::{anyhow, Result};
-use clap::ValueEnum;
 use model_core::model::{Name, MAX_CHANNELS, MAX_OUTPUTS};
 use model_core::{Channel, ValidModel};
 use serde_json::Value;
 
 /// Model kinds `fit` trains.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum FitKind {
     /// Input form, filter-bank features, penalty and filter time constants
     /// chosen per target by time-respecting cross-validation on the

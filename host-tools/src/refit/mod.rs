@@ -42,13 +42,13 @@ pub use outcome::RefitReport;
 use crate::data::runfile::RunFile;
 use crate::score::{score, TargetScore};
 use anyhow::{bail, Result};
-use clap::ValueEnum;
 use model_core::ValidModel;
 use outcome::SettingsReport;
 use update::{Update, UpdateData, UpdateSettings};
 
 /// How a changed model is updated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Method {
     /// Recursive least squares with forgetting from the old coefficients
     /// (TF banks: least-squares entry gains over the whole update part).

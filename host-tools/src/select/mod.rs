@@ -40,15 +40,14 @@ pub use job::{select, SelectParams, ValidSelectParams};
 pub use outcome::SelectOutcome;
 pub use rows::INITIAL_FALLBACK;
 
-use clap::ValueEnum;
-
 /// Largest number of typical variables `grey` combines: 2^12 - 1 = 4095
 /// regressions. Past that the table is unreadable and the choice among
 /// thousands of near-equal fits means nothing.
 pub const MAX_TYPICAL: usize = 12;
 
 /// Selection methods.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Method {
     /// Grey clustering + grey correlation + combinations (seed 000).
     Grey,

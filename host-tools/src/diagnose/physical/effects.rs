@@ -15,13 +15,14 @@
 //! | `sensor_lag` | a first-order lag on every temperature sensor on a part | `tau_s` per sensor (1 s .. 4 h) |
 
 use crate::diagnose::candidates::round;
+use crate::diagnose::outcome::{Param, Params};
 use crate::twin::calibrate::ParamDef;
 use crate::twin::drive::{Drive, FittedEffect};
 use crate::twin::effects::{self, Ambient, Coolant};
 use crate::twin::machine::{
     AmbientParams, CoolantParams, CuttingParams, MotorLossParams, Node, N_NODES,
 };
-use serde_json::{json, Map, Value};
+use std::collections::BTreeMap;
 
 /// A candidate effect the diagnosis adds to the twin.
 pub trait Candidate: FittedEffect + Send {
@@ -29,8 +30,8 @@ pub trait Candidate: FittedEffect + Send {
     fn name(&self) -> &'static str;
     /// Which form of the effect this is, in words.
     fn model(&self) -> String;
-    /// The fitted values `p` with names and units for the JSON.
-    fn describe(&self, p: &[f64]) -> Map<String, Value>;
+    /// The fitted values `p` with names and units (rounded as printed).
+    fn describe(&self, p: &[f64]) -> Params;
 }
 
 fn def(name: &'static str, unit: &'static str, lo: f64, hi: f64, log: bool) -> ParamDef {
@@ -43,10 +44,10 @@ fn def(name: &'static str, unit: &'static str, lo: f64, hi: f64, log: bool) -> P
     }
 }
 
-fn named(pairs: &[(&str, f64)]) -> Map<String, Value> {
+fn named(pairs: &[(&str, f64)]) -> Params {
     pairs
         .iter()
-        .map(|(k, v)| (k.to_string(), json!(round(*v))))
+        .map(|(k, v)| (k.to_string(), Param::Number(round(*v))))
         .collect()
 }
 
@@ -104,7 +105,7 @@ impl Candidate for Logged {
             self.name()
         )
     }
-    fn describe(&self, p: &[f64]) -> Map<String, Value> {
+    fn describe(&self, p: &[f64]) -> Params {
         named(&[("gain", p[0])])
     }
 }
@@ -156,7 +157,7 @@ impl Candidate for DayCycle {
     fn model(&self) -> String {
         "ambient_c not logged: a 24 h cycle and a drift as the ambient boundary".into()
     }
-    fn describe(&self, p: &[f64]) -> Map<String, Value> {
+    fn describe(&self, p: &[f64]) -> Params {
         named(&[
             ("day_amplitude_c", p[0]),
             ("warmest_h_after_start", p[1].rem_euclid(24.0)),
@@ -231,7 +232,7 @@ impl Candidate for Chiller {
             self.warm_over_cool, self.period0_s
         )
     }
-    fn describe(&self, p: &[f64]) -> Map<String, Value> {
+    fn describe(&self, p: &[f64]) -> Params {
         let c = self.params_of(p[0], p[1]);
         named(&[
             ("amplitude_c", p[0]),
@@ -301,7 +302,7 @@ impl Candidate for Cutting {
     fn model(&self) -> String {
         "power_kw beyond air cutting (20th percentile at each speed) heats shaft and structure (the machine file's split) and the motor (load losses)".into()
     }
-    fn describe(&self, p: &[f64]) -> Map<String, Value> {
+    fn describe(&self, p: &[f64]) -> Params {
         let c = self.params_of(p[0], p[1]);
         named(&[
             ("process_share", p[0]),
@@ -362,7 +363,7 @@ impl Candidate for MotorLoss {
     fn model(&self) -> String {
         "extra motor losses falling linearly from standstill to a knee speed".into()
     }
-    fn describe(&self, p: &[f64]) -> Map<String, Value> {
+    fn describe(&self, p: &[f64]) -> Params {
         named(&[("extra_w_at_zero_rpm", p[0]), ("knee_rpm", p[1])])
     }
 }
@@ -414,17 +415,17 @@ impl Candidate for SensorLag {
     fn model(&self) -> String {
         "a first-order lag on every temperature sensor on a part, one time constant each".into()
     }
-    fn describe(&self, p: &[f64]) -> Map<String, Value> {
-        let taus: Map<String, Value> = self
+    fn describe(&self, p: &[f64]) -> Params {
+        let taus: BTreeMap<String, f64> = self
             .lagging()
             .zip(p)
-            .map(|(name, t)| (name.to_string(), json!(round(*t))))
+            .map(|(name, t)| (name.to_string(), round(*t)))
             .collect();
         let mut sorted = p.to_vec();
         sorted.sort_by(f64::total_cmp);
         let median = sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN);
         let mut m = named(&[("tau_s_median", median)]);
-        m.insert("tau_s".into(), Value::Object(taus));
+        m.insert("tau_s".into(), Param::Table(taus));
         m
     }
 }

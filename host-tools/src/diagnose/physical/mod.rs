@@ -21,6 +21,7 @@ pub mod effects;
 
 use super::align::Aligned;
 use super::candidates::round;
+use super::outcome::{self, json_number, Params, PhysicalEffect, TwinFit};
 use super::{regime, report, spectrum};
 use crate::data::runfile::{resample_linear, ReadOptions, RunFile};
 use crate::num::lsq;
@@ -30,19 +31,19 @@ use crate::twin::machine::{Machine, Site};
 use anyhow::{Context, Result};
 use effects::Candidate;
 use rayon::prelude::*;
-use serde_json::{json, Map, Value};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Power beyond air cutting below this everywhere in the fit part is no
 /// cutting to fit, kW.
 const MIN_CUT_KW: f64 = 0.1;
 
-/// The physical diagnosis: the JSON object `physical` and the report's
-/// section.
+/// The physical diagnosis: its outcome (the diagnosis's `physical`) and the
+/// report's section.
 #[derive(Debug, Clone)]
 pub struct Physical {
-    /// `{"recalibrated", "gap_after_recalibration", "effects", ...}`.
-    pub json: Value,
+    /// The outcome.
+    pub outcome: outcome::Physical,
     /// The report's section (heading, text, plots).
     pub html: String,
 }
@@ -69,7 +70,7 @@ enum Plan {
 struct Outcome {
     name: &'static str,
     model: String,
-    params: Map<String, Value>,
+    params: Params,
     cal: Option<Calibration>,
 }
 
@@ -79,7 +80,7 @@ impl Outcome {
         Outcome {
             name,
             model: why,
-            params: Map::new(),
+            params: Params::new(),
             cal: None,
         }
     }
@@ -124,14 +125,14 @@ pub fn diagnose(
         .map(|p| fit_effect(m, &run, &recal, p))
         .collect::<Vec<_>>();
     let channel = scored_channel(&recal, main);
-    let mut json = to_json(&recal, &outcomes, channel, al, n_fit);
+    let mut outcome = outcome_of(&recal, &outcomes, channel, al, n_fit);
     let noise = noise_sigma(&run, &recal, &outcomes, channel);
-    json["noise_sigma"] = json!(round(noise));
-    json["gap_snr"] = json!(round(rest_rms(&recal, channel) / noise.max(1e-12)));
-    json["machine"] = json!(twin.path);
-    json["seconds"] = json!(round(started.elapsed().as_secs_f64()));
+    outcome.noise_sigma = round(noise);
+    outcome.gap_snr = round(rest_rms(&recal, channel) / noise.max(1e-12));
+    outcome.machine = twin.path.clone();
+    outcome.seconds = round(started.elapsed().as_secs_f64());
     let html = report_html(&run, &recal, &outcomes, channel, main);
-    Ok(Physical { json, html })
+    Ok(Physical { outcome, html })
 }
 
 /// Reads the real run, split at `holdout_s`, with its logged boundaries
@@ -350,14 +351,11 @@ fn scored_channel(recal: &Calibration, main: &str) -> usize {
     at(main).or_else(|| at("dz_um")).unwrap_or(0)
 }
 
-/// Held-out rms per channel.
-fn held_out(cal: &Calibration) -> Map<String, Value> {
+/// Held-out rms per channel (`None` where the channel has no hold-out figure).
+fn held_out(cal: &Calibration) -> BTreeMap<String, Option<f64>> {
     cal.channels
         .iter()
-        .map(|c| {
-            let v = c.rest.map_or(Value::Null, |r| json!(round(r.rmse)));
-            (c.name.clone(), v)
-        })
+        .map(|c| (c.name.clone(), c.rest.map(|r| round(r.rmse))))
         .collect()
 }
 
@@ -369,66 +367,86 @@ fn rest_rms(cal: &Calibration, channel: usize) -> f64 {
 }
 
 /// The machine's refitted factors (relative to the machine file).
-fn twin_params(cal: &Calibration) -> Value {
-    let mut m: Map<String, Value> = calibrate::PARAMS
-        .iter()
-        .zip(calibrate::values(&cal.theta))
-        .map(|(p, v)| (p.name.to_string(), json!(round(v))))
-        .collect();
-    m.insert("converged".into(), json!(cal.converged));
-    m.insert("simulations".into(), json!(cal.evaluations));
-    Value::Object(m)
+fn twin_fit(cal: &Calibration) -> TwinFit {
+    let values = calibrate::values(&cal.theta);
+    let factor = |name: &str| {
+        calibrate::PARAMS
+            .iter()
+            .position(|p| p.name == name)
+            .map_or(f64::NAN, |i| round(values[i]))
+    };
+    TwinFit {
+        bearing_exponent: factor("bearing_exponent"),
+        capacity_factor: factor("capacity_factor"),
+        converged: cal.converged,
+        g_ambient_factor: factor("g_ambient_factor"),
+        heat_factor: factor("heat_factor"),
+        simulations: cal.evaluations,
+    }
 }
 
-/// One effect's JSON entry.
-fn effect_json(o: &Outcome, before: f64, channel: usize) -> (f64, Value) {
+/// One effect's entry and its held-out rms on `channel`.
+fn effect_outcome(o: &Outcome, before: f64, channel: usize) -> (f64, PhysicalEffect) {
     let after = o.cal.as_ref().map_or(before, |c| rest_rms(c, channel));
     let shrink = 100.0 * (1.0 - after / before);
-    let v = json!({
-        "name": o.name,
-        "params": o.params,
-        "rms_before": round(before),
-        "rms_after": round(after),
-        "shrink_pct": round(shrink),
-        "model": o.model,
-        "twin": o.cal.as_ref().map_or(Value::Null, twin_params),
-        "held_out_rms": o.cal.as_ref().map_or(Value::Null, |c| Value::Object(held_out(c))),
-    });
-    (after, v)
+    let e = PhysicalEffect {
+        held_out_rms: o.cal.as_ref().map(held_out),
+        model: o.model.clone(),
+        name: o.name.to_string(),
+        params: o.params.clone(),
+        rms_after: round(after),
+        rms_before: round(before),
+        shrink_pct: round(shrink),
+        twin: o.cal.as_ref().map(twin_fit),
+    };
+    (after, e)
 }
 
-/// The `physical` object: effects sorted by held-out rms, best first.
-fn to_json(
+/// The physical outcome: effects sorted by held-out rms, best first; the
+/// figures of the run (`noise`, `gap_snr`, `machine`, `seconds`) are the
+/// caller's.
+fn outcome_of(
     recal: &Calibration,
     outcomes: &[Outcome],
     channel: usize,
     al: &Aligned,
     n_fit: usize,
-) -> Value {
+) -> outcome::Physical {
     let before = rest_rms(recal, channel);
-    let mut effects: Vec<(f64, Value)> = outcomes
+    let mut effects: Vec<(f64, PhysicalEffect)> = outcomes
         .iter()
-        .map(|o| effect_json(o, before, channel))
+        .map(|o| effect_outcome(o, before, channel))
         .collect();
     effects.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let sim_gap: Map<String, Value> = al
+    let gap_of_sim = al
         .channels
         .each()
         .filter(|c| recal.channels.iter().any(|r| r.name == c.name))
-        .map(|c| (c.name.clone(), json!(round(lsq::rms(&c.resid[n_fit..])))))
+        .map(|c| (c.name.clone(), round(lsq::rms(&c.resid[n_fit..]))))
         .collect();
-    json!({
-        "channel": recal.channels.get(channel).map(|c| c.name.clone()),
-        "recalibrated": twin_params(recal),
-        "gap_of_sim": sim_gap,
-        "gap_after_recalibration": held_out(recal),
-        "effects": effects.into_iter().map(|e| e.1).collect::<Vec<_>>(),
-        "best": best(outcomes, channel).map(|o| o.name),
-        "simulations": recal.evaluations
-            + outcomes.iter().filter_map(|o| o.cal.as_ref()).map(|c| c.evaluations).sum::<usize>(),
-        "method": "the machine's factors refitted on the fit part (recalibrated twin); then each effect switched on in the twin, its parameters refitted with the factors on the fit part; held-out rms of the recalibrated twin (rms_before) and of the twin with the effect (rms_after) on `channel`",
-    })
+    outcome::Physical {
+        best: best(outcomes, channel).map(|o| o.name.to_string()),
+        channel: recal.channels.get(channel).map(|c| c.name.clone()),
+        effects: effects.into_iter().map(|e| e.1).collect(),
+        gap_after_recalibration: held_out(recal),
+        gap_of_sim,
+        gap_snr: f64::NAN,
+        machine: String::new(),
+        method: METHOD.into(),
+        noise_sigma: f64::NAN,
+        recalibrated: twin_fit(recal),
+        seconds: f64::NAN,
+        simulations: recal.evaluations
+            + outcomes
+                .iter()
+                .filter_map(|o| o.cal.as_ref())
+                .map(|c| c.evaluations)
+                .sum::<usize>(),
+    }
 }
+
+/// The method in words (`method`).
+const METHOD: &str = "the machine's factors refitted on the fit part (recalibrated twin); then each effect switched on in the twin, its parameters refitted with the factors on the fit part; held-out rms of the recalibrated twin (rms_before) and of the twin with the effect (rms_after) on `channel`";
 
 fn effect_after(o: &Outcome, channel: usize) -> f64 {
     o.cal
@@ -548,33 +566,30 @@ fn held_out_plot(run: &Run, recal: &Calibration, best: Option<&Outcome>, c: usiz
     )
 }
 
-/// The text table's lines for the `physical` object (empty without it).
-pub fn text(p: &Value) -> String {
+/// The text table's lines for the physical diagnosis.
+pub fn text(p: &outcome::Physical) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
-    let Some(effects) = p["effects"].as_array() else {
-        return s;
-    };
-    let r = &p["recalibrated"];
+    let r = &p.recalibrated;
     let _ = writeln!(
         s,
         "\nwith the machine file: recalibrated heat x{}, bearing exponent {}, capacity x{}, ambient conductance x{}",
-        r["heat_factor"], r["bearing_exponent"], r["capacity_factor"], r["g_ambient_factor"]
+        json_number(r.heat_factor),
+        json_number(r.bearing_exponent),
+        json_number(r.capacity_factor),
+        json_number(r.g_ambient_factor)
     );
-    let ch = p["channel"].as_str().unwrap_or("?");
+    let ch = p.channel.as_deref().unwrap_or("?");
     let _ = writeln!(
         s,
         "{:<12} {:>11} {:>10} {:>9}   (twin re-simulated, {ch}, held-out rms)",
         "effect", "recalib.", "+ effect", "shrink %"
     );
-    for e in effects {
+    for e in &p.effects {
         let _ = writeln!(
             s,
             "{:<12} {:>11.3} {:>10.3} {:>9.1}",
-            e["name"].as_str().unwrap_or(""),
-            e["rms_before"].as_f64().unwrap_or(f64::NAN),
-            e["rms_after"].as_f64().unwrap_or(f64::NAN),
-            e["shrink_pct"].as_f64().unwrap_or(f64::NAN)
+            e.name, e.rms_before, e.rms_after, e.shrink_pct
         );
     }
     s
@@ -594,6 +609,20 @@ mod tests {
         assert_eq!(machine_place(&m, "T7"), Some((P_AMBIENT, P_AMBIENT)));
         assert_eq!(machine_place(&m, "T5"), Some((s, s)));
         assert_eq!(machine_place(&m, "T11"), None);
+    }
+
+    #[test]
+    fn the_twin_fit_has_a_field_for_every_calibrated_factor() {
+        // twin_fit reads the factors by name: a new one needs a field.
+        let mut names: Vec<&str> = calibrate::PARAMS.iter().map(|p| p.name).collect();
+        names.sort_unstable();
+        let fields = [
+            "bearing_exponent",
+            "capacity_factor",
+            "g_ambient_factor",
+            "heat_factor",
+        ];
+        assert_eq!(names, fields);
     }
 
     #[test]

@@ -21,7 +21,8 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 /// Divisor of the autocovariances.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
     /// `n - k` (statsmodels' default, "adjusted").

@@ -30,7 +30,6 @@ use crate::num::linalg;
 use crate::num::progress::progress;
 use crate::num::rng::SplitMix64;
 use anyhow::{anyhow, bail, Result};
-use clap::ValueEnum;
 use model_core::bp::{Activation, BpNet, MAX_HIDDEN, MAX_W1};
 use model_core::{Model, Params};
 use net::{Data, Scaling, Shape};
@@ -42,7 +41,8 @@ use serde_json::{json, Map, Value};
 pub const DEFAULT_HIDDEN: usize = 10;
 
 /// Hidden transfer functions a trainer offers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum HiddenActivation {
     /// `tanh` (MATLAB's default for `feedforwardnet`).
     Tansig,

@@ -84,7 +84,8 @@ impl Default for DynamicOptions {
 }
 
 /// How `arx` and `tf` choose their inputs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Selection {
     /// Every `--inputs` column.
     Off,
