@@ -57,7 +57,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(v["benchmark"], "zoo");
-    assert_eq!(v["heldout_plant"], "h");
+    assert_eq!(v["heldout_plant"], "i");
     assert_eq!(v["scored_heldout"], false);
     assert_eq!(v["cases"], 12, "one case per cause on each of 2 plants");
     let plants = v["plants"].as_array().unwrap();
@@ -97,7 +97,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
             assert!(!c[k].is_null(), "{k} in {c}");
         }
         assert!(
-            c["plant"] != "h",
+            c["plant"] != "i",
             "the held-out plant never runs in development"
         );
     }
