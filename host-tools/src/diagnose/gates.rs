@@ -1,6 +1,6 @@
 //! Physical gates on the verdict: what a thermal engineer checks before
 //! and after the statistics, from the logged inputs and the looks alone
-//! (gates 1 and 2, then 4, then 3).
+//! (gates 1 and 2, then 5, 4 and 3).
 //!
 //! 1. **The logged coolant supply cycles.** The twin is run with the
 //!    coolant at its nominal constant (a regulated supply). When the real
@@ -46,8 +46,17 @@
 //!    the lag misses it turns right left 0.33-0.47 at p 0.0025-0.18 behind
 //!    a Bonferroni level of 0.006-0.025. Seed 1: 356 -> 361 right; seed 2
 //!    (checked): 344 -> 347; no false alarm either way; twin set unchanged.
+//! 5. **An unlogged chiller still cycles when the machine is quiet.** With
+//!    no verdict and no `coolant_c` log, a channel whose residual keeps
+//!    swinging in the quiet windows of [`super::quiet`] (an hour each, half
+//!    an hour after the last change of speed or load, where a wrong twin
+//!    leaves only a smooth relaxation) names a chiller, if the `coolant`
+//!    candidate helps on some look as under gate 1 (significant, less than
+//!    [`COOLANT_RATIO`] of the baseline in the chiller band). The cycle
+//!    stands in for the log that gate 1 reads.
 
 use super::align::{is_displacement, Aligned};
+use super::quiet::{quiet_cycle, white_sigma};
 use super::variants::CHILLER_BAND_S;
 use super::{seen_on, Look, MAX_RATIO_TO_NONE, STRONG_ALPHA};
 use crate::data::runfile::{is_temperature_column, resample_linear, RunFile};
@@ -119,21 +128,6 @@ fn centred_mean(t: &[f64], x: &[f64], half_s: f64) -> Vec<f64> {
             (cum[b] - cum[a]) / (b - a).max(1) as f64
         })
         .collect()
-}
-
-/// White noise of `x` from its second differences (median absolute
-/// value over `0.6745 sqrt 6`): blind to straight stretches, so a
-/// chiller's ramps do not count as noise, only its turning points.
-fn white_sigma(x: &[f64]) -> f64 {
-    let mut d: Vec<f64> = x
-        .windows(3)
-        .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
-        .collect();
-    if d.is_empty() {
-        return 0.0;
-    }
-    let k = d.len() / 2;
-    crate::num::stats::kth_smallest(&mut d, k) / 0.6745 / 6f64.sqrt()
 }
 
 /// The fast content of the logged `coolant_c` (`None` when it is not
@@ -250,7 +244,27 @@ pub fn gate(
             });
         }
     }
-    lag_gate(al, looks).or_else(|| motor_gate(al, looks))
+    let unlogged = cycle.is_none() && !sim_cycles;
+    unlogged
+        .then(|| quiet_chiller_gate(al, looks))
+        .flatten()
+        .or_else(|| lag_gate(al, looks))
+        .or_else(|| motor_gate(al, looks))
+}
+
+/// Gate 5: no `coolant_c` log, a channel cycling in the quiet windows
+/// ([`quiet_cycle`]) and the `coolant` candidate helping on some look.
+fn quiet_chiller_gate(al: &Aligned, looks: &[Look]) -> Option<Gated> {
+    let q = quiet_cycle(al).filter(|q| q.cycles())?;
+    let (i, r) = best_look(looks, "coolant", COOLANT_RATIO, false)?;
+    Some(Gated {
+        look: i,
+        verdict: "coolant".into(),
+        reason: format!(
+            "coolant_c not logged; {} keeps cycling while the machine is quiet ({:.1} x its noise left by smooth relaxations over {} quiet hours); coolant leaves {:.2} of the baseline there",
+            q.channel, q.ratio, q.windows, r
+        ),
+    })
 }
 
 /// Whether look `l` is at a displacement channel.

@@ -22,6 +22,7 @@ pub mod deploy;
 pub mod gates;
 pub mod pair;
 pub mod physical;
+pub mod quiet;
 pub mod regime;
 pub mod report;
 pub mod signif;
