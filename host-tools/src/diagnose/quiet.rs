@@ -143,7 +143,9 @@ pub fn quadratic_residual(t: &[f64], y: &[f64]) -> Vec<f64> {
     let mut r = y.to_vec();
     for p in [&one, &p1, &p2] {
         let c = dot(&r, p) / dot(p, p).max(1e-300);
-        r.iter_mut().zip(p.iter()).for_each(|(ri, pi)| *ri -= c * pi);
+        r.iter_mut()
+            .zip(p.iter())
+            .for_each(|(ri, pi)| *ri -= c * pi);
     }
     r
 }
@@ -157,7 +159,9 @@ fn orthogonalise(v: &[f64], basis: &[&[f64]]) -> Vec<f64> {
     let mut out = v.to_vec();
     for b in basis {
         let c = dot(&out, b) / dot(b, b).max(1e-300);
-        out.iter_mut().zip(b.iter()).for_each(|(o, bi)| *o -= c * bi);
+        out.iter_mut()
+            .zip(b.iter())
+            .for_each(|(o, bi)| *o -= c * bi);
     }
     out
 }
@@ -220,10 +224,7 @@ mod tests {
         // 1 + 2x - 3x^2 on 60 rows: nothing left (orthogonal projections,
         // rounding only: 1e-9).
         let t: Vec<f64> = (0..60).map(|k| 60.0 * k as f64).collect();
-        let y: Vec<f64> = t
-            .iter()
-            .map(|v| 1.0 + 2e-3 * v - 3e-7 * v * v)
-            .collect();
+        let y: Vec<f64> = t.iter().map(|v| 1.0 + 2e-3 * v - 3e-7 * v * v).collect();
         let r = quadratic_residual(&t, &y);
         assert!(r.iter().all(|v| v.abs() < 1e-9), "{r:?}");
     }
