@@ -8,6 +8,7 @@
 mod common;
 
 use common::{fails_one_line, ok_json};
+use host_tools::bench::zoo::catalogue::DEFAULT_HELDOUT;
 use serde_json::Value;
 
 const LABELS: [&str; 6] = [
@@ -57,7 +58,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(v["benchmark"], "zoo");
-    assert_eq!(v["heldout_plant"], "h");
+    assert_eq!(v["heldout_plant"], DEFAULT_HELDOUT);
     assert_eq!(v["scored_heldout"], false);
     assert_eq!(v["cases"], 12, "one case per cause on each of 2 plants");
     let plants = v["plants"].as_array().unwrap();
@@ -97,7 +98,7 @@ fn zoo_smoke_run_has_per_plant_scores_and_files() {
             assert!(!c[k].is_null(), "{k} in {c}");
         }
         assert!(
-            c["plant"] != "h",
+            c["plant"] != DEFAULT_HELDOUT,
             "the held-out plant never runs in development"
         );
     }
@@ -152,7 +153,10 @@ fn score_heldout_runs_only_the_heldout_plant() {
 
 #[test]
 fn zoo_flags_fail_with_one_line() {
-    let e = fails_one_line(&["bench", "gap", "--plants", "a,h"]);
+    // Naming the default held-out plant among the development plants is
+    // refused before any case runs.
+    let with_heldout = format!("a,{DEFAULT_HELDOUT}");
+    let e = fails_one_line(&["bench", "gap", "--plants", &with_heldout]);
     assert!(
         e.contains("held out") && e.contains("--score-heldout"),
         "{e}"

@@ -1,6 +1,6 @@
 //! Physical gates on the verdict: what a thermal engineer checks before
 //! and after the statistics, from the logged inputs and the looks alone
-//! (gates 1 and 2, then 4, then 3).
+//! (gates 1 and 2, then 5, 4 and 3).
 //!
 //! 1. **The logged coolant supply cycles.** The twin is run with the
 //!    coolant at its nominal constant (a regulated supply). When the real
@@ -46,8 +46,20 @@
 //!    the lag misses it turns right left 0.33-0.47 at p 0.0025-0.18 behind
 //!    a Bonferroni level of 0.006-0.025. Seed 1: 356 -> 361 right; seed 2
 //!    (checked): 344 -> 347; no false alarm either way; twin set unchanged.
+//! 5. **An unlogged chiller still cycles when the machine is quiet.** With
+//!    no verdict and no `coolant_c` log, a channel whose residual keeps
+//!    swinging in the quiet windows of [`super::quiet`] (an hour each, half
+//!    an hour after the last change of speed or load, where a wrong twin
+//!    leaves only a smooth relaxation) names a chiller, if the `coolant`
+//!    candidate helps on some look as under gate 1 (significant, less than
+//!    [`COOLANT_RATIO`] of the baseline in the chiller band), or, if none
+//!    does, when the cycle is at least [`STRONG_CYCLE_RATIO`] times the
+//!    noise. The cycle stands in for the log that gate 1 reads; with a
+//!    cycling log it confirms gate 1 where no candidate helps (the log and
+//!    a channel swinging with it while quiet are two observations).
 
 use super::align::{is_displacement, Aligned};
+use super::quiet::{quiet_cycle, white_sigma};
 use super::variants::CHILLER_BAND_S;
 use super::{seen_on, Look, MAX_RATIO_TO_NONE, STRONG_ALPHA};
 use crate::data::runfile::{is_temperature_column, resample_linear, RunFile};
@@ -71,6 +83,14 @@ pub const SLOW_WINDOW_S: f64 = CHILLER_BAND_S.1;
 /// it. Development seed 1: 0.95 left 3 logged chillers at 0.96-0.98 (plant
 /// c's headstock sensor, behind a 15 min node).
 pub const COOLANT_RATIO: f64 = 1.0;
+/// A quiet cycle this strong names an unlogged chiller even when no look's
+/// coolant candidate helps (the tracked or harmonic stand-in for an
+/// unlogged supply can miss a cycle that only the sensor leaning to the
+/// coolant carries). Development seed 1: without a chiller the quiet ratio
+/// stayed <= 1.2 on every cause but a lost sensor contact (up to 2.0
+/// unlogged: a 20-40 min lag's tail is still curved half an hour after a
+/// change); the chillers the candidate missed showed 2.8-5.7.
+pub const STRONG_CYCLE_RATIO: f64 = 3.0;
 /// Largest share of the baseline's held-out rms a `motor_loss` winner of
 /// one look may leave under gate 3.
 pub const MOTOR_RATIO: f64 = 0.75;
@@ -119,21 +139,6 @@ fn centred_mean(t: &[f64], x: &[f64], half_s: f64) -> Vec<f64> {
             (cum[b] - cum[a]) / (b - a).max(1) as f64
         })
         .collect()
-}
-
-/// White noise of `x` from its second differences (median absolute
-/// value over `0.6745 sqrt 6`): blind to straight stretches, so a
-/// chiller's ramps do not count as noise, only its turning points.
-fn white_sigma(x: &[f64]) -> f64 {
-    let mut d: Vec<f64> = x
-        .windows(3)
-        .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
-        .collect();
-    if d.is_empty() {
-        return 0.0;
-    }
-    let k = d.len() / 2;
-    crate::num::stats::kth_smallest(&mut d, k) / 0.6745 / 6f64.sqrt()
 }
 
 /// The fast content of the logged `coolant_c` (`None` when it is not
@@ -238,19 +243,89 @@ pub fn gate(
     if verdict != "none" || !gap_significant {
         return None;
     }
-    if let Some(c) = cycle.filter(|c| c.cycles() && !sim_cycles) {
-        if let Some((i, r)) = best_look(looks, "coolant", COOLANT_RATIO, false) {
-            return Some(Gated {
-                look: i,
-                verdict: "coolant".into(),
-                reason: format!(
-                    "logged coolant_c cycles ({:.3} K in the chiller band, {:.1} x its noise); coolant leaves {:.2} of the baseline there",
-                    c.band_rms_k, c.snr, r
-                ),
-            });
-        }
+    if sim_cycles {
+        return lag_gate(al, looks).or_else(|| motor_gate(al, looks));
     }
-    lag_gate(al, looks).or_else(|| motor_gate(al, looks))
+    chiller_gate(al, looks, cycle)
+        .or_else(|| lag_gate(al, looks))
+        .or_else(|| motor_gate(al, looks))
+}
+
+/// Gates 1 and 5: a chiller named by its cycling log, or, without a log,
+/// by its cycle in the quiet windows; each when the coolant candidate helps
+/// on some look, or, without that, when a second observation confirms it
+/// (the log and the quiet cycle together, or a quiet cycle of at least
+/// [`STRONG_CYCLE_RATIO`]).
+fn chiller_gate(al: &Aligned, looks: &[Look], cycle: Option<CoolantCycle>) -> Option<Gated> {
+    let helps = best_look(looks, "coolant", COOLANT_RATIO, false);
+    if let Some(c) = cycle {
+        if !c.cycles() {
+            return None;
+        }
+        let logged = format!(
+            "logged coolant_c cycles ({:.3} K in the chiller band, {:.1} x its noise)",
+            c.band_rms_k, c.snr
+        );
+        if let Some((i, r)) = helps {
+            return Some(coolant_at(
+                i,
+                format!("{logged}; coolant leaves {r:.2} of the baseline there"),
+            ));
+        }
+        let q = quiet_cycle(al).filter(|q| q.cycles())?;
+        return Some(coolant_at(
+            coolant_look(al, looks, &q.channel),
+            format!(
+                "{logged}; {} swings with it while the machine is quiet ({:.1} x its noise)",
+                q.channel, q.ratio
+            ),
+        ));
+    }
+    let q = quiet_cycle(al).filter(|q| q.cycles())?;
+    let quiet = format!(
+        "coolant_c not logged; {} keeps cycling while the machine is quiet ({:.1} x its noise left by smooth relaxations over {} quiet hours)",
+        q.channel, q.ratio, q.windows
+    );
+    match helps {
+        Some((i, r)) => Some(coolant_at(
+            i,
+            format!("{quiet}; coolant leaves {r:.2} of the baseline there"),
+        )),
+        None => (q.ratio >= STRONG_CYCLE_RATIO)
+            .then(|| coolant_at(coolant_look(al, looks, &q.channel), quiet)),
+    }
+}
+
+/// A `coolant` verdict reported on look `look`.
+fn coolant_at(look: usize, reason: String) -> Gated {
+    Gated {
+        look,
+        verdict: "coolant".into(),
+        reason,
+    }
+}
+
+/// The look to report a coolant verdict on when no look's candidate
+/// passes: the look at `channel` (where the cycle is) if there is one,
+/// else the one where the coolant candidate leaves the least of its
+/// baseline.
+fn coolant_look(al: &Aligned, looks: &[Look], channel: &str) -> usize {
+    let ratio = |l: &Look| {
+        l.scored
+            .iter()
+            .find(|s| s.name == "coolant")
+            .map_or(f64::INFINITY, |s| s.ratio_to_none)
+    };
+    looks
+        .iter()
+        .position(|l| {
+            al.channels
+                .names()
+                .get(l.channel)
+                .is_some_and(|n| n == channel)
+        })
+        .or_else(|| (0..looks.len()).min_by(|&a, &b| ratio(&looks[a]).total_cmp(&ratio(&looks[b]))))
+        .unwrap_or(0)
 }
 
 /// Whether look `l` is at a displacement channel.
@@ -452,6 +527,46 @@ mod tests {
         // Two temperature looks only: no axis moved, no motor_loss.
         let temps = named(aligned(None), &["T1", "T2"]);
         assert!(gate(&temps, &motor(0.7, 0.9, 1.0), "none", true, false).is_none());
+    }
+
+    /// `al` with one channel `T2` whose residual is white noise of 0.01 K
+    /// plus a chiller-like triangle of `pp` K peak to peak every 30 min.
+    fn with_cycle(al: Aligned, pp: f64) -> Aligned {
+        let n = al.t_s.len();
+        let resid: Vec<f64> = supply(pp, 1800.0, 0.01).iter().map(|v| v - 20.0).collect();
+        let mut al = al;
+        al.channels.push("T2", &vec![20.0; n], &resid).unwrap();
+        al
+    }
+
+    #[test]
+    fn an_unlogged_chiller_is_named_by_its_quiet_cycle() {
+        let fb = Rule {
+            alpha: 0.01,
+            ..FALLBACK_RULE
+        };
+        // The machine stands still for 48 h: every hour from 30 min on is
+        // a quiet window. A 0.1 K triangle (rms 0.029 K, ~3 x the noise)
+        // is a cycle; with the coolant candidate passing on look 0 (0.9 of
+        // the baseline at p 0.005) the verdict is coolant there.
+        let cycling = with_cycle(aligned(None), 0.1);
+        let helps = vec![look(0, fb, vec![cand("coolant", 0.9, 0.005)])];
+        let g = gate(&cycling, &helps, "none", true, false).unwrap();
+        assert_eq!((g.look, g.verdict.as_str()), (0, "coolant"));
+        // Noise alone is no cycle: no verdict, even with the candidate.
+        let quiet = with_cycle(aligned(None), 0.0);
+        assert!(gate(&quiet, &helps, "none", true, false).is_none());
+        // Without a helping candidate a cycle below STRONG_CYCLE_RATIO
+        // (~3 x the noise here) does not decide; a 0.3 K one (~9 x) does.
+        let weak = vec![look(0, fb, vec![cand("coolant", 1.0, 0.5)])];
+        let small = with_cycle(aligned(None), 0.06);
+        assert!(gate(&small, &weak, "none", true, false).is_none());
+        let strong = with_cycle(aligned(None), 0.3);
+        let g = gate(&strong, &weak, "none", true, false).unwrap();
+        assert_eq!(g.verdict, "coolant");
+        // Nor when the twin's own coolant cycles, nor over another verdict.
+        assert!(gate(&strong, &weak, "none", true, true).is_none());
+        assert!(gate(&strong, &weak, "cutting", true, false).is_none());
     }
 
     #[test]

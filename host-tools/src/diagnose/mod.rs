@@ -23,6 +23,7 @@ pub mod gates;
 pub mod outcome;
 pub mod pair;
 pub mod physical;
+pub mod quiet;
 pub mod regime;
 pub mod report;
 pub mod signif;

@@ -277,7 +277,11 @@ mod tests {
         // Plant h: tank 450 kJ/K, band 0.85 K, 1700 W, 180 W base: at rest
         // ~ 380k/230 + 380k/1470 = 1910 s; at top speed the gearbox oil and
         // the headstock take ~400 W: ~ 380k/630 + 380k/1070 = 960 s.
-        for id in ["a", "g", "h"] {
+        // Plant i: tank 550 kJ/K, band 0.95 K, 2400 W, 260 W base: at rest
+        // the pad oil gives ~20 W: ~ 520k/280 + 520k/2120 = 2100 s; at top
+        // speed the pad oil and the ram saddle take ~730 W: ~ 520k/990 +
+        // 520k/1410 = 900 s.
+        for id in ["a", "g", "h", "i"] {
             chiller_period_drifts_on(id);
         }
     }
