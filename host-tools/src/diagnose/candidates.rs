@@ -13,7 +13,7 @@
 //! errors are then compared with the baseline's ([`super::signif`]).
 
 use super::align::{Aligned, Channel};
-use super::baseline::{self, Baseline};
+use super::baseline::{self, Baseline, Col};
 use super::signif;
 use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
 use crate::num::lsq::{self, LinearFit};
@@ -165,20 +165,30 @@ pub fn round(v: f64) -> f64 {
     }
 }
 
-/// The baseline of a channel as a design: its columns and their ridge
-/// penalties for the channel's residual.
+/// The baseline of a channel as a design: its columns, their ridge
+/// penalties for the channel's residual and their scales on the fit rows
+/// (computed once: every fit of a grid shares the baseline's columns).
 #[derive(Debug, Clone)]
 pub(super) struct Design {
     base: Baseline,
     penalty: Vec<f64>,
+    rows: Rows,
+    scales: Vec<f64>,
 }
 
 impl Design {
     /// The mismatch baseline of `p`'s channel.
     pub(super) fn of(p: &Problem) -> Self {
         let base = baseline::mismatch_baseline(p.al, p.ch);
-        let penalty = base.penalties(&p.ch.resid, p.fit_rows());
-        Design { base, penalty }
+        let rows = p.fit_rows();
+        let penalty = base.penalties(&p.ch.resid, rows.clone());
+        let scales = lsq::column_scales(&base.slices(), &rows);
+        Design {
+            base,
+            penalty,
+            rows,
+            scales,
+        }
     }
 
     /// Number of baseline columns (where a variant's gains start).
@@ -186,26 +196,52 @@ impl Design {
         self.base.cols.len()
     }
 
-    /// The baseline fitted alone.
-    pub(super) fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
-        lsq::fit_streamed(&self.base.slices(), y, None, rows.clone(), &self.penalty)
+    /// The scales on `rows` of the baseline's columns and then `extra`
+    /// (the baseline's kept ones where `rows` are the fit rows).
+    fn scales_with(&self, extra: &[Col], rows: &Rows) -> Vec<f64> {
+        let extra: Vec<&[f64]> = extra.iter().map(|c| c.as_slice()).collect();
+        let mut all = if *rows == self.rows {
+            self.scales.clone()
+        } else {
+            lsq::column_scales(&self.base.slices(), rows)
+        };
+        all.extend(lsq::column_scales(&extra, rows));
+        all
     }
 
-    /// The baseline and variant `v` fitted on rows `rows`: `v`'s fixed
-    /// part (gain 1) is taken off `y` and added back to the prediction.
-    /// One streamed pass over the shared columns, none copied. Returns the
-    /// fit (coefficients: baseline, then `v`'s regressors), or `None` if
-    /// the fit fails or breaks `v`'s sign rule.
-    pub(super) fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
-        let cols: Vec<&[f64]> = self
-            .base
+    /// The baseline fitted alone.
+    pub(super) fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+        let cols = self.base.slices();
+        let scales = self.scales_with(&[], rows);
+        let s = lsq::solve_scaled(&cols, &scales, y, None, rows.clone(), &self.penalty)?;
+        Some(LinearFit {
+            pred: lsq::predict(&cols, &s.coef, None, y.len()),
+            coef: s.coef,
+            sse_fit: s.sse_fit,
+        })
+    }
+
+    /// The baseline's columns and then `v`'s regressors.
+    fn columns<'v>(&'v self, v: &'v Variant) -> Vec<&'v [f64]> {
+        self.base
             .cols
             .iter()
             .chain(&v.extra)
             .map(|c| c.as_slice())
-            .collect();
-        let f = lsq::fit_streamed(
+            .collect()
+    }
+
+    /// The baseline and variant `v` solved on rows `rows`: `v`'s fixed
+    /// part (gain 1) is taken off `y`. One streamed pass over the shared
+    /// columns, none copied, and no prediction made. Returns the
+    /// coefficients (baseline, then `v`'s regressors) and the fit-part
+    /// error, or `None` if the fit fails or breaks `v`'s sign rule.
+    pub(super) fn solve(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<lsq::Solved> {
+        let cols = self.columns(v);
+        let scales = self.scales_with(&v.extra, rows);
+        let f = lsq::solve_scaled(
             &cols,
+            &scales,
             y,
             v.fixed_part.as_deref(),
             rows.clone(),
@@ -218,6 +254,22 @@ impl Design {
         Some(f)
     }
 
+    /// The fit `s` of variant `v` ([`Design::solve`]) with its prediction
+    /// on every row (`v`'s fixed part added back).
+    fn predicted(&self, v: &Variant, s: lsq::Solved, n: usize) -> LinearFit {
+        LinearFit {
+            pred: lsq::predict(&self.columns(v), &s.coef, v.fixed_part.as_deref(), n),
+            coef: s.coef,
+            sse_fit: s.sse_fit,
+        }
+    }
+
+    /// [`Design::solve`] with the prediction on every row.
+    pub(super) fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+        let s = self.solve(v, y, rows)?;
+        Some(self.predicted(v, s, y.len()))
+    }
+
     /// Fits each variant of the grid (walked once) and keeps the best on
     /// the fit part (the first of equal ones).
     pub(super) fn best(
@@ -226,16 +278,16 @@ impl Design {
         y: &[f64],
         rows: &Rows,
     ) -> Option<(LinearFit, Variant)> {
-        let mut best: Option<(LinearFit, Variant)> = None;
+        let mut best: Option<(lsq::Solved, Variant)> = None;
         for v in vars {
-            let Some(f) = self.fit(&v, y, rows) else {
+            let Some(f) = self.solve(&v, y, rows) else {
                 continue;
             };
             if best.as_ref().is_none_or(|b| below(f.sse_fit, b.0.sse_fit)) {
                 best = Some((f, v));
             }
         }
-        best
+        best.map(|(s, v)| (self.predicted(&v, s, y.len()), v))
     }
 
     /// `self` with `v`'s regressors appended to the baseline (free) and
@@ -243,6 +295,7 @@ impl Design {
     /// copied).
     pub(super) fn with_variant(&self, v: &Variant) -> (Design, Option<Vec<f64>>) {
         let mut e = self.clone();
+        e.scales = self.scales_with(&v.extra, &self.rows);
         e.penalty.extend(v.extra.iter().map(|_| 0.0));
         e.base.cols.extend(v.extra.iter().cloned());
         e.base.names.extend(v.gains.iter().cloned());

@@ -46,7 +46,7 @@ impl Cut {
         let (y, rows) = (&c.p.ch.resid, c.p.fit_rows());
         let mut top: Vec<(f64, usize)> = Vec::with_capacity(PAIR_GRID + 1);
         for (i, v) in vars.enumerate() {
-            let Some(f) = d.fit(&v, y, &rows) else {
+            let Some(f) = d.solve(&v, y, &rows) else {
                 continue;
             };
             let at = top.partition_point(|(e, _)| !below(f.sse_fit, *e));
@@ -79,7 +79,7 @@ impl Cut {
         let rows = c.p.fit_rows();
         let mut best: Option<(f64, usize, Variant)> = None;
         for (rank, v) in self.walk(c) {
-            let Some(f) = d.fit(&v, y, &rows) else {
+            let Some(f) = d.solve(&v, y, &rows) else {
                 continue;
             };
             let better = best

@@ -26,21 +26,32 @@ fn solve_triangle(
     Some(coef)
 }
 
-/// Each column's rms over `rows` (its scale) and the columns worth
-/// solving for: a finite scale above 1e-12 (a column that is zero or not
-/// finite there carries nothing).
+/// Each column's rms over `rows`: the scale a streamed fit divides it by
+/// (so the rank tolerance means the same for um, K and kW). Computed once
+/// for columns that several fits share ([`solve_scaled`]).
+pub fn column_scales<C: AsRef<[f64]>>(cols: &[C], rows: &std::ops::Range<usize>) -> Vec<f64> {
+    let n = rows.len() as f64;
+    cols.iter()
+        .map(|c| (c.as_ref()[rows.clone()].iter().map(|v| v * v).sum::<f64>() / n).sqrt())
+        .collect()
+}
+
+/// The columns worth solving for: a finite scale above 1e-12 (a column
+/// that is zero or not finite on the fit rows carries nothing).
+fn live_of(scales: &[f64]) -> Vec<usize> {
+    (0..scales.len())
+        .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
+        .collect()
+}
+
+/// Each column's scale over `rows` ([`column_scales`]) and the live
+/// columns ([`live_of`]).
 fn live_columns<C: AsRef<[f64]>>(
     cols: &[C],
     rows: &std::ops::Range<usize>,
 ) -> (Vec<f64>, Vec<usize>) {
-    let n = rows.len() as f64;
-    let scales: Vec<f64> = cols
-        .iter()
-        .map(|c| (c.as_ref()[rows.clone()].iter().map(|v| v * v).sum::<f64>() / n).sqrt())
-        .collect();
-    let live = (0..cols.len())
-        .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
-        .collect();
+    let scales = column_scales(cols, rows);
+    let live = live_of(&scales);
     (scales, live)
 }
 
@@ -51,14 +62,60 @@ fn live_columns<C: AsRef<[f64]>>(
 /// state at the first sample (0 for a heat input on a cold machine, `u_0`
 /// for a boundary temperature the machine was in equilibrium with).
 pub fn lowpass(t_s: &[f64], u: &[f64], tau_s: f64, y0: f64) -> Vec<f64> {
-    let mut y = Vec::with_capacity(u.len());
-    let mut state = y0;
-    for k in 0..u.len() {
-        if k > 0 {
-            let a = (-(t_s[k] - t_s[k - 1]) / tau_s).exp();
-            state = a * state + (1.0 - a) * u[k - 1];
+    let [y] = lowpass_group::<1>(t_s, &[(u, tau_s, y0)]);
+    y
+}
+
+/// One first-order response to compute: the input, its time constant, s,
+/// and the state at the first sample (see [`lowpass`]).
+pub type Response<'a> = (&'a [f64], f64, f64);
+
+/// [`lowpass`] of each of `responses` (inputs of one length, sampled at
+/// `t_s`), in one pass over the rows for up to four at a time: each
+/// response's recursion waits on its own last value, so several side by
+/// side fill the time one alone spends waiting. Each comes out the same to
+/// the bit as [`lowpass`] computes it alone.
+pub fn lowpass_each(t_s: &[f64], responses: &[Response]) -> Vec<Vec<f64>> {
+    let mut out = Vec::with_capacity(responses.len());
+    for group in responses.chunks(4) {
+        match group.len() {
+            1 => out.extend(lowpass_group::<1>(t_s, group)),
+            2 => out.extend(lowpass_group::<2>(t_s, group)),
+            3 => out.extend(lowpass_group::<3>(t_s, group)),
+            _ => out.extend(lowpass_group::<4>(t_s, group)),
         }
-        y.push(state);
+    }
+    out
+}
+
+/// [`lowpass`] of `M` responses side by side (`group.len() == M`). The
+/// factor `a` of a step is reused while the step repeats (a run at a
+/// fixed rate needs one `exp` a response; the same step gives the same
+/// bits).
+fn lowpass_group<const M: usize>(t_s: &[f64], group: &[Response]) -> [Vec<f64>; M] {
+    let n = group[0].0.len();
+    assert!(group.len() == M && group.iter().all(|g| g.0.len() == n));
+    let mut y: [Vec<f64>; M] = std::array::from_fn(|_| Vec::with_capacity(n));
+    let mut state: [f64; M] = std::array::from_fn(|i| group[i].2);
+    let (mut a, mut b) = ([0.0; M], [0.0; M]);
+    let mut last_dt = f64::NAN;
+    for k in 0..n {
+        if k > 0 {
+            let dt = t_s[k] - t_s[k - 1];
+            if dt != last_dt {
+                last_dt = dt;
+                for i in 0..M {
+                    a[i] = (-dt / group[i].1).exp();
+                    b[i] = 1.0 - a[i];
+                }
+            }
+            for i in 0..M {
+                state[i] = a[i] * state[i] + b[i] * group[i].0[k - 1];
+            }
+        }
+        for i in 0..M {
+            y[i].push(state[i]);
+        }
     }
     y
 }
@@ -166,33 +223,103 @@ pub fn fit_streamed(
     rows: std::ops::Range<usize>,
     penalty: &[f64],
 ) -> Option<LinearFit> {
+    let s = solve_streamed(cols, y, fixed, rows, penalty)?;
+    Some(LinearFit {
+        pred: predict(cols, &s.coef, fixed, y.len()),
+        coef: s.coef,
+        sse_fit: s.sse_fit,
+    })
+}
+
+/// A streamed fit without its prediction ([`solve_streamed`]): what a
+/// search over many designs compares, the prediction being wanted of the
+/// one it keeps only ([`predict`]).
+#[derive(Debug, Clone)]
+pub struct Solved {
+    /// One coefficient per regressor (0 for a dead one).
+    pub coef: Vec<f64>,
+    /// Sum of squared residuals on the fit rows.
+    pub sse_fit: f64,
+}
+
+/// [`fit_streamed`] without the prediction: the coefficients and the fit
+/// rows' sum of squares, the same to the bit (each row's prediction is
+/// summed in the same order, block by block, never stored whole).
+pub fn solve_streamed(
+    cols: &[&[f64]],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    penalty: &[f64],
+) -> Option<Solved> {
+    let scales = column_scales(cols, &rows);
+    solve_scaled(cols, &scales, y, fixed, rows, penalty)
+}
+
+/// [`solve_streamed`] with the columns' scales on `rows` given
+/// ([`column_scales`]: the caller keeps those of the columns many fits
+/// share).
+pub fn solve_scaled(
+    cols: &[&[f64]],
+    scales: &[f64],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    penalty: &[f64],
+) -> Option<Solved> {
     let n = y.len();
     if rows.is_empty()
         || rows.end > n
+        || scales.len() != cols.len()
         || cols.iter().any(|c| c.len() != n)
         || fixed.is_some_and(|f| f.len() != n)
     {
         return None;
     }
-    let n_fit = rows.len();
-    let (scales, live) = live_columns(cols, &rows);
+    let live = live_of(scales);
     // No live column: nothing to solve (the dense path's SVD would panic).
-    if live.is_empty() || live.len() > n_fit {
+    if live.is_empty() || live.len() > rows.len() {
         return None;
     }
-    let lambda = |j: usize| penalty.get(j).copied().unwrap_or(0.0).max(0.0);
+    let qr = streamed_rows(cols, scales, &live, y, fixed, rows.clone());
+    let qr = penalty_rows(qr, scales, &live, penalty);
+    let (r, qtb) = qr.triangle()?;
+    let coef = solve_triangle(r, qtb, &live, scales)?;
+    if !coef.iter().all(|c| c.is_finite()) {
+        return None;
+    }
+    let sse_fit = sse_on(cols, &coef, y, fixed, rows);
+    Some(Solved { coef, sse_fit })
+}
+
+/// The fit rows of the scaled live columns and the target `y - fixed`,
+/// pushed through a blocked QR.
+fn streamed_rows(
+    cols: &[&[f64]],
+    scales: &[f64],
+    live: &[usize],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+) -> Tsqr {
     let target = |i: usize| fixed.map_or(y[i], |f| y[i] - f[i]);
-    // Fit rows, then one row sqrt(penalty_j) / scale_j per penalised
-    // column (target 0), as in `fit_rows_penalised`.
     let mut qr = Tsqr::new(live.len());
     let mut row = vec![0.0; live.len()];
     let live_cols: Vec<(&[f64], f64)> = live.iter().map(|&j| (cols[j], scales[j])).collect();
-    for i in rows.clone() {
+    for i in rows {
         for (x, (c, s)) in row.iter_mut().zip(&live_cols) {
             *x = c[i] / s;
         }
         qr.push(&row, target(i));
     }
+    qr
+}
+
+/// One row `sqrt(penalty_j) / scale_j` per penalised live column (target
+/// 0) after the fit rows, as in [`fit_rows_penalised`].
+fn penalty_rows(mut qr: Tsqr, scales: &[f64], live: &[usize], penalty: &[f64]) -> Tsqr {
+    let lambda = |j: usize| penalty.get(j).copied().unwrap_or(0.0).max(0.0);
+    let mut row = vec![0.0; live.len()];
     for (k, &j) in live.iter().enumerate() {
         if lambda(j) > 0.0 {
             row.fill(0.0);
@@ -200,20 +327,66 @@ pub fn fit_streamed(
             qr.push(&row, 0.0);
         }
     }
-    let (r, qtb) = qr.triangle()?;
-    let coef = solve_triangle(r, qtb, &live, &scales)?;
-    let mut pred = fixed.map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
-    for (c, w) in cols.iter().zip(&coef) {
-        for (q, v) in pred.iter_mut().zip(*c) {
+    qr
+}
+
+/// Rows per block of a prediction summed without storing it whole.
+const PRED_BLOCK: usize = 4096;
+
+/// The prediction `fixed + sum_j coef_j cols_j` on rows `rows` into
+/// `out`, summed column by column in order (the bits of [`predict`]).
+fn predict_into(
+    cols: &[&[f64]],
+    coef: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    out: &mut [f64],
+) {
+    match fixed {
+        Some(f) => out.copy_from_slice(&f[rows.clone()]),
+        None => out.fill(0.0),
+    }
+    add_columns(cols, coef, rows, out);
+}
+
+/// `out += sum_j coef_j cols_j[rows]`, one column after the other.
+fn add_columns(cols: &[&[f64]], coef: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
+    for (c, w) in cols.iter().zip(coef) {
+        for (q, v) in out.iter_mut().zip(&c[rows.clone()]) {
             *q += v * w;
         }
     }
-    let sse_fit = rows.map(|i| (y[i] - pred[i]).powi(2)).sum();
-    coef.iter().all(|c| c.is_finite()).then_some(LinearFit {
-        coef,
-        pred,
-        sse_fit,
-    })
+}
+
+/// The prediction `fixed + sum_j coef_j cols_j` on all `n` rows.
+pub fn predict(cols: &[&[f64]], coef: &[f64], fixed: Option<&[f64]>, n: usize) -> Vec<f64> {
+    let mut pred = fixed.map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
+    add_columns(cols, coef, 0..n, &mut pred);
+    pred
+}
+
+/// `sum (y - prediction)^2` over `rows`, the prediction made a block at a
+/// time (summed in row order, as over a whole prediction).
+fn sse_on(
+    cols: &[&[f64]],
+    coef: &[f64],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+) -> f64 {
+    let mut block = vec![0.0; PRED_BLOCK.min(rows.len())];
+    let mut sse = 0.0;
+    let mut start = rows.start;
+    while start < rows.end {
+        let end = (start + PRED_BLOCK).min(rows.end);
+        let q = &mut block[..end - start];
+        predict_into(cols, coef, fixed, start..end, q);
+        for (yi, qi) in y[start..end].iter().zip(q.iter()) {
+            sse += (yi - qi).powi(2);
+        }
+        start = end;
+    }
+    sse
 }
 
 /// Root mean square of `x` (0 for an empty slice).
