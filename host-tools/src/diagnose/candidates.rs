@@ -16,6 +16,7 @@ use super::align::{Aligned, Channel};
 use super::baseline::{self, Baseline, Col};
 use super::signif;
 use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
+use crate::num::batch::{self, Batched};
 use crate::num::lsq::{self, LinearFit};
 use serde_json::{json, Map, Value};
 
@@ -179,7 +180,13 @@ pub(super) struct Design {
 impl Design {
     /// The mismatch baseline of `p`'s channel.
     pub(super) fn of(p: &Problem) -> Self {
-        let base = baseline::mismatch_baseline(p.al, p.ch);
+        Design::on(p, baseline::mismatch_baseline(p.al, p.ch))
+    }
+
+    /// `p`'s design with the baseline `base` of its channel already made
+    /// (its columns depend on the channel only, not on the fit rows: both
+    /// folds of a look share them).
+    fn on(p: &Problem, base: Baseline) -> Self {
         let rows = p.fit_rows();
         let penalty = base.penalties(&p.ch.resid, rows.clone());
         let scales = lsq::column_scales(&base.slices(), &rows);
@@ -237,21 +244,43 @@ impl Design {
     /// coefficients (baseline, then `v`'s regressors) and the fit-part
     /// error, or `None` if the fit fails or breaks `v`'s sign rule.
     pub(super) fn solve(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<lsq::Solved> {
-        let cols = self.columns(v);
-        let scales = self.scales_with(&v.extra, rows);
-        let f = lsq::solve_scaled(
-            &cols,
-            &scales,
-            y,
-            v.fixed_part.as_deref(),
-            rows.clone(),
-            &self.penalty,
-        )?;
-        let total: f64 = f.coef[self.len()..].iter().sum();
-        if v.sign.is_some_and(|s| s * total <= 0.0) {
-            return None;
-        }
-        Some(f)
+        self.solve_many(&[v], y, rows).pop().flatten()
+    }
+
+    /// [`Design::solve`] of each of `vars` (a batch of a grid,
+    /// [`super::batch::batches`]), in one walk of the rows for all: the
+    /// same bits as one at a time ([`crate::num::batch`]). A column that
+    /// several variants share has its scale computed once.
+    pub(super) fn solve_many(
+        &self,
+        vars: &[&Variant],
+        y: &[f64],
+        rows: &Rows,
+    ) -> Vec<Option<lsq::Solved>> {
+        let mut known = super::batch::Scales::new(rows.clone());
+        let designs: Vec<Batched> = vars
+            .iter()
+            .map(|v| {
+                let mut scales = self.scales_with(&[], rows);
+                scales.extend(v.extra.iter().map(|c| known.of(c)));
+                Batched {
+                    cols: self.columns(v),
+                    scales,
+                    fixed: v.fixed_part.as_deref(),
+                    penalty: &self.penalty,
+                }
+            })
+            .collect();
+        let solved = batch::solve_batch(&designs, y, rows.clone());
+        solved
+            .into_iter()
+            .zip(vars)
+            .map(|(f, v)| {
+                let f = f?;
+                let total: f64 = f.coef[self.len()..].iter().sum();
+                (!v.sign.is_some_and(|s| s * total <= 0.0)).then_some(f)
+            })
+            .collect()
     }
 
     /// The fit `s` of variant `v` ([`Design::solve`]) with its prediction
@@ -279,12 +308,16 @@ impl Design {
         rows: &Rows,
     ) -> Option<(LinearFit, Variant)> {
         let mut best: Option<(lsq::Solved, Variant)> = None;
-        for v in vars {
-            let Some(f) = self.solve(&v, y, rows) else {
-                continue;
-            };
-            if best.as_ref().is_none_or(|b| below(f.sse_fit, b.0.sse_fit)) {
-                best = Some((f, v));
+        for batch in super::batch::batches(vars.into_iter(), |v| v) {
+            let refs: Vec<&Variant> = batch.iter().collect();
+            let solved = self.solve_many(&refs, y, rows);
+            for (f, v) in solved.into_iter().zip(batch) {
+                let Some(f) = f else {
+                    continue;
+                };
+                if best.as_ref().is_none_or(|b| below(f.sse_fit, b.0.sse_fit)) {
+                    best = Some((f, v));
+                }
             }
         }
         best.map(|(s, v)| (self.predicted(&v, s, y.len()), v))
@@ -415,15 +448,16 @@ fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> (Scored, Vec<f64>
 /// candidate without a usable input falls back to the baseline (and says so
 /// in `model`; p = 1).
 pub fn fit_all(p: &Problem) -> Vec<Scored> {
+    let base = baseline::mismatch_baseline(p.al, p.ch);
     let Some(Fold {
         scored: mut forward,
         errors: e_fwd,
-    }) = fit_fold(p)
+    }) = fit_fold(p, base.clone())
     else {
         return Vec::new();
     };
     let back = p.swapped();
-    let e_back = fit_fold(&back).map_or_else(Vec::new, |f| f.errors);
+    let e_back = fit_fold(&back, base).map_or_else(Vec::new, |f| f.errors);
     // Held-out errors of candidate `i`, both folds in time order, in the
     // band the candidate is judged in.
     let errors = |i: usize, band: Option<f64>| -> Vec<f64> {
@@ -480,8 +514,8 @@ struct Fold {
 /// scored on its test rows (p-values unset); `None` if the baseline fails.
 /// Each fit's prediction is dropped once scored (only the errors on the
 /// test rows are kept).
-fn fit_fold(p: &Problem) -> Option<Fold> {
-    let d = Design::of(p);
+fn fit_fold(p: &Problem, base: Baseline) -> Option<Fold> {
+    let d = Design::on(p, base);
     let bf = d.fit_alone(&p.ch.resid, &p.fit_rows())?;
     let (none, e_none) = score_none(p, &d.base, &bf);
     let mut fold = Fold {

@@ -2,7 +2,6 @@
 //! normal equations), and the first-order low-pass that turns an input into
 //! a thermal response.
 
-use super::tsqr::Tsqr;
 use nalgebra::{DMatrix, DVector};
 
 /// The coefficients, one per column (0 for a dead one), from the
@@ -10,7 +9,7 @@ use nalgebra::{DMatrix, DVector};
 /// small `R` solved with a rank tolerance of 1e-10 of its largest singular
 /// value, then each solution unscaled (`coef_j = x_k / scale_j`). The
 /// dense and the streamed fit end here alike.
-fn solve_triangle(
+pub(super) fn solve_triangle(
     r: DMatrix<f64>,
     qtb: DVector<f64>,
     live: &[usize],
@@ -38,7 +37,7 @@ pub fn column_scales<C: AsRef<[f64]>>(cols: &[C], rows: &std::ops::Range<usize>)
 
 /// The columns worth solving for: a finite scale above 1e-12 (a column
 /// that is zero or not finite on the fit rows carries nothing).
-fn live_of(scales: &[f64]) -> Vec<usize> {
+pub(super) fn live_of(scales: &[f64]) -> Vec<usize> {
     (0..scales.len())
         .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
         .collect()
@@ -208,7 +207,7 @@ pub fn fit_rows_penalised(
 }
 
 /// [`fit_rows_penalised`] streamed: the rows go through a blocked QR
-/// ([`Tsqr`]) straight from the borrowed columns, so no `n x k` matrix is
+/// ([`super::tsqr::Tsqr`]) straight from the borrowed columns, so no `n x k` matrix is
 /// built (memory for one block, one pass per fit), and the target is
 /// `y - fixed` (`fixed`: a part of the prediction whose gain is fixed at
 /// one) without a copy. The prediction returned includes `fixed`, and
@@ -258,7 +257,7 @@ pub fn solve_streamed(
 
 /// [`solve_streamed`] with the columns' scales on `rows` given
 /// ([`column_scales`]: the caller keeps those of the columns many fits
-/// share).
+/// share). [`super::batch::solve_batch`] of one design.
 pub fn solve_scaled(
     cols: &[&[f64]],
     scales: &[f64],
@@ -267,75 +266,18 @@ pub fn solve_scaled(
     rows: std::ops::Range<usize>,
     penalty: &[f64],
 ) -> Option<Solved> {
-    let n = y.len();
-    if rows.is_empty()
-        || rows.end > n
-        || scales.len() != cols.len()
-        || cols.iter().any(|c| c.len() != n)
-        || fixed.is_some_and(|f| f.len() != n)
-    {
-        return None;
-    }
-    let live = live_of(scales);
-    // No live column: nothing to solve (the dense path's SVD would panic).
-    if live.is_empty() || live.len() > rows.len() {
-        return None;
-    }
-    let qr = streamed_rows(cols, scales, &live, y, fixed, rows.clone());
-    let qr = penalty_rows(qr, scales, &live, penalty);
-    let (r, qtb) = qr.triangle()?;
-    let coef = solve_triangle(r, qtb, &live, scales)?;
-    if !coef.iter().all(|c| c.is_finite()) {
-        return None;
-    }
-    let sse_fit = sse_on(cols, &coef, y, fixed, rows);
-    Some(Solved { coef, sse_fit })
+    let design = super::batch::Batched {
+        cols: cols.to_vec(),
+        scales: scales.to_vec(),
+        fixed,
+        penalty,
+    };
+    super::batch::solve_batch(&[design], y, rows).pop().flatten()
 }
-
-/// The fit rows of the scaled live columns and the target `y - fixed`,
-/// pushed through a blocked QR.
-fn streamed_rows(
-    cols: &[&[f64]],
-    scales: &[f64],
-    live: &[usize],
-    y: &[f64],
-    fixed: Option<&[f64]>,
-    rows: std::ops::Range<usize>,
-) -> Tsqr {
-    let target = |i: usize| fixed.map_or(y[i], |f| y[i] - f[i]);
-    let mut qr = Tsqr::new(live.len());
-    let mut row = vec![0.0; live.len()];
-    let live_cols: Vec<(&[f64], f64)> = live.iter().map(|&j| (cols[j], scales[j])).collect();
-    for i in rows {
-        for (x, (c, s)) in row.iter_mut().zip(&live_cols) {
-            *x = c[i] / s;
-        }
-        qr.push(&row, target(i));
-    }
-    qr
-}
-
-/// One row `sqrt(penalty_j) / scale_j` per penalised live column (target
-/// 0) after the fit rows, as in [`fit_rows_penalised`].
-fn penalty_rows(mut qr: Tsqr, scales: &[f64], live: &[usize], penalty: &[f64]) -> Tsqr {
-    let lambda = |j: usize| penalty.get(j).copied().unwrap_or(0.0).max(0.0);
-    let mut row = vec![0.0; live.len()];
-    for (k, &j) in live.iter().enumerate() {
-        if lambda(j) > 0.0 {
-            row.fill(0.0);
-            row[k] = lambda(j).sqrt() / scales[j];
-            qr.push(&row, 0.0);
-        }
-    }
-    qr
-}
-
-/// Rows per block of a prediction summed without storing it whole.
-const PRED_BLOCK: usize = 4096;
 
 /// The prediction `fixed + sum_j coef_j cols_j` on rows `rows` into
 /// `out`, summed column by column in order (the bits of [`predict`]).
-fn predict_into(
+pub(super) fn predict_into(
     cols: &[&[f64]],
     coef: &[f64],
     fixed: Option<&[f64]>,
@@ -358,35 +300,19 @@ fn add_columns(cols: &[&[f64]], coef: &[f64], rows: std::ops::Range<usize>, out:
     }
 }
 
-/// The prediction `fixed + sum_j coef_j cols_j` on all `n` rows.
+/// Rows of a block of a prediction: summed over its columns while it
+/// stays in a core's cache.
+const PREDICT_ROWS: usize = 4096;
+
+/// The prediction `fixed + sum_j coef_j cols_j` on all `n` rows, a block
+/// of rows at a time (each row summed in the column order all the same).
 pub fn predict(cols: &[&[f64]], coef: &[f64], fixed: Option<&[f64]>, n: usize) -> Vec<f64> {
     let mut pred = fixed.map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
-    add_columns(cols, coef, 0..n, &mut pred);
-    pred
-}
-
-/// `sum (y - prediction)^2` over `rows`, the prediction made a block at a
-/// time (summed in row order, as over a whole prediction).
-fn sse_on(
-    cols: &[&[f64]],
-    coef: &[f64],
-    y: &[f64],
-    fixed: Option<&[f64]>,
-    rows: std::ops::Range<usize>,
-) -> f64 {
-    let mut block = vec![0.0; PRED_BLOCK.min(rows.len())];
-    let mut sse = 0.0;
-    let mut start = rows.start;
-    while start < rows.end {
-        let end = (start + PRED_BLOCK).min(rows.end);
-        let q = &mut block[..end - start];
-        predict_into(cols, coef, fixed, start..end, q);
-        for (yi, qi) in y[start..end].iter().zip(q.iter()) {
-            sse += (yi - qi).powi(2);
-        }
-        start = end;
+    for (b, out) in pred.chunks_mut(PREDICT_ROWS).enumerate() {
+        let from = b * PREDICT_ROWS;
+        add_columns(cols, coef, from..from + out.len(), out);
     }
-    sse
+    pred
 }
 
 /// Root mean square of `x` (0 for an empty slice).
