@@ -111,7 +111,9 @@ mod tests {
             }
         }
         for k in 0..3 {
-            let own: Vec<Col> = (0..3).map(|m| Col::new(vec![(10 * k + m) as f64; 10])).collect();
+            let own: Vec<Col> = (0..3)
+                .map(|m| Col::new(vec![(10 * k + m) as f64; 10]))
+                .collect();
             grid.push(var(&own.iter().collect::<Vec<_>>()));
         }
         let sizes: Vec<usize> = batches(grid.clone().into_iter(), |v| v)

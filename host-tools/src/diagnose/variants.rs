@@ -214,7 +214,11 @@ fn ambient<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
     let c: Vec<f64> = t.iter().map(|t| (w * (t - t0)).cos() - 1.0).collect();
     let drift: Vec<f64> = t.iter().map(|t| (t - t0) / 3600.0).collect();
     let v = AMBIENT_TAUS_S.iter().map(move |&tau| {
-        let inputs = [(&s[..], tau, 0.0), (&c[..], tau, 0.0), (&drift[..], tau, 0.0)];
+        let inputs = [
+            (&s[..], tau, 0.0),
+            (&c[..], tau, 0.0),
+            (&drift[..], tau, 0.0),
+        ];
         Variant::plain(
             lsq::lowpass_each(t, &inputs)
                 .into_iter()

@@ -120,7 +120,12 @@ fn coefficients(d: &Batched, live: &[usize], mut qr: Tsqr) -> Option<Vec<f64>> {
 
 /// Each solved design's `sum (y - prediction)^2` over `rows` (0 for the
 /// others), its prediction made a block at a time and summed in row order.
-fn errors(designs: &[Batched], coefs: &[Option<Vec<f64>>], y: &[f64], rows: Range<usize>) -> Vec<f64> {
+fn errors(
+    designs: &[Batched],
+    coefs: &[Option<Vec<f64>>],
+    y: &[f64],
+    rows: Range<usize>,
+) -> Vec<f64> {
     let mut sse = vec![0.0; designs.len()];
     let mut q = vec![0.0; BATCH_ROWS.min(rows.len())];
     for block in blocks(rows) {
@@ -141,6 +146,9 @@ mod tests {
     use super::*;
     use crate::num::lsq::{column_scales, lowpass, solve_scaled};
 
+    /// A design's columns and fixed part.
+    type Set<'a> = (Vec<&'a [f64]>, Option<&'a [f64]>);
+
     #[test]
     fn a_batch_gives_each_design_the_bits_it_gets_alone() {
         // Designs sharing columns, one with a fixed part, one with a dead
@@ -160,7 +168,7 @@ mod tests {
             .collect();
         let rows = 700..4300;
         let penalty = [0.0, 30.0, 0.0];
-        let sets: [(Vec<&[f64]>, Option<&[f64]>); 4] = [
+        let sets: [Set; 4] = [
             (vec![&one, &a], None),
             (vec![&one, &a, &b], Some(&u)),
             (vec![&one, &zero, &b], None),

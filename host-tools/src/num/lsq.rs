@@ -272,7 +272,9 @@ pub fn solve_scaled(
         fixed,
         penalty,
     };
-    super::batch::solve_batch(&[design], y, rows).pop().flatten()
+    super::batch::solve_batch(&[design], y, rows)
+        .pop()
+        .flatten()
 }
 
 /// The prediction `fixed + sum_j coef_j cols_j` on rows `rows` into
@@ -349,6 +351,33 @@ mod tests {
             let want = 2.0 * (1.0 - (-tk / 300.0).exp());
             assert!((yk - want).abs() < 1e-12, "{tk} {yk} {want}");
         }
+    }
+
+    #[test]
+    fn responses_side_by_side_are_the_bits_of_the_plain_recursion() {
+        // Irregular steps (some repeated, some not) and six responses
+        // (a group of four and one of two): each must equal, bit for bit,
+        // the recursion with `exp` taken at every step (the same
+        // operations, so no tolerance).
+        let t: Vec<f64> = (0..3000)
+            .map(|k| 60.0 * k as f64 + if k % 7 == 3 { 13.5 } else { 0.0 })
+            .collect();
+        let u: Vec<f64> = (0..3000).map(|k| ((k / 97) % 4) as f64 - 0.3).collect();
+        let plain = |tau: f64, y0: f64| -> Vec<f64> {
+            let mut y = vec![y0];
+            for k in 1..u.len() {
+                let a = (-(t[k] - t[k - 1]) / tau).exp();
+                y.push(a * y[k - 1] + (1.0 - a) * u[k - 1]);
+            }
+            y
+        };
+        let taus = [60.0, 300.0, 900.0, 3600.0, 7200.0, 14400.0];
+        let todo: Vec<Response> = taus.iter().map(|&tau| (&u[..], tau, 0.5)).collect();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for (got, &tau) in lowpass_each(&t, &todo).iter().zip(&taus) {
+            assert_eq!(bits(got), bits(&plain(tau, 0.5)), "tau {tau}");
+        }
+        assert_eq!(bits(&lowpass(&t, &u, 900.0, 0.5)), bits(&plain(900.0, 0.5)));
     }
 
     #[test]
