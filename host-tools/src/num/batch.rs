@@ -5,21 +5,24 @@
 //! and on a long run (8 MB a column at 10^6 rows) each read comes from
 //! memory, not the cache. Here the rows are walked in blocks of
 //! [`BATCH_ROWS`]; every design takes its rows of a block while the block's
-//! columns are in the cache, first into its blocked QR, then, once the
-//! coefficients are known, into its fit-part error.
+//! columns are in the cache, first into its blocked QR (the last block with
+//! its ridge rows), then, once the coefficients are known, into its
+//! fit-part error.
 //!
 //! Each design sees exactly the pushes, in the same order, and its error
 //! the same sums in the same order, as [`super::lsq::solve_scaled`] of it
 //! alone would: the results are the same to the bit.
 
 use super::lsq::{live_of, predict_into, solve_triangle, Solved};
-use super::tsqr::Tsqr;
+use super::tsqr::{Tsqr, BLOCK};
 use std::ops::Range;
 
 /// Rows of a block: the block's columns (a baseline's eight and a grid's
-/// responses, 8 kB each) stay in a core's cache while every design of the
-/// batch takes them.
-const BATCH_ROWS: usize = 1024;
+/// responses, 16 kB each) stay in a core's cache while every design of
+/// the batch takes them. A blocked QR's own block ([`BLOCK`]), so that
+/// every design's QR stacks a whole block as it takes it and needs its
+/// buffer only then: one design's buffer at a time.
+const BATCH_ROWS: usize = BLOCK;
 
 /// One design of a batch: its columns, their scales on the fit rows
 /// ([`super::lsq::column_scales`]), a part with its gain fixed at one
@@ -46,9 +49,14 @@ pub fn solve_batch(designs: &[Batched], y: &[f64], rows: Range<usize>) -> Vec<Op
         .map(|l| l.as_ref().map(|l| Tsqr::new(l.len())))
         .collect();
     for block in blocks(rows.clone()) {
+        let last = block.end == rows.end;
         for ((d, live), qr) in designs.iter().zip(&lives).zip(&mut qrs) {
             if let (Some(live), Some(qr)) = (live, qr) {
                 push_rows(qr, d, live, y, block.clone());
+                if last {
+                    penalty_rows(qr, d, live);
+                }
+                qr.release();
             }
         }
     }
@@ -99,11 +107,9 @@ fn push_rows(qr: &mut Tsqr, d: &Batched, live: &[usize], y: &[f64], block: Range
     }
 }
 
-/// The coefficients of design `d` from its QR of the fit rows: one row
-/// `sqrt(penalty_j) / scale_j` per penalised live column (target 0) added,
-/// the triangle solved; `None` if that fails or a coefficient is not
-/// finite.
-fn coefficients(d: &Batched, live: &[usize], mut qr: Tsqr) -> Option<Vec<f64>> {
+/// After the fit rows, one row `sqrt(penalty_j) / scale_j` per penalised
+/// live column of design `d` (target 0).
+fn penalty_rows(qr: &mut Tsqr, d: &Batched, live: &[usize]) {
     let lambda = |j: usize| d.penalty.get(j).copied().unwrap_or(0.0).max(0.0);
     let mut row = vec![0.0; live.len()];
     for (k, &j) in live.iter().enumerate() {
@@ -113,6 +119,12 @@ fn coefficients(d: &Batched, live: &[usize], mut qr: Tsqr) -> Option<Vec<f64>> {
             qr.push(&row, 0.0);
         }
     }
+}
+
+/// The coefficients of design `d` from its QR of the fit rows and the
+/// penalty rows: the triangle solved; `None` if that fails or a
+/// coefficient is not finite.
+fn coefficients(d: &Batched, live: &[usize], qr: Tsqr) -> Option<Vec<f64>> {
     let (r, qtb) = qr.triangle()?;
     let coef = solve_triangle(r, qtb, live, &d.scales)?;
     coef.iter().all(|c| c.is_finite()).then_some(coef)
