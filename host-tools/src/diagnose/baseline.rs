@@ -88,10 +88,15 @@ impl Baseline {
     }
 }
 
-/// Rms of `x` about its mean.
+/// Rms of `x` about its mean (0 for an empty slice), in one pass after
+/// the mean's (the deviations summed as [`lsq::rms`] sums them, never
+/// stored).
 fn spread(x: &[f64]) -> f64 {
-    let m = x.iter().sum::<f64>() / x.len().max(1) as f64;
-    lsq::rms(&x.iter().map(|v| v - m).collect::<Vec<_>>())
+    if x.is_empty() {
+        return 0.0;
+    }
+    let m = x.iter().sum::<f64>() / x.len() as f64;
+    (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / x.len() as f64).sqrt()
 }
 
 /// The speed shapes of the heat sources: `n/n_max` and `(n/n_max)^2`.
@@ -114,9 +119,9 @@ pub fn channel_tau_s(t_s: &[f64], sim: &[f64], shapes: &[Vec<f64>; 2]) -> f64 {
     let mut best = (f64::INFINITY, CHANNEL_TAUS_S[4]);
     let one = vec![1.0; n];
     for tau in CHANNEL_TAUS_S {
-        let [a, b] = shapes.each_ref().map(|q| lsq::lowpass(t_s, q, tau, 0.0));
-        let cols = [&one[..], &a, &b];
-        if let Some(f) = lsq::fit_streamed(&cols, sim, None, 0..n, &[]) {
+        let ab = lsq::lowpass_each(t_s, &[(&shapes[0], tau, 0.0), (&shapes[1], tau, 0.0)]);
+        let cols = [&one[..], &ab[0], &ab[1]];
+        if let Some(f) = lsq::solve_streamed(&cols, sim, None, 0..n, &[]) {
             if f.sse_fit < best.0 {
                 best = (f.sse_fit, tau);
             }
@@ -134,27 +139,19 @@ type Load = (Col, String, bool);
 const BASE_KNEE_SHARE: f64 = 0.35;
 
 /// The heat sources the twin may model besides speed: power beyond air
-/// cutting (if logged) and a low-speed motor loss, each as its first-order
-/// response at the channel's time constant, with its name and whether it is
-/// an input of its own (cutting power) rather than a function of speed.
-fn load_shapes(al: &Aligned, tau_c: f64, unit: &str) -> Vec<Load> {
-    let t = &al.t_s;
+/// cutting (if logged) and a low-speed motor loss, each with its name and
+/// whether it is an input of its own (cutting power) rather than a
+/// function of speed. Their responses at the channel's time constant are
+/// made with the baseline's others ([`mismatch_baseline`]).
+fn load_inputs(al: &Aligned, unit: &str) -> Vec<(Vec<f64>, String, bool)> {
     let mut out = Vec::new();
     if let Some(pw) = al.power_kw.as_deref() {
         let cut = super::regime::cutting_excess_kw(&al.speed_rpm, pw);
-        out.push((
-            Col::new(lsq::lowpass(t, &cut, tau_c, 0.0)),
-            format!("cut_gain_{unit}_per_kw"),
-            true,
-        ));
+        out.push((cut, format!("cut_gain_{unit}_per_kw"), true));
     }
     let top = al.speed_rpm.iter().fold(0.0f64, |a, &n| a.max(n.abs()));
     let w = super::variants::low_speed_weight(al, BASE_KNEE_SHARE * top);
-    out.push((
-        Col::new(lsq::lowpass(t, &w, tau_c, 0.0)),
-        format!("low_speed_gain_{unit}"),
-        false,
-    ));
+    out.push((w, format!("low_speed_gain_{unit}"), false));
     out
 }
 
@@ -180,7 +177,7 @@ fn load_priors(sim: &[f64], speed: &[Col; 2], loads: &[Load], swing: f64) -> Vec
     let one = vec![1.0; n];
     let mut cols: Vec<&[f64]> = vec![&one, &speed[0], &speed[1]];
     cols.extend(loads.iter().map(|l| l.0.as_slice()));
-    let coef = lsq::fit_streamed(&cols, sim, None, 0..n, &[])
+    let coef = lsq::solve_streamed(&cols, sim, None, 0..n, &[])
         .map_or_else(|| vec![0.0; cols.len()], |f| f.coef);
     (3..cols.len())
         .map(|j| {
@@ -189,7 +186,7 @@ fn load_priors(sim: &[f64], speed: &[Col; 2], loads: &[Load], swing: f64) -> Vec
                 .map(|i| cols[i])
                 .collect();
             let sst = spread(cols[j]).powi(2) * n as f64;
-            let r2 = lsq::fit_streamed(&others, cols[j], None, 0..n, &[])
+            let r2 = lsq::solve_streamed(&others, cols[j], None, 0..n, &[])
                 .map_or(0.0, |f| (1.0 - f.sse_fit / sst.max(1e-300)).clamp(0.0, 1.0));
             let own_input = loads[j - 3].2;
             let unidentified = if own_input {
@@ -215,14 +212,28 @@ pub fn mismatch_baseline(al: &Aligned, ch: &Channel) -> Baseline {
     let tau_c = al.memo.get_or(&format!("tau_c {}", ch.name), || {
         vec![channel_tau_s(t, &ch.sim, &shapes)]
     })[0];
-    let lagged = lsq::lowpass(t, &ch.sim, tau_c, ch.sim[0]);
-    let tc_error: Vec<f64> = lagged
+    // The lagged sim, the speed shapes' and the loads' responses at the
+    // channel's time constant, in one pass over the rows.
+    let inputs = load_inputs(al, unit);
+    let mut todo = vec![
+        (&ch.sim[..], tau_c, ch.sim[0]),
+        (&shapes[0][..], tau_c, 0.0),
+        (&shapes[1][..], tau_c, 0.0),
+    ];
+    todo.extend(inputs.iter().map(|l| (&l.0[..], tau_c, 0.0)));
+    let mut made = lsq::lowpass_each(t, &todo).into_iter().map(Col::new);
+    let mut next = || made.next().unwrap_or_default();
+    let tc_error: Vec<f64> = next()
         .iter()
         .zip(ch.sim.iter())
         .map(|(f, s)| f - s)
         .collect();
-    let speed = shapes.map(|q| Col::new(lsq::lowpass(t, &q, tau_c, 0.0)));
-    let loads = load_shapes(al, tau_c, unit);
+    let speed = [next(), next()];
+    let loads: Vec<Load> = inputs
+        .iter()
+        .map(|(_, name, own)| (next(), name.clone(), *own))
+        .collect();
+    drop(inputs);
     let swing = spread(&ch.sim);
     let span_h = ((t[t.len() - 1] - t0) / 3600.0).max(1e-9);
     let per_shape = |f: &[f64]| (PRIOR_REL * swing / spread(f).max(1e-12)).max(1e-12);

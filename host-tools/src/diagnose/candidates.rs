@@ -13,10 +13,11 @@
 //! errors are then compared with the baseline's ([`super::signif`]).
 
 use super::align::{Aligned, Channel};
-use super::baseline::{self, Baseline};
+use super::baseline::{self, Baseline, Col};
 use super::outcome::{Effect, Param};
 use super::signif;
 use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
+use crate::num::batch::{self, Batched};
 use crate::num::lsq::{self, LinearFit};
 use serde_json::{json, Map, Value};
 
@@ -172,20 +173,36 @@ pub fn round(v: f64) -> f64 {
     }
 }
 
-/// The baseline of a channel as a design: its columns and their ridge
-/// penalties for the channel's residual.
+/// The baseline of a channel as a design: its columns, their ridge
+/// penalties for the channel's residual and their scales on the fit rows
+/// (computed once: every fit of a grid shares the baseline's columns).
 #[derive(Debug, Clone)]
 pub(super) struct Design {
     base: Baseline,
     penalty: Vec<f64>,
+    rows: Rows,
+    scales: Vec<f64>,
 }
 
 impl Design {
     /// The mismatch baseline of `p`'s channel.
     pub(super) fn of(p: &Problem) -> Self {
-        let base = baseline::mismatch_baseline(p.al, p.ch);
-        let penalty = base.penalties(&p.ch.resid, p.fit_rows());
-        Design { base, penalty }
+        Design::on(p, baseline::mismatch_baseline(p.al, p.ch))
+    }
+
+    /// `p`'s design with the baseline `base` of its channel already made
+    /// (its columns depend on the channel only, not on the fit rows: both
+    /// folds of a look share them).
+    fn on(p: &Problem, base: Baseline) -> Self {
+        let rows = p.fit_rows();
+        let penalty = base.penalties(&p.ch.resid, rows.clone());
+        let scales = lsq::column_scales(&base.slices(), &rows);
+        Design {
+            base,
+            penalty,
+            rows,
+            scales,
+        }
     }
 
     /// Number of baseline columns (where a variant's gains start).
@@ -193,36 +210,100 @@ impl Design {
         self.base.cols.len()
     }
 
-    /// The baseline fitted alone.
-    pub(super) fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
-        lsq::fit_streamed(&self.base.slices(), y, None, rows.clone(), &self.penalty)
+    /// The scales on `rows` of the baseline's columns and then `extra`
+    /// (the baseline's kept ones where `rows` are the fit rows).
+    fn scales_with(&self, extra: &[Col], rows: &Rows) -> Vec<f64> {
+        let extra: Vec<&[f64]> = extra.iter().map(|c| c.as_slice()).collect();
+        let mut all = if *rows == self.rows {
+            self.scales.clone()
+        } else {
+            lsq::column_scales(&self.base.slices(), rows)
+        };
+        all.extend(lsq::column_scales(&extra, rows));
+        all
     }
 
-    /// The baseline and variant `v` fitted on rows `rows`: `v`'s fixed
-    /// part (gain 1) is taken off `y` and added back to the prediction.
-    /// One streamed pass over the shared columns, none copied. Returns the
-    /// fit (coefficients: baseline, then `v`'s regressors), or `None` if
-    /// the fit fails or breaks `v`'s sign rule.
-    pub(super) fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
-        let cols: Vec<&[f64]> = self
-            .base
+    /// The baseline fitted alone.
+    pub(super) fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+        let cols = self.base.slices();
+        let scales = self.scales_with(&[], rows);
+        let s = lsq::solve_scaled(&cols, &scales, y, None, rows.clone(), &self.penalty)?;
+        Some(LinearFit {
+            pred: lsq::predict(&cols, &s.coef, None, y.len()),
+            coef: s.coef,
+            sse_fit: s.sse_fit,
+        })
+    }
+
+    /// The baseline's columns and then `v`'s regressors.
+    fn columns<'v>(&'v self, v: &'v Variant) -> Vec<&'v [f64]> {
+        self.base
             .cols
             .iter()
             .chain(&v.extra)
             .map(|c| c.as_slice())
+            .collect()
+    }
+
+    /// The baseline and variant `v` solved on rows `rows`: `v`'s fixed
+    /// part (gain 1) is taken off `y`. One streamed pass over the shared
+    /// columns, none copied, and no prediction made. Returns the
+    /// coefficients (baseline, then `v`'s regressors) and the fit-part
+    /// error, or `None` if the fit fails or breaks `v`'s sign rule.
+    pub(super) fn solve(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<lsq::Solved> {
+        self.solve_many(&[v], y, rows).pop().flatten()
+    }
+
+    /// [`Design::solve`] of each of `vars` (a batch of a grid,
+    /// [`super::batch::batches`]), in one walk of the rows for all: the
+    /// same bits as one at a time ([`crate::num::batch`]). A column that
+    /// several variants share has its scale computed once.
+    pub(super) fn solve_many(
+        &self,
+        vars: &[&Variant],
+        y: &[f64],
+        rows: &Rows,
+    ) -> Vec<Option<lsq::Solved>> {
+        let mut known = super::batch::Scales::new(rows.clone());
+        let designs: Vec<Batched> = vars
+            .iter()
+            .map(|v| {
+                let mut scales = self.scales_with(&[], rows);
+                scales.extend(v.extra.iter().map(|c| known.of(c)));
+                Batched {
+                    cols: self.columns(v),
+                    scales,
+                    fixed: v.fixed_part.as_deref(),
+                    penalty: &self.penalty,
+                }
+            })
             .collect();
-        let f = lsq::fit_streamed(
-            &cols,
-            y,
-            v.fixed_part.as_deref(),
-            rows.clone(),
-            &self.penalty,
-        )?;
-        let total: f64 = f.coef[self.len()..].iter().sum();
-        if v.sign.is_some_and(|s| s * total <= 0.0) {
-            return None;
+        let solved = batch::solve_batch(&designs, y, rows.clone());
+        solved
+            .into_iter()
+            .zip(vars)
+            .map(|(f, v)| {
+                let f = f?;
+                let total: f64 = f.coef[self.len()..].iter().sum();
+                (!v.sign.is_some_and(|s| s * total <= 0.0)).then_some(f)
+            })
+            .collect()
+    }
+
+    /// The fit `s` of variant `v` ([`Design::solve`]) with its prediction
+    /// on every row (`v`'s fixed part added back).
+    fn predicted(&self, v: &Variant, s: lsq::Solved, n: usize) -> LinearFit {
+        LinearFit {
+            pred: lsq::predict(&self.columns(v), &s.coef, v.fixed_part.as_deref(), n),
+            coef: s.coef,
+            sse_fit: s.sse_fit,
         }
-        Some(f)
+    }
+
+    /// [`Design::solve`] with the prediction on every row.
+    pub(super) fn fit(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<LinearFit> {
+        let s = self.solve(v, y, rows)?;
+        Some(self.predicted(v, s, y.len()))
     }
 
     /// Fits each variant of the grid (walked once) and keeps the best on
@@ -233,16 +314,20 @@ impl Design {
         y: &[f64],
         rows: &Rows,
     ) -> Option<(LinearFit, Variant)> {
-        let mut best: Option<(LinearFit, Variant)> = None;
-        for v in vars {
-            let Some(f) = self.fit(&v, y, rows) else {
-                continue;
-            };
-            if best.as_ref().is_none_or(|b| below(f.sse_fit, b.0.sse_fit)) {
-                best = Some((f, v));
+        let mut best: Option<(lsq::Solved, Variant)> = None;
+        for batch in super::batch::batches(vars.into_iter(), |v| v) {
+            let refs: Vec<&Variant> = batch.iter().collect();
+            let solved = self.solve_many(&refs, y, rows);
+            for (f, v) in solved.into_iter().zip(batch) {
+                let Some(f) = f else {
+                    continue;
+                };
+                if best.as_ref().is_none_or(|b| below(f.sse_fit, b.0.sse_fit)) {
+                    best = Some((f, v));
+                }
             }
         }
-        best
+        best.map(|(s, v)| (self.predicted(&v, s, y.len()), v))
     }
 
     /// `self` with `v`'s regressors appended to the baseline (free) and
@@ -250,6 +335,7 @@ impl Design {
     /// copied).
     pub(super) fn with_variant(&self, v: &Variant) -> (Design, Option<Vec<f64>>) {
         let mut e = self.clone();
+        e.scales = self.scales_with(&v.extra, &self.rows);
         e.penalty.extend(v.extra.iter().map(|_| 0.0));
         e.base.cols.extend(v.extra.iter().cloned());
         e.base.names.extend(v.gains.iter().cloned());
@@ -369,15 +455,16 @@ fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> (Scored, Vec<f64>
 /// candidate without a usable input falls back to the baseline (and says so
 /// in `model`; p = 1).
 pub fn fit_all(p: &Problem) -> Vec<Scored> {
+    let base = baseline::mismatch_baseline(p.al, p.ch);
     let Some(Fold {
         scored: mut forward,
         errors: e_fwd,
-    }) = fit_fold(p)
+    }) = fit_fold(p, base.clone())
     else {
         return Vec::new();
     };
     let back = p.swapped();
-    let e_back = fit_fold(&back).map_or_else(Vec::new, |f| f.errors);
+    let e_back = fit_fold(&back, base).map_or_else(Vec::new, |f| f.errors);
     // Held-out errors of candidate `i`, both folds in time order, in the
     // band the candidate is judged in.
     let errors = |i: usize, band: Option<f64>| -> Vec<f64> {
@@ -434,8 +521,8 @@ struct Fold {
 /// scored on its test rows (p-values unset); `None` if the baseline fails.
 /// Each fit's prediction is dropped once scored (only the errors on the
 /// test rows are kept).
-fn fit_fold(p: &Problem) -> Option<Fold> {
-    let d = Design::of(p);
+fn fit_fold(p: &Problem, base: Baseline) -> Option<Fold> {
+    let d = Design::on(p, base);
     let bf = d.fit_alone(&p.ch.resid, &p.fit_rows())?;
     let (none, e_none) = score_none(p, &d.base, &bf);
     let mut fold = Fold {

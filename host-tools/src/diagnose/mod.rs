@@ -17,6 +17,7 @@
 
 pub mod align;
 pub mod baseline;
+pub mod batch;
 pub mod candidates;
 pub mod deploy;
 pub mod gates;

@@ -11,6 +11,7 @@
 //! grids have three or four columns of their own per variant, so five
 //! cuts held at once were up to 40 full-length columns).
 
+use super::batch::batches;
 use super::candidates::{below, params_of, score, Design, Problem, Scored, NAMES};
 use super::variants::{variants, Variant};
 use crate::num::lsq::{self, LinearFit};
@@ -45,14 +46,17 @@ impl Cut {
         let (vars, model) = variants(name, c.p, c.base_pred);
         let (y, rows) = (&c.p.ch.resid, c.p.fit_rows());
         let mut top: Vec<(f64, usize)> = Vec::with_capacity(PAIR_GRID + 1);
-        for (i, v) in vars.enumerate() {
-            let Some(f) = d.fit(&v, y, &rows) else {
-                continue;
-            };
-            let at = top.partition_point(|(e, _)| !below(f.sse_fit, *e));
-            if at < PAIR_GRID {
-                top.insert(at, (f.sse_fit, i));
-                top.truncate(PAIR_GRID);
+        for batch in batches(vars.enumerate(), |x| &x.1) {
+            let refs: Vec<&Variant> = batch.iter().map(|x| &x.1).collect();
+            for ((i, _), f) in batch.iter().zip(d.solve_many(&refs, y, &rows)) {
+                let Some(f) = f else {
+                    continue;
+                };
+                let at = top.partition_point(|(e, _)| !below(f.sse_fit, *e));
+                if at < PAIR_GRID {
+                    top.insert(at, (f.sse_fit, *i));
+                    top.truncate(PAIR_GRID);
+                }
             }
         }
         Cut {
@@ -78,8 +82,13 @@ impl Cut {
     fn best_on(&self, c: &Ctx, d: &Design, y: &[f64]) -> Option<Variant> {
         let rows = c.p.fit_rows();
         let mut best: Option<(f64, usize, Variant)> = None;
-        for (rank, v) in self.walk(c) {
-            let Some(f) = d.fit(&v, y, &rows) else {
+        let solved = batches(self.walk(c), |x| &x.1).flat_map(|batch| {
+            let refs: Vec<&Variant> = batch.iter().map(|x| &x.1).collect();
+            let fits = d.solve_many(&refs, y, &rows);
+            batch.into_iter().zip(fits)
+        });
+        for ((rank, v), f) in solved {
+            let Some(f) = f else {
                 continue;
             };
             let better = best

@@ -109,13 +109,24 @@ fn swing(x: &[f64]) -> f64 {
     hi - lo
 }
 
-/// First-order response of `u`, or `u` itself for `tau_s == 0`.
-fn response(t: &[f64], u: &Col, tau_s: f64, y0: f64) -> Col {
-    if tau_s > 0.0 {
-        Col::new(lsq::lowpass(t, u, tau_s, y0))
-    } else {
-        u.clone()
-    }
+/// First-order responses of `u` at each of `taus`, or `u` itself for a
+/// `tau_s` of 0 (all of them in one pass: [`lsq::lowpass_each`]).
+fn responses(t: &[f64], u: &Col, taus: &[f64], y0: f64) -> Vec<Col> {
+    let lagged: Vec<lsq::Response> = taus
+        .iter()
+        .filter(|&&tau| tau > 0.0)
+        .map(|&tau| (u.as_slice(), tau, y0))
+        .collect();
+    let mut made = lsq::lowpass_each(t, &lagged).into_iter();
+    taus.iter()
+        .map(|&tau| {
+            if tau > 0.0 {
+                Col::new(made.next().unwrap_or_default())
+            } else {
+                u.clone()
+            }
+        })
+        .collect()
 }
 
 /// Two-time-constant response variants of input `u` (`y0` initial state).
@@ -129,10 +140,7 @@ fn response_pairs<'a>(
     extra_fixed: Vec<(String, f64)>,
 ) -> Vars<'a> {
     let unit = p.ch.unit();
-    let f: Vec<Col> = taus
-        .iter()
-        .map(|&tau| response(&p.al.t_s, u, tau, y0))
-        .collect();
+    let f = responses(&p.al.t_s, u, taus, y0);
     let pairs = (0..taus.len()).flat_map(move |i| (i + 1..taus.len()).map(move |j| (i, j)));
     Box::new(pairs.map(move |(i, j)| {
         let mut fixed = vec![
@@ -206,12 +214,16 @@ fn ambient<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
     let c: Vec<f64> = t.iter().map(|t| (w * (t - t0)).cos() - 1.0).collect();
     let drift: Vec<f64> = t.iter().map(|t| (t - t0) / 3600.0).collect();
     let v = AMBIENT_TAUS_S.iter().map(move |&tau| {
+        let inputs = [
+            (&s[..], tau, 0.0),
+            (&c[..], tau, 0.0),
+            (&drift[..], tau, 0.0),
+        ];
         Variant::plain(
-            vec![
-                Col::new(lsq::lowpass(t, &s, tau, 0.0)),
-                Col::new(lsq::lowpass(t, &c, tau, 0.0)),
-                Col::new(lsq::lowpass(t, &drift, tau, 0.0)),
-            ],
+            lsq::lowpass_each(t, &inputs)
+                .into_iter()
+                .map(Col::new)
+                .collect(),
             vec![
                 format!("sin_{unit}"),
                 format!("cos_{unit}"),

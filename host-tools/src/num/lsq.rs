@@ -2,7 +2,6 @@
 //! normal equations), and the first-order low-pass that turns an input into
 //! a thermal response.
 
-use super::tsqr::Tsqr;
 use nalgebra::{DMatrix, DVector};
 
 /// The coefficients, one per column (0 for a dead one), from the
@@ -10,7 +9,7 @@ use nalgebra::{DMatrix, DVector};
 /// small `R` solved with a rank tolerance of 1e-10 of its largest singular
 /// value, then each solution unscaled (`coef_j = x_k / scale_j`). The
 /// dense and the streamed fit end here alike.
-fn solve_triangle(
+pub(super) fn solve_triangle(
     r: DMatrix<f64>,
     qtb: DVector<f64>,
     live: &[usize],
@@ -26,21 +25,32 @@ fn solve_triangle(
     Some(coef)
 }
 
-/// Each column's rms over `rows` (its scale) and the columns worth
-/// solving for: a finite scale above 1e-12 (a column that is zero or not
-/// finite there carries nothing).
+/// Each column's rms over `rows`: the scale a streamed fit divides it by
+/// (so the rank tolerance means the same for um, K and kW). Computed once
+/// for columns that several fits share ([`solve_scaled`]).
+pub fn column_scales<C: AsRef<[f64]>>(cols: &[C], rows: &std::ops::Range<usize>) -> Vec<f64> {
+    let n = rows.len() as f64;
+    cols.iter()
+        .map(|c| (c.as_ref()[rows.clone()].iter().map(|v| v * v).sum::<f64>() / n).sqrt())
+        .collect()
+}
+
+/// The columns worth solving for: a finite scale above 1e-12 (a column
+/// that is zero or not finite on the fit rows carries nothing).
+pub(super) fn live_of(scales: &[f64]) -> Vec<usize> {
+    (0..scales.len())
+        .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
+        .collect()
+}
+
+/// Each column's scale over `rows` ([`column_scales`]) and the live
+/// columns ([`live_of`]).
 fn live_columns<C: AsRef<[f64]>>(
     cols: &[C],
     rows: &std::ops::Range<usize>,
 ) -> (Vec<f64>, Vec<usize>) {
-    let n = rows.len() as f64;
-    let scales: Vec<f64> = cols
-        .iter()
-        .map(|c| (c.as_ref()[rows.clone()].iter().map(|v| v * v).sum::<f64>() / n).sqrt())
-        .collect();
-    let live = (0..cols.len())
-        .filter(|&j| scales[j] > 1e-12 && scales[j].is_finite())
-        .collect();
+    let scales = column_scales(cols, rows);
+    let live = live_of(&scales);
     (scales, live)
 }
 
@@ -51,14 +61,60 @@ fn live_columns<C: AsRef<[f64]>>(
 /// state at the first sample (0 for a heat input on a cold machine, `u_0`
 /// for a boundary temperature the machine was in equilibrium with).
 pub fn lowpass(t_s: &[f64], u: &[f64], tau_s: f64, y0: f64) -> Vec<f64> {
-    let mut y = Vec::with_capacity(u.len());
-    let mut state = y0;
-    for k in 0..u.len() {
-        if k > 0 {
-            let a = (-(t_s[k] - t_s[k - 1]) / tau_s).exp();
-            state = a * state + (1.0 - a) * u[k - 1];
+    let [y] = lowpass_group::<1>(t_s, &[(u, tau_s, y0)]);
+    y
+}
+
+/// One first-order response to compute: the input, its time constant, s,
+/// and the state at the first sample (see [`lowpass`]).
+pub type Response<'a> = (&'a [f64], f64, f64);
+
+/// [`lowpass`] of each of `responses` (inputs of one length, sampled at
+/// `t_s`), in one pass over the rows for up to four at a time: each
+/// response's recursion waits on its own last value, so several side by
+/// side fill the time one alone spends waiting. Each comes out the same to
+/// the bit as [`lowpass`] computes it alone.
+pub fn lowpass_each(t_s: &[f64], responses: &[Response]) -> Vec<Vec<f64>> {
+    let mut out = Vec::with_capacity(responses.len());
+    for group in responses.chunks(4) {
+        match group.len() {
+            1 => out.extend(lowpass_group::<1>(t_s, group)),
+            2 => out.extend(lowpass_group::<2>(t_s, group)),
+            3 => out.extend(lowpass_group::<3>(t_s, group)),
+            _ => out.extend(lowpass_group::<4>(t_s, group)),
         }
-        y.push(state);
+    }
+    out
+}
+
+/// [`lowpass`] of `M` responses side by side (`group.len() == M`). The
+/// factor `a` of a step is reused while the step repeats (a run at a
+/// fixed rate needs one `exp` a response; the same step gives the same
+/// bits).
+fn lowpass_group<const M: usize>(t_s: &[f64], group: &[Response]) -> [Vec<f64>; M] {
+    let n = group[0].0.len();
+    assert!(group.len() == M && group.iter().all(|g| g.0.len() == n));
+    let mut y: [Vec<f64>; M] = std::array::from_fn(|_| Vec::with_capacity(n));
+    let mut state: [f64; M] = std::array::from_fn(|i| group[i].2);
+    let (mut a, mut b) = ([0.0; M], [0.0; M]);
+    let mut last_dt = f64::NAN;
+    for k in 0..n {
+        if k > 0 {
+            let dt = t_s[k] - t_s[k - 1];
+            if dt != last_dt {
+                last_dt = dt;
+                for i in 0..M {
+                    a[i] = (-dt / group[i].1).exp();
+                    b[i] = 1.0 - a[i];
+                }
+            }
+            for i in 0..M {
+                state[i] = a[i] * state[i] + b[i] * group[i].0[k - 1];
+            }
+        }
+        for i in 0..M {
+            y[i].push(state[i]);
+        }
     }
     y
 }
@@ -151,7 +207,7 @@ pub fn fit_rows_penalised(
 }
 
 /// [`fit_rows_penalised`] streamed: the rows go through a blocked QR
-/// ([`Tsqr`]) straight from the borrowed columns, so no `n x k` matrix is
+/// ([`super::tsqr::Tsqr`]) straight from the borrowed columns, so no `n x k` matrix is
 /// built (memory for one block, one pass per fit), and the target is
 /// `y - fixed` (`fixed`: a part of the prediction whose gain is fixed at
 /// one) without a copy. The prediction returned includes `fixed`, and
@@ -166,54 +222,99 @@ pub fn fit_streamed(
     rows: std::ops::Range<usize>,
     penalty: &[f64],
 ) -> Option<LinearFit> {
-    let n = y.len();
-    if rows.is_empty()
-        || rows.end > n
-        || cols.iter().any(|c| c.len() != n)
-        || fixed.is_some_and(|f| f.len() != n)
-    {
-        return None;
+    let s = solve_streamed(cols, y, fixed, rows, penalty)?;
+    Some(LinearFit {
+        pred: predict(cols, &s.coef, fixed, y.len()),
+        coef: s.coef,
+        sse_fit: s.sse_fit,
+    })
+}
+
+/// A streamed fit without its prediction ([`solve_streamed`]): what a
+/// search over many designs compares, the prediction being wanted of the
+/// one it keeps only ([`predict`]).
+#[derive(Debug, Clone)]
+pub struct Solved {
+    /// One coefficient per regressor (0 for a dead one).
+    pub coef: Vec<f64>,
+    /// Sum of squared residuals on the fit rows.
+    pub sse_fit: f64,
+}
+
+/// [`fit_streamed`] without the prediction: the coefficients and the fit
+/// rows' sum of squares, the same to the bit (each row's prediction is
+/// summed in the same order, block by block, never stored whole).
+pub fn solve_streamed(
+    cols: &[&[f64]],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    penalty: &[f64],
+) -> Option<Solved> {
+    let scales = column_scales(cols, &rows);
+    solve_scaled(cols, &scales, y, fixed, rows, penalty)
+}
+
+/// [`solve_streamed`] with the columns' scales on `rows` given
+/// ([`column_scales`]: the caller keeps those of the columns many fits
+/// share). [`super::batch::solve_batch`] of one design.
+pub fn solve_scaled(
+    cols: &[&[f64]],
+    scales: &[f64],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    penalty: &[f64],
+) -> Option<Solved> {
+    let design = super::batch::Batched {
+        cols: cols.to_vec(),
+        scales: scales.to_vec(),
+        fixed,
+        penalty,
+    };
+    super::batch::solve_batch(&[design], y, rows)
+        .pop()
+        .flatten()
+}
+
+/// The prediction `fixed + sum_j coef_j cols_j` on rows `rows` into
+/// `out`, summed column by column in order (the bits of [`predict`]).
+pub(super) fn predict_into(
+    cols: &[&[f64]],
+    coef: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    out: &mut [f64],
+) {
+    match fixed {
+        Some(f) => out.copy_from_slice(&f[rows.clone()]),
+        None => out.fill(0.0),
     }
-    let n_fit = rows.len();
-    let (scales, live) = live_columns(cols, &rows);
-    // No live column: nothing to solve (the dense path's SVD would panic).
-    if live.is_empty() || live.len() > n_fit {
-        return None;
-    }
-    let lambda = |j: usize| penalty.get(j).copied().unwrap_or(0.0).max(0.0);
-    let target = |i: usize| fixed.map_or(y[i], |f| y[i] - f[i]);
-    // Fit rows, then one row sqrt(penalty_j) / scale_j per penalised
-    // column (target 0), as in `fit_rows_penalised`.
-    let mut qr = Tsqr::new(live.len());
-    let mut row = vec![0.0; live.len()];
-    let live_cols: Vec<(&[f64], f64)> = live.iter().map(|&j| (cols[j], scales[j])).collect();
-    for i in rows.clone() {
-        for (x, (c, s)) in row.iter_mut().zip(&live_cols) {
-            *x = c[i] / s;
-        }
-        qr.push(&row, target(i));
-    }
-    for (k, &j) in live.iter().enumerate() {
-        if lambda(j) > 0.0 {
-            row.fill(0.0);
-            row[k] = lambda(j).sqrt() / scales[j];
-            qr.push(&row, 0.0);
-        }
-    }
-    let (r, qtb) = qr.triangle()?;
-    let coef = solve_triangle(r, qtb, &live, &scales)?;
-    let mut pred = fixed.map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
-    for (c, w) in cols.iter().zip(&coef) {
-        for (q, v) in pred.iter_mut().zip(*c) {
+    add_columns(cols, coef, rows, out);
+}
+
+/// `out += sum_j coef_j cols_j[rows]`, one column after the other.
+fn add_columns(cols: &[&[f64]], coef: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
+    for (c, w) in cols.iter().zip(coef) {
+        for (q, v) in out.iter_mut().zip(&c[rows.clone()]) {
             *q += v * w;
         }
     }
-    let sse_fit = rows.map(|i| (y[i] - pred[i]).powi(2)).sum();
-    coef.iter().all(|c| c.is_finite()).then_some(LinearFit {
-        coef,
-        pred,
-        sse_fit,
-    })
+}
+
+/// Rows of a block of a prediction: summed over its columns while it
+/// stays in a core's cache.
+const PREDICT_ROWS: usize = 4096;
+
+/// The prediction `fixed + sum_j coef_j cols_j` on all `n` rows, a block
+/// of rows at a time (each row summed in the column order all the same).
+pub fn predict(cols: &[&[f64]], coef: &[f64], fixed: Option<&[f64]>, n: usize) -> Vec<f64> {
+    let mut pred = fixed.map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
+    for (b, out) in pred.chunks_mut(PREDICT_ROWS).enumerate() {
+        let from = b * PREDICT_ROWS;
+        add_columns(cols, coef, from..from + out.len(), out);
+    }
+    pred
 }
 
 /// Root mean square of `x` (0 for an empty slice).
@@ -250,6 +351,33 @@ mod tests {
             let want = 2.0 * (1.0 - (-tk / 300.0).exp());
             assert!((yk - want).abs() < 1e-12, "{tk} {yk} {want}");
         }
+    }
+
+    #[test]
+    fn responses_side_by_side_are_the_bits_of_the_plain_recursion() {
+        // Irregular steps (some repeated, some not) and six responses
+        // (a group of four and one of two): each must equal, bit for bit,
+        // the recursion with `exp` taken at every step (the same
+        // operations, so no tolerance).
+        let t: Vec<f64> = (0..3000)
+            .map(|k| 60.0 * k as f64 + if k % 7 == 3 { 13.5 } else { 0.0 })
+            .collect();
+        let u: Vec<f64> = (0..3000).map(|k| ((k / 97) % 4) as f64 - 0.3).collect();
+        let plain = |tau: f64, y0: f64| -> Vec<f64> {
+            let mut y = vec![y0];
+            for k in 1..u.len() {
+                let a = (-(t[k] - t[k - 1]) / tau).exp();
+                y.push(a * y[k - 1] + (1.0 - a) * u[k - 1]);
+            }
+            y
+        };
+        let taus = [60.0, 300.0, 900.0, 3600.0, 7200.0, 14400.0];
+        let todo: Vec<Response> = taus.iter().map(|&tau| (&u[..], tau, 0.5)).collect();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for (got, &tau) in lowpass_each(&t, &todo).iter().zip(&taus) {
+            assert_eq!(bits(got), bits(&plain(tau, 0.5)), "tau {tau}");
+        }
+        assert_eq!(bits(&lowpass(&t, &u, 900.0, 0.5)), bits(&plain(900.0, 0.5)));
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! random numbers. Every job that needs one of these takes it from here,
 //! never from a sibling job.
 
+pub mod batch;
 pub mod distributions;
 pub mod linalg;
 pub mod lp3;

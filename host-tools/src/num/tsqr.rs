@@ -19,7 +19,7 @@ pub struct Tsqr {
 
 /// Rows per QR block: large enough to amortise the re-triangularisation of
 /// the stacked `R`, small enough to stay in cache (2048 x 52 f64 = 850 kB).
-const BLOCK: usize = 2048;
+pub(crate) const BLOCK: usize = 2048;
 
 impl Tsqr {
     /// For `p` regressors (the target is the extra last column).
@@ -27,7 +27,7 @@ impl Tsqr {
         Self {
             p,
             r: None,
-            buf: Vec::with_capacity(BLOCK * (p + 1)),
+            buf: Vec::new(),
             rows: 0,
             total: 0,
         }
@@ -35,6 +35,9 @@ impl Tsqr {
 
     /// Adds one row: `x` (length p) and target `y`.
     pub fn push(&mut self, x: &[f64], y: f64) {
+        if self.buf.capacity() == 0 {
+            self.buf.reserve_exact(BLOCK * (self.p + 1));
+        }
         self.buf.extend_from_slice(x);
         self.buf.push(y);
         self.rows += 1;
@@ -62,6 +65,16 @@ impl Tsqr {
         self.r = Some(stacked.qr().r());
         self.buf.clear();
         self.rows = 0;
+    }
+
+    /// Flushes the rows pushed so far and frees the block's buffer (made
+    /// again at the next push): for many problems streamed side by side
+    /// ([`super::batch`]), one block's buffer at a time. The rows are
+    /// stacked where they would be at the next full block or at the end,
+    /// so call it only there.
+    pub(crate) fn release(&mut self) {
+        self.flush();
+        self.buf = Vec::new();
     }
 
     /// Adds every row `other` has seen, through its `R` (the same
