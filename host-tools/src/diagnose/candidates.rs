@@ -14,12 +14,11 @@
 
 use super::align::{Aligned, Channel};
 use super::baseline::{self, Baseline, Col};
-use super::outcome::{Effect, Param};
+use super::outcome::{Effect, Param, Params};
 use super::signif;
 use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
 use crate::num::batch::{self, Batched};
 use crate::num::lsq::{self, LinearFit};
-use serde_json::{json, Map, Value};
 
 /// Names of the candidates, in CONTRACT order.
 pub const NAMES: [&str; 5] = ["ambient", "coolant", "cutting", "motor_loss", "sensor_lag"];
@@ -93,7 +92,7 @@ pub struct Scored {
     /// Rms of what is left on the fit rows.
     pub fit_rms: f64,
     /// Parameters (nonlinear ones and gains).
-    pub params: Map<String, Value>,
+    pub params: Params,
     /// Which model form was used.
     pub model: String,
     /// Whether its prediction is the baseline's on every row (no usable
@@ -124,11 +123,7 @@ impl Scored {
             p_adjusted: self.p_adjusted.map(round),
             p_value: self.p_value.map(round),
             pair: None,
-            params: self
-                .params
-                .iter()
-                .map(|(k, v)| (k.clone(), Param::of(v)))
-                .collect(),
+            params: self.params.clone(),
             ratio_to_none: round(self.ratio_to_none),
             rms_after: round(self.rms_after),
             rms_after_first_alone: None,
@@ -371,7 +366,7 @@ pub(super) fn score(
     p: &Problem,
     (f, base_pred): (&LinearFit, &[f64]),
     model: String,
-    params: Map<String, Value>,
+    params: Params,
 ) -> (Scored, Vec<f64>) {
     let r = &p.ch.resid;
     let after = errors_of(p, &f.pred);
@@ -400,20 +395,21 @@ pub(super) fn score(
 /// The parameters of variant `v` fitted with coefficients `coef` (the
 /// variant's own start at `n_base`): grid point, labels, gains, their sum
 /// and the dominant time constant.
-pub(super) fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String, Value> {
-    let mut m = Map::new();
+pub(super) fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Params {
+    let number = |x: f64| Param::Number(round(x));
+    let mut m = Params::new();
     let g = &coef[n_base..(n_base + v.gains.len()).min(coef.len())];
     for (k, val) in &v.fixed {
-        m.insert(k.clone(), json!(round(*val)));
+        m.insert(k.clone(), number(*val));
     }
     for (k, val) in &v.labels {
-        m.insert(k.clone(), json!(val));
+        m.insert(k.clone(), Param::Label(val.clone()));
     }
     for (k, val) in v.gains.iter().zip(g) {
-        m.insert(k.clone(), json!(round(*val)));
+        m.insert(k.clone(), number(*val));
     }
     if let Some(total) = &v.total {
-        m.insert(total.clone(), json!(round(g.iter().sum::<f64>())));
+        m.insert(total.clone(), number(g.iter().sum::<f64>()));
     }
     if !v.taus.is_empty() {
         let (i, _) = g.iter().enumerate().fold((0, -1.0), |(bi, bv), (i, &c)| {
@@ -423,20 +419,20 @@ pub(super) fn params_of(v: &Variant, coef: &[f64], n_base: usize) -> Map<String,
                 (bi, bv)
             }
         });
-        m.insert("tau_s".into(), json!(v.taus[i]));
+        m.insert("tau_s".into(), Param::Number(v.taus[i]));
     }
     m
 }
 
 /// The baseline's fit scored as the `none` candidate.
 fn score_none(p: &Problem, base: &Baseline, bf: &LinearFit) -> (Scored, Vec<f64>) {
-    let mut params: Map<String, Value> = base
+    let mut params: Params = base
         .names
         .iter()
         .zip(&bf.coef)
-        .map(|(k, c)| (k.clone(), json!(round(*c))))
+        .map(|(k, c)| (k.clone(), Param::Number(round(*c))))
         .collect();
-    params.insert("tau_c_s".into(), json!(base.tau_c_s));
+    params.insert("tau_c_s".into(), Param::Number(base.tau_c_s));
     score(
         "none",
         p,
@@ -541,7 +537,7 @@ fn fit_fold(p: &Problem, base: Baseline) -> Option<Fold> {
                 p,
                 (&bf, &bf.pred),
                 format!("{model} (baseline only)"),
-                Map::new(),
+                Params::new(),
             ),
         };
         fold.scored.push(s);
@@ -648,7 +644,7 @@ pub fn test_scored(name: &str, after: f64, none_after: f64, p: f64) -> Scored {
         rms_after: after,
         shrink_pct: 100.0 * (1.0 - after / 10.0),
         fit_rms: 0.0,
-        params: serde_json::Map::new(),
+        params: Params::new(),
         model: String::new(),
         as_baseline: false,
         p_value: Some(p),

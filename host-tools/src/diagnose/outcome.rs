@@ -145,20 +145,6 @@ pub enum Param {
 pub type Params = BTreeMap<String, Param>;
 
 impl Param {
-    /// The parameter a candidate's JSON value holds (a number, a string or
-    /// an object of numbers; anything else as a number that is not finite,
-    /// printed `null`).
-    pub fn of(v: &Value) -> Param {
-        let number = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
-        match v {
-            Value::String(s) => Param::Label(s.clone()),
-            Value::Object(m) => {
-                Param::Table(m.iter().map(|(k, v)| (k.clone(), number(v))).collect())
-            }
-            v => Param::Number(number(v)),
-        }
-    }
-
     /// The number, if it is one.
     pub fn as_f64(&self) -> Option<f64> {
         match self {

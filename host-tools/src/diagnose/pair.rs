@@ -13,9 +13,9 @@
 
 use super::batch::batches;
 use super::candidates::{below, params_of, score, Design, Problem, Scored, NAMES};
+use super::outcome::Params;
 use super::variants::{variants, Variant};
 use crate::num::lsq::{self, LinearFit};
-use serde_json::Map;
 use std::cmp::Ordering;
 
 /// Grid points kept per candidate for the pair search.
@@ -174,7 +174,7 @@ fn joint(c: &Ctx, d: &Design, ca: &Cut, cb: &Cut) -> Option<Pair> {
     let both = merged(&sel_a, &sel_b);
     let f = d.fit(&both, y, &p.fit_rows())?;
     let (ka, kb) = (d.len(), d.len() + sel_a.extra.len());
-    let mut params = Map::new();
+    let mut params = Params::new();
     for (prefix, v, from) in [(ca.name, &sel_a, ka), (cb.name, &sel_b, kb)] {
         for (k, val) in params_of(v, &f.coef[from - d.len()..], d.len()) {
             params.insert(format!("{prefix}.{k}"), val);
