@@ -59,7 +59,7 @@
 //!    a channel swinging with it while quiet are two observations).
 
 use super::align::{is_displacement, Aligned};
-use super::quiet::{quiet_cycle, white_sigma};
+use super::quiet::quiet_cycle;
 use super::variants::CHILLER_BAND_S;
 use super::{seen_on, Look, MAX_RATIO_TO_NONE, STRONG_ALPHA};
 use crate::data::runfile::{is_temperature_column, resample_linear, RunFile};
@@ -170,7 +170,7 @@ fn cycle_of(t: &[f64], c: &[f64]) -> Option<CoolantCycle> {
     let band_rms_k = lsq::rms(&fast);
     Some(CoolantCycle {
         band_rms_k,
-        snr: band_rms_k / white_sigma(c).max(1e-12),
+        snr: band_rms_k / lsq::white_sigma(c).max(1e-12),
     })
 }
 

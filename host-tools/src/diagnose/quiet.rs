@@ -128,57 +128,17 @@ pub fn quiet_windows(t: &[f64], changed: &[bool]) -> Vec<Range<usize>> {
     out
 }
 
-/// What a least-squares quadratic in time leaves of `y` on the times `t`.
+/// What a least-squares quadratic in time leaves of `y` on the times `t`
+/// (time centred and scaled to +-1 first, so the columns are of one size).
 pub fn quadratic_residual(t: &[f64], y: &[f64]) -> Vec<f64> {
-    let n = t.len() as f64;
-    let tm = t.iter().sum::<f64>() / n;
+    let tm = t.iter().sum::<f64>() / t.len().max(1) as f64;
     let span = t.iter().map(|v| (v - tm).abs()).fold(1e-12, f64::max);
     let x: Vec<f64> = t.iter().map(|v| (v - tm) / span).collect();
-    // Orthogonal polynomials on the window's own points (Gram-Schmidt of
-    // 1, x, x^2): each fitted by a projection, no normal equations.
-    let one = vec![1.0; x.len()];
-    let p1 = orthogonalise(&x, &[&one]);
-    let sq: Vec<f64> = x.iter().map(|v| v * v).collect();
-    let p2 = orthogonalise(&sq, &[&one, &p1]);
-    let mut r = y.to_vec();
-    for p in [&one, &p1, &p2] {
-        let c = dot(&r, p) / dot(p, p).max(1e-300);
-        r.iter_mut()
-            .zip(p.iter())
-            .for_each(|(ri, pi)| *ri -= c * pi);
+    let cols = vec![vec![1.0; x.len()], x.iter().map(|v| v * v).collect(), x];
+    match lsq::fit(&cols, y, y.len()) {
+        Some(f) => y.iter().zip(&f.pred).map(|(v, p)| v - p).collect(),
+        None => y.to_vec(),
     }
-    r
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// `v` without its projections on the (mutually orthogonal) `basis`.
-fn orthogonalise(v: &[f64], basis: &[&[f64]]) -> Vec<f64> {
-    let mut out = v.to_vec();
-    for b in basis {
-        let c = dot(&out, b) / dot(b, b).max(1e-300);
-        out.iter_mut()
-            .zip(b.iter())
-            .for_each(|(o, bi)| *o -= c * bi);
-    }
-    out
-}
-
-/// White noise of `x` from its second differences (median absolute value
-/// over `0.6745 sqrt 6`): smooth motion, a chiller's ramps included, does
-/// not count.
-pub fn white_sigma(x: &[f64]) -> f64 {
-    let mut d: Vec<f64> = x
-        .windows(3)
-        .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
-        .collect();
-    if d.is_empty() {
-        return 0.0;
-    }
-    let k = d.len() / 2;
-    crate::num::stats::kth_smallest(&mut d, k) / 0.6745 / 6f64.sqrt()
 }
 
 /// What the windows' quadratics leave of `resid`, over its white noise.
@@ -187,7 +147,7 @@ pub fn quiet_ratio(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
         .iter()
         .flat_map(|w| quadratic_residual(&t[w.clone()], &resid[w.clone()]))
         .collect();
-    lsq::rms(&left) / white_sigma(resid).max(1e-12)
+    lsq::rms(&left) / lsq::white_sigma(resid).max(1e-12)
 }
 
 /// The strongest quiet cycle over every channel of `al`, or `None` when

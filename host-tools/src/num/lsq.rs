@@ -333,9 +333,26 @@ pub fn noise_sigma(x: &[f64]) -> f64 {
     if x.len() < 3 {
         return 0.0;
     }
-    let mut d: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    median_abs_sigma(x.windows(2).map(|w| w[1] - w[0]), 2.0)
+}
+
+/// White-noise level of a series from its second differences:
+/// `median|x_(k+1) - 2 x_k + x_(k-1)| / 0.6745 / sqrt 6`. Blind to straight
+/// stretches, so smooth motion (a chiller's ramps included) does not count
+/// as noise, only its turning points.
+pub fn white_sigma(x: &[f64]) -> f64 {
+    median_abs_sigma(x.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]), 6.0)
+}
+
+/// The sigma of white noise whose differences `d` have variance `var_factor`
+/// sigma^2, from their median absolute value (0 without any).
+fn median_abs_sigma(d: impl Iterator<Item = f64>, var_factor: f64) -> f64 {
+    let mut d: Vec<f64> = d.map(f64::abs).collect();
+    if d.is_empty() {
+        return 0.0;
+    }
     let k = d.len() / 2;
-    crate::num::stats::kth_smallest(&mut d, k) / 0.6745 / std::f64::consts::SQRT_2
+    crate::num::stats::kth_smallest(&mut d, k) / 0.6745 / var_factor.sqrt()
 }
 
 #[cfg(test)]
