@@ -125,12 +125,12 @@ pub fn diagnose(
         .map(|p| fit_effect(m, &run, &recal, p))
         .collect::<Vec<_>>();
     let channel = scored_channel(&recal, main);
-    let mut outcome = outcome_of(&recal, &outcomes, channel, al, n_fit);
-    let noise = noise_sigma(&run, &recal, &outcomes, channel);
-    outcome.noise_sigma = round(noise);
-    outcome.gap_snr = round(rest_rms(&recal, channel) / noise.max(1e-12));
-    outcome.machine = twin.path.clone();
-    outcome.seconds = round(started.elapsed().as_secs_f64());
+    let about = About {
+        noise: noise_sigma(&run, &recal, &outcomes, channel),
+        machine: twin.path.clone(),
+        started,
+    };
+    let outcome = outcome_of(&recal, &outcomes, channel, (al, n_fit), about);
     let html = report_html(&run, &recal, &outcomes, channel, main);
     Ok(Physical { outcome, html })
 }
@@ -405,12 +405,20 @@ fn effect_outcome(o: &Outcome, before: f64, channel: usize) -> (f64, PhysicalEff
 /// The physical outcome: effects sorted by held-out rms, best first; the
 /// figures of the run (`noise`, `gap_snr`, `machine`, `seconds`) are the
 /// caller's.
+/// What the physical outcome reports beside the fits: the scored
+/// channel's noise, the machine file and when the diagnosis began.
+struct About {
+    noise: f64,
+    machine: String,
+    started: std::time::Instant,
+}
+
 fn outcome_of(
     recal: &Calibration,
     outcomes: &[Outcome],
     channel: usize,
-    al: &Aligned,
-    n_fit: usize,
+    (al, n_fit): (&Aligned, usize),
+    about: About,
 ) -> outcome::Physical {
     let before = rest_rms(recal, channel);
     let mut effects: Vec<(f64, PhysicalEffect)> = outcomes
@@ -430,12 +438,12 @@ fn outcome_of(
         effects: effects.into_iter().map(|e| e.1).collect(),
         gap_after_recalibration: held_out(recal),
         gap_of_sim,
-        gap_snr: f64::NAN,
-        machine: String::new(),
+        gap_snr: round(before / about.noise.max(1e-12)),
+        machine: about.machine,
         method: METHOD.into(),
-        noise_sigma: f64::NAN,
+        noise_sigma: round(about.noise),
         recalibrated: twin_fit(recal),
-        seconds: f64::NAN,
+        seconds: round(about.started.elapsed().as_secs_f64()),
         simulations: recal.evaluations
             + outcomes
                 .iter()
