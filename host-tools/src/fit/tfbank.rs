@@ -35,7 +35,7 @@ use super::dynamic::options::{DynamicOptions, Selection};
 use super::dynamic::orders::{candidates, OrderRange, Orders};
 use super::dynamic::select::{forward_select, max_selected, sub_grid, subset};
 use super::dynamic::sim_fit::fit_pct;
-use super::dynamic::split::{check_holdout, search_split};
+use super::dynamic::split::search_split;
 use super::Fitted;
 use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
@@ -435,9 +435,8 @@ fn order_candidates(args: &DynamicOptions) -> Result<(Vec<Orders>, Orders)> {
     Ok((cands, start))
 }
 
-/// Fits `--model tf`.
+/// Fits `--model tf` (`args` checked by [`DynamicOptions::check`]).
 pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
-    check_holdout(args.search_holdout)?;
     if args.select_inputs == Selection::Off {
         return fit_inputs(ds, args, Value::Null);
     }
