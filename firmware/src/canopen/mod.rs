@@ -2,7 +2,8 @@
 //! `firmware/thermcomp.eds`), one module per concept:
 //!
 //! * [`od`]: the object dictionary, a static table of typed entries.
-//! * [`sdo`]: the SDO server, expedited and segmented, abort codes.
+//! * [`abort`]: the SDO abort codes, shared by the dictionary and the server.
+//! * [`sdo`]: the SDO server, expedited and segmented.
 //! * [`nmt`]: NMT states and commands, the heartbeat producer.
 //! * [`pdo`]: TPDOs and RPDOs from and into mapped objects; the default
 //!   mapping keeps the frames of `docs/wire-format.md` byte for byte.
@@ -35,6 +36,7 @@
 //! which starts over), the EMCY inhibit time (0x1015) and the error history
 //! (0x1003).
 
+pub mod abort;
 pub mod emcy;
 pub mod nmt;
 pub mod node;

@@ -11,11 +11,12 @@ use crate::can_rx::RxMessage;
 use crate::offsets::{MAX_OUTPUTS, POSITION_REFERENCE_MM};
 use crate::report::Report;
 
+use super::abort::SdoAbort;
 use super::emcy::{self, EmcyProducer};
 use super::nmt::{self, HeartbeatProducer, NmtCommand};
 use super::od::{self, Dictionary, OBJECTS};
 use super::pdo::{self, RPDO_MAPPING, TPDO_MAPPING};
-use super::sdo::{SdoAbort, SdoServer};
+use super::sdo::SdoServer;
 use super::settings::{self, Settings};
 
 /// NMT commands' COB-ID (CiA 301 §7.3.3, table 41).

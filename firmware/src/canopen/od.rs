@@ -20,7 +20,7 @@
 //! slew limit, plausibility min below max) are the node's
 //! (`canopen::node`), which knows the other values.
 
-use super::sdo::SdoAbort;
+use super::abort::SdoAbort;
 
 /// CiA 301 §7.1 basic data types, by their object-dictionary index
 /// (table 44), the number written as `DataType=` in the EDS.

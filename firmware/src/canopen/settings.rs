@@ -15,8 +15,8 @@
 //! runs the same checks on settings read back from flash, so a record that
 //! decodes but no longer validates falls back to the defaults.
 
+use super::abort::SdoAbort;
 use super::od::{self, Dictionary, OBJECTS};
-use super::sdo::SdoAbort;
 
 /// Every stored setting.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -331,7 +331,7 @@ pub struct AutoArgs {
     /// (the filter bank, always), pcr, arx, tf, bp, gabp. Another family
     /// replaces the ridge only when its CV error is lower beyond noise;
     /// "ridge" alone: the filter bank only.
-    #[arg(long, value_delimiter = ',', default_value = auto::family::DEFAULT_FAMILIES, value_name = "LIST")]
+    #[arg(long, value_delimiter = ',', default_value = auto::table::DEFAULT_FAMILIES, value_name = "LIST")]
     pub auto_families: Vec<String>,
 }
 

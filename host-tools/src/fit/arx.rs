@@ -361,7 +361,7 @@ fn best_row(table: &[SearchRow]) -> Option<(&SearchRow, f64)> {
 
 /// Fits `--model arx`.
 pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
-    let scheme = SearchScheme::from_args(args)?;
+    let scheme = SearchScheme::new(args.search_folds, args.search_holdout)?;
     let dt = sample_time(ds, args.dt_s)?;
     let [dna, dnb, dnk] = ARX_DEFAULTS;
     let cands = candidates(

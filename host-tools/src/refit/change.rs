@@ -2,7 +2,6 @@
 //! (bias, drift, gain; the HAC Wald test of [`super::stats`]) and, with
 //! baseline runs, the tolerance rule on rmse and dpk.
 
-use super::outcome::BaselineFigures;
 use super::stats::{drift_test, DriftTest, Sample};
 use super::ValidRefitParams;
 use crate::data::runfile::RunFile;
@@ -10,6 +9,7 @@ use crate::runner::{self, ColumnMap};
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, Result};
 use model_core::ValidModel;
+use serde::Serialize;
 
 /// One target's test outcome.
 pub struct Verdict {
@@ -25,6 +25,23 @@ pub struct Verdict {
     pub baseline_flag: bool,
     /// Significant and relevant, or flagged by the baseline rule.
     pub changed: bool,
+}
+
+/// The baseline runs' rmse and dpk beside the new runs'.
+#[derive(Clone, Debug, Serialize)]
+pub struct BaselineFigures {
+    /// Baseline rmse, um.
+    pub rmse_um: f64,
+    /// Baseline dpk, um.
+    pub dpk_um: f64,
+    /// New runs' rmse, um.
+    pub new_rmse_um: f64,
+    /// New runs' dpk, um.
+    pub new_dpk_um: f64,
+    /// New over baseline rmse.
+    pub rmse_ratio: f64,
+    /// New over baseline dpk.
+    pub dpk_ratio: f64,
 }
 
 /// Each run's measured column of each model output: `ys[run][output]`.

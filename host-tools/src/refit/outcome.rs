@@ -2,7 +2,7 @@
 //! keys, through `serde_json::to_value`) to the object `refit --json`
 //! prints, less its `out` (the path the CLI wrote).
 
-use super::change::Verdict;
+use super::change::{BaselineFigures, Verdict};
 use crate::eval::MetricsReport;
 use crate::score::TargetScore;
 use serde::Serialize;
@@ -125,23 +125,6 @@ impl From<&Verdict> for TargetTest {
             changed: v.changed,
         }
     }
-}
-
-/// The baseline runs' rmse and dpk beside the new runs'.
-#[derive(Clone, Debug, Serialize)]
-pub struct BaselineFigures {
-    /// Baseline rmse, um.
-    pub rmse_um: f64,
-    /// Baseline dpk, um.
-    pub dpk_um: f64,
-    /// New runs' rmse, um.
-    pub new_rmse_um: f64,
-    /// New runs' dpk, um.
-    pub new_dpk_um: f64,
-    /// New over baseline rmse.
-    pub rmse_ratio: f64,
-    /// New over baseline dpk.
-    pub dpk_ratio: f64,
 }
 
 /// The update settings after defaults are resolved.

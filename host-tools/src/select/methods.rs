@@ -3,11 +3,11 @@
 //! returns its typed outcome. Notes (left-out rows, scale fallbacks) go to
 //! stderr as the steps meet them.
 
-use super::job::SelectParams;
 use super::outcome::{
     Combination, GreyOutcome, GreyVariable, MaxtreeLevel, MaxtreeOutcome, RowCounts, TreeEdge,
     WgreyOutcome, WgreyTarget,
 };
+use super::params::SelectParams;
 use super::rows::{
     names_of, scaled_inputs, scaled_target, series, target_correlations, with_target, ScaleChoice,
     Table,

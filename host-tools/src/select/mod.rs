@@ -33,11 +33,13 @@ mod job;
 pub mod maxtree;
 mod methods;
 pub mod outcome;
+mod params;
 mod rows;
 pub mod wgrey;
 
-pub use job::{select, SelectParams, ValidSelectParams};
+pub use job::select;
 pub use outcome::SelectOutcome;
+pub use params::{SelectParams, ValidSelectParams};
 pub use rows::INITIAL_FALLBACK;
 
 /// Largest number of typical variables `grey` combines: 2^12 - 1 = 4095

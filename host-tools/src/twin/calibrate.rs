@@ -52,6 +52,7 @@ use super::drive::{self, Drive, FittedEffect, Rises, N_PLACES};
 use super::lm::{self, LmOptions};
 use super::machine::{DisplacementOutput, Machine, Node, SensorSite, Site, N_NODES};
 use super::network::Network;
+use super::param::{to_theta, to_values, ParamDef};
 use super::profile::{self, Profile, Schedule};
 use crate::data::runfile::{is_temperature_column, ReadOptions, RunFile};
 use crate::num::lsq;
@@ -68,21 +69,6 @@ pub const MAX_ROUNDS: usize = 3;
 const MIN_SCALE_C: f64 = 0.1;
 /// See [`MIN_SCALE_C`].
 const MIN_SCALE_UM: f64 = 1.0;
-
-/// One fitted parameter's name, unit, bounds and whether it is a log.
-#[derive(Debug, Clone, Copy)]
-pub struct ParamDef {
-    /// JSON name.
-    pub name: &'static str,
-    /// Unit of the value shown.
-    pub unit: &'static str,
-    /// Lower bound of the value.
-    pub lo: f64,
-    /// Upper bound of the value.
-    pub hi: f64,
-    /// Fitted as ln(value).
-    pub log: bool,
-}
 
 /// The nonlinear parameters, in `theta` order. Bounds keep the network
 /// physical (every capacity, conductance and heat positive) and exclude
@@ -528,29 +514,6 @@ impl<'a> Ctx<'a> {
     fn cost(&self, theta: &[f64]) -> f64 {
         half_sq(&self.evaluate(theta, None).0)
     }
-}
-
-/// Values from optimiser coordinates (`exp` of the logs).
-fn to_values(defs: &[ParamDef], theta: &[f64]) -> Vec<f64> {
-    defs.iter()
-        .zip(theta)
-        .map(|(d, x)| if d.log { x.exp() } else { *x })
-        .collect()
-}
-
-/// Optimiser coordinates from values, clamped into the bounds.
-fn to_theta(defs: &[ParamDef], values: &[f64]) -> Vec<f64> {
-    defs.iter()
-        .zip(values)
-        .map(|(d, v)| {
-            let v = v.clamp(d.lo, d.hi);
-            if d.log {
-                v.ln()
-            } else {
-                v
-            }
-        })
-        .collect()
 }
 
 fn half_sq(r: &[f64]) -> f64 {

@@ -17,10 +17,10 @@
 //! rather than from a model: `simulate` keeps its boundaries constant (or
 //! modelled, with `--effects`), the calibration can replay a log.
 
-use super::calibrate::ParamDef;
 use super::integrate::Stepper;
 use super::machine::{Machine, N_NODES};
 use super::network::{self, Input, Network, State, U_AMBIENT, U_COOLANT};
+use super::param::ParamDef;
 use super::profile::Schedule;
 use super::sensors::lag_step;
 

@@ -8,8 +8,8 @@
 //! [`expansion`] (temperatures to displacement), [`sensors`], [`profile`]
 //! (speed over time), [`effects`], [`rng`] (seeded noise) and [`sim`] (one
 //! run), [`calibrate`] (grey-box fit of a machine to a measured run) with
-//! its optimiser [`lm`] and its simulation [`drive`] (which an effect can
-//! drive). Method and numbers: docs/twin.md.
+//! its optimiser [`lm`], its simulation [`drive`] (which an effect can
+//! drive) and the fitted parameters' description [`param`]. Method and numbers: docs/twin.md.
 
 pub mod calibrate;
 pub mod drive;
@@ -19,6 +19,7 @@ pub mod integrate;
 pub mod lm;
 pub mod machine;
 pub mod network;
+pub mod param;
 pub mod profile;
 pub mod rng;
 pub mod sensors;

@@ -16,12 +16,12 @@
 
 use crate::diagnose::candidates::round;
 use crate::diagnose::outcome::{Param, Params};
-use crate::twin::calibrate::ParamDef;
 use crate::twin::drive::{Drive, FittedEffect};
 use crate::twin::effects::{self, Ambient, Coolant};
 use crate::twin::machine::{
     AmbientParams, CoolantParams, CuttingParams, MotorLossParams, Node, N_NODES,
 };
+use crate::twin::param::ParamDef;
 use std::collections::BTreeMap;
 
 /// A candidate effect the diagnosis adds to the twin.

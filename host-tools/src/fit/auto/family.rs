@@ -24,7 +24,7 @@
 use super::features::Role;
 use super::folds::Folds;
 use super::ridge::{standard_error, CvScore};
-use super::search::{cv_columns, CvRow, Form};
+use super::table::{cv_columns, CvRow, Family, Form};
 use super::{cv_extrapolation, Band};
 use crate::data::dataset::{Dataset, GridRun, InputForm, RunData};
 use crate::fit::bp::BpOptions;
@@ -37,90 +37,6 @@ use model_core::tf::MAX_TF_ENTRIES;
 use model_core::ValidModel;
 use serde::Serialize;
 use std::time::Instant;
-
-/// A model family `auto` can put in the blob.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Family {
-    /// Ridge over a bank of first-order low-pass filters (search.rs): a
-    /// transfer-function bank with fixed real poles (seed 004, Eq. 1-2).
-    Ridge,
-    /// Principal component regression (seed 003), `fit --model pcr`.
-    Pcr,
-    /// MISO ARX exported as a TF bank (seed 004), `fit --model arx`.
-    Arx,
-    /// Seed 004's bank of SISO transfer functions fitted for simulation,
-    /// `fit --model tf`.
-    Tf,
-    /// One-hidden-layer BP network trained by Levenberg-Marquardt (seed
-    /// 000), `fit --model bp`.
-    Bp,
-    /// The BP network with hidden size and initial weights chosen by a
-    /// genetic algorithm (seed 000), `fit --model gabp`.
-    Gabp,
-}
-
-/// `--auto-families` without the option: every family but gabp (gabp is bp
-/// with a GA in front: slower for the same network).
-pub const DEFAULT_FAMILIES: &str = "ridge,pcr,arx,tf,bp";
-
-impl Family {
-    /// Every family, in the order the CLI lists them.
-    pub const ALL: [Self; 6] = [
-        Self::Ridge,
-        Self::Pcr,
-        Self::Arx,
-        Self::Tf,
-        Self::Bp,
-        Self::Gabp,
-    ];
-
-    /// The name `--auto-families` and the JSON use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Ridge => "ridge",
-            Self::Pcr => "pcr",
-            Self::Arx => "arx",
-            Self::Tf => "tf",
-            Self::Bp => "bp",
-            Self::Gabp => "gabp",
-        }
-    }
-
-    /// Parses `--auto-families` (duplicates once); refuses an unknown
-    /// name, and a list without the ridge the others are weighed against.
-    pub fn parse_list(names: &[String]) -> Result<Vec<Self>> {
-        let known: Vec<&str> = Self::ALL.iter().map(|f| f.name()).collect();
-        let mut out = Vec::new();
-        for name in names.iter().map(|n| n.trim()) {
-            let f = Self::ALL
-                .iter()
-                .copied()
-                .find(|f| f.name() == name)
-                .ok_or_else(|| {
-                    anyhow!(
-                        "auto: --auto-families: unknown family \"{name}\" (known: {})",
-                        known.join(", ")
-                    )
-                })?;
-            if !out.contains(&f) {
-                out.push(f);
-            }
-        }
-        if !out.contains(&Self::Ridge) {
-            bail!(
-                "auto: --auto-families {}: must include ridge (the model the others are weighed against)",
-                names.join(",")
-            );
-        }
-        Ok(out)
-    }
-
-    /// Whether the family's blob is a TF bank (at most 16 entries).
-    fn tf_bank(self) -> bool {
-        matches!(self, Self::Arx | Self::Tf)
-    }
-}
 
 /// tf's structure inside auto: one first-order TF per input (`na 1, nb 1,
 /// nk 0`, the first structure of tf's search). tf's per-input order search
@@ -894,24 +810,6 @@ mod tests {
         let dz_share = cv.mse / bench.variance[0];
         let score = e.score(&bench.variance).unwrap();
         assert!((score - 2.0 * dz_share).abs() < 1e-9 * score, "{score}");
-    }
-
-    #[test]
-    fn families_parse_and_unknown_or_ridgeless_lists_are_refused() {
-        let list = |s: &str| s.split(',').map(String::from).collect::<Vec<_>>();
-        assert_eq!(
-            Family::parse_list(&list(DEFAULT_FAMILIES)).unwrap(),
-            [
-                Family::Ridge,
-                Family::Pcr,
-                Family::Arx,
-                Family::Tf,
-                Family::Bp
-            ]
-        );
-        let e = Family::parse_list(&list("ridge,foo")).unwrap_err();
-        assert!(e.to_string().contains("unknown family \"foo\""), "{e}");
-        assert!(Family::parse_list(&list("pcr")).is_err());
     }
 
     #[test]

@@ -21,25 +21,29 @@
 //!
 //! The other model families (PCR, ARX, TF, BP, GA-BP: family.rs) are then
 //! scored on the same folds and samples, and one of them replaces the ridge
-//! only when its CV error is lower beyond noise (`--auto-families`).
+//! only when its CV error is lower beyond noise (`--auto-families`). Both
+//! write rows of one CV table, whose vocabulary (families, input forms, the
+//! row) is table.rs.
 
 pub mod family;
 pub mod features;
 pub mod folds;
 pub mod ridge;
 pub mod search;
+pub mod table;
 
 use super::{outputs, Fitted};
 use crate::data::dataset::{Dataset, GridRun};
 use anyhow::{anyhow, bail, Result};
-use family::{Bench, Comparison, Family, FamilyChoice, Residuals, Trainers};
+use family::{Bench, Comparison, FamilyChoice, Residuals, Trainers};
 use features::Role;
 use folds::Folds;
 use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
 use model_core::model::{Bounds, Name, Span, MAX_CHANNELS};
 use model_core::{Channel, Model, Params, Reference};
-use search::{CvRow, Form, FormData, Member, SearchSettings};
+use search::{FormData, Member, SearchSettings};
 use serde::Serialize;
+use table::{CvRow, Family, Form};
 
 /// Filter time constants, s, that the temperature banks draw from: 5 min
 /// to 6.75 h in steps of 3 (a machine's structural time constants lie
@@ -93,7 +97,7 @@ impl Default for AutoOptions {
             auto_folds: 6,
             auto_ensemble: 20,
             auto_eliminate: 0,
-            auto_families: family::DEFAULT_FAMILIES
+            auto_families: table::DEFAULT_FAMILIES
                 .split(',')
                 .map(String::from)
                 .collect(),
@@ -125,7 +129,7 @@ impl Default for AutoParams {
             ensemble: 20,
             dt_s: None,
             eliminate: 0,
-            families: family::DEFAULT_FAMILIES
+            families: table::DEFAULT_FAMILIES
                 .split(',')
                 .map(String::from)
                 .collect(),

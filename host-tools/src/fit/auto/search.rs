@@ -12,91 +12,11 @@
 //! other's noise, and averaging them halves the held-out spread that picking
 //! one of them by a noisy CV minimum leaves.
 
-use super::family::Family;
 use super::features::{self, FeatureDef, Role};
 use super::folds::Folds;
 use super::ridge::{Coefs, CvScore, Design};
+use super::table::{cv_columns, CvRow, Family, Form};
 use serde::Serialize;
-
-/// The input form of a candidate.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Form {
-    /// Temperatures as changes from each run's first sample; no intercept
-    /// (every feature and, on a run starting cold, the error start at zero).
-    Change,
-    /// Temperatures as logged, with an intercept.
-    Absolute,
-}
-
-impl Form {
-    /// Both forms, in the order the table lists them.
-    pub const ALL: [Form; 2] = [Form::Change, Form::Absolute];
-
-    /// Whether the regression has a constant term.
-    pub fn intercept(self) -> bool {
-        self == Self::Absolute
-    }
-}
-
-/// One row of the CV table.
-#[derive(Clone, Debug, Serialize)]
-pub struct CvRow {
-    /// Model family: `ridge` (this search's filter-bank candidates) or
-    /// another family scored on the same folds (family.rs).
-    pub family: Family,
-    /// Input form.
-    pub form: Form,
-    /// Temperature filter time constants, s (besides the raw temperature;
-    /// empty for other families).
-    pub temp_taus_s: Vec<f64>,
-    /// Heat-source filter time constants, s (empty for other families).
-    pub heat_taus_s: Vec<f64>,
-    /// Penalty (on standardised features, alpha / n; 0 for other
-    /// families, which choose their own settings).
-    pub lambda: f64,
-    /// Feature columns (other families: the inputs the model reads).
-    pub features: usize,
-    /// Cross-validated root mean square error, in the target's unit (null
-    /// when the family could not be scored on every fold: see `note`).
-    pub cv_rmse: f64,
-    /// Standard error of the fold-mean squared error, as an rmse spread.
-    pub cv_se: f64,
-    /// Square root of the geometric mean of the per-fold mean squared
-    /// errors: the criterion ridge candidates are ranked by (ridge.rs
-    /// `CvScore`), in the target's unit.
-    pub cv_geo_rmse: f64,
-    /// Inputs left out (indices into the fit's `inputs`): temperatures
-    /// dropped by the sensor elimination; for other families the inputs
-    /// that never move in calibration and (arx, tf) the heat sources when
-    /// every input would overflow the 16-entry TF bank.
-    pub dropped_inputs: Vec<usize>,
-    /// Whether the blob holds this candidate (ridge: one of the averaged).
-    pub chosen: bool,
-    /// Why a family has no CV error.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub note: Option<String>,
-}
-
-impl CvRow {
-    /// A row of `family` in `form` with no settings and no score yet.
-    pub fn new(family: Family, form: Form) -> Self {
-        Self {
-            family,
-            form,
-            temp_taus_s: Vec::new(),
-            heat_taus_s: Vec::new(),
-            lambda: 0.0,
-            features: 0,
-            cv_rmse: f64::NAN,
-            cv_se: f64::NAN,
-            cv_geo_rmse: f64::NAN,
-            dropped_inputs: Vec::new(),
-            chosen: false,
-            note: None,
-        }
-    }
-}
 
 /// The feature columns of one input form over the calibration grid.
 pub struct FormData<'a> {
@@ -243,15 +163,6 @@ fn eliminate(
 struct Scoring {
     designs: Vec<(Form, Vec<FeatureDef>, Design)>,
     scored: Vec<Scored>,
-}
-
-/// One table row's CV columns from a score.
-pub fn cv_columns(row: &mut CvRow, lambda: f64, features: usize, cv: &CvScore) {
-    row.lambda = lambda;
-    row.features = features;
-    row.cv_rmse = cv.mse.sqrt();
-    row.cv_se = cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE));
-    row.cv_geo_rmse = cv.geo.sqrt();
 }
 
 /// Step 1: every (form, temperature filters, heat filters) candidate of the

@@ -49,7 +49,9 @@ impl DynamicOptions {
     /// ([`super::select::max_selected`]).
     pub fn check(&self, kind: FitKind) -> Result<()> {
         match kind {
-            FitKind::Arx => SearchScheme::from_args(self).map(|_| ())?,
+            FitKind::Arx => {
+                SearchScheme::new(self.search_folds, self.search_holdout).map(|_| ())?
+            }
             FitKind::Tf => check_holdout(self.search_holdout)?,
             _ => return Ok(()),
         }

@@ -3,7 +3,6 @@
 //! cross-validation over contiguous folds (`--search-folds`). The held-out
 //! rows of a fit (`--holdout-from-s`) are never seen by the search.
 
-use super::options::DynamicOptions;
 use anyhow::{bail, Result};
 use serde_json::{json, Value};
 
@@ -31,12 +30,12 @@ pub enum SearchScheme {
 
 impl SearchScheme {
     /// From `--search-folds` and `--search-holdout`.
-    pub fn from_args(args: &DynamicOptions) -> Result<Self> {
-        match args.search_folds {
+    pub fn new(search_folds: usize, search_holdout: f64) -> Result<Self> {
+        match search_folds {
             0 => bail!("--search-folds 0: at least 1"),
             1 => {
-                check_holdout(args.search_holdout)?;
-                Ok(Self::Tail(args.search_holdout))
+                check_holdout(search_holdout)?;
+                Ok(Self::Tail(search_holdout))
             }
             k if k > MAX_FOLDS => bail!("--search-folds {k}: at most {MAX_FOLDS}"),
             k => Ok(Self::Folds(k)),
