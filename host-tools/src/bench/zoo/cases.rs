@@ -349,7 +349,7 @@ mod tests {
         assert_eq!(plan.cases.iter().filter(|c| !c.logged).count(), 2 * 6);
         p.plants = None;
         let dev = p.check().unwrap();
-        assert_eq!(dev.plants, ["a", "b", "c", "e", "f", "g", "h", "i"]);
+        assert_eq!(dev.plants, ["a", "b", "c", "e", "f", "g", "h", "i", "j"]);
         p.plants = Some(vec!["d".into()]);
         assert!(p
             .check()

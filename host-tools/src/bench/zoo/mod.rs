@@ -4,7 +4,7 @@
 //! its own networks ([`network`]), integrator ([`integrate`], RK4), heat
 //! laws ([`laws`]), sensors ([`sensors`]), boundaries ([`boundary`]: the
 //! room air, a chiller whose period drifts with load) and speed profiles
-//! ([`inputs`]); five structurally different plants ([`catalogue`], one
+//! ([`inputs`]); ten structurally different plants ([`catalogue`], one
 //! held out of development); the effects of CONTRACT.md section 3 as these
 //! plants have them ([`effects`]); a per-case parameter mismatch
 //! ([`mismatch`]); the case grid and the two run files per case

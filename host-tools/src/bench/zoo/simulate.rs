@@ -281,7 +281,11 @@ mod tests {
         // the pad oil gives ~20 W: ~ 520k/280 + 520k/2120 = 2100 s; at top
         // speed the pad oil and the ram saddle take ~730 W: ~ 520k/990 +
         // 520k/1410 = 900 s.
-        for id in ["a", "g", "h", "i"] {
+        // Plant j: tank 400 kJ/K, band 0.85 K, 1800 W, 150 W base: at rest
+        // the motor jacket and the cutting oil give ~12 W: ~ 340k/162 +
+        // 340k/1638 = 2300 s; at top speed they take ~610 W: ~ 340k/760 +
+        // 340k/1040 = 775 s.
+        for id in ["a", "g", "h", "i", "j"] {
             chiller_period_drifts_on(id);
         }
     }
