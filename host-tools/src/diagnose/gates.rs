@@ -276,15 +276,20 @@ fn chiller_gate(al: &Aligned, looks: &[Look], cycle: Option<CoolantCycle>) -> Op
         return Some(coolant_at(
             coolant_look(al, looks, &q.channel),
             format!(
-                "{logged}; {} swings with it while the machine is quiet ({:.1} x its noise)",
-                q.channel, q.ratio
+                "{logged}; {} swings with it while the machine is quiet ({:.1} x its noise, period ~{:.0} min)",
+                q.channel,
+                q.ratio,
+                q.period_s / 60.0
             ),
         ));
     }
     let q = quiet_cycle(al).filter(|q| q.cycles())?;
     let quiet = format!(
-        "coolant_c not logged; {} keeps cycling while the machine is quiet ({:.1} x its noise left by smooth relaxations over {} quiet hours)",
-        q.channel, q.ratio, q.windows
+        "coolant_c not logged; {} keeps cycling while the machine is quiet ({:.1} x its noise left by smooth relaxations over {} quiet hours, period ~{:.0} min)",
+        q.channel,
+        q.ratio,
+        q.windows,
+        q.period_s / 60.0
     );
     match helps {
         Some((i, r)) => Some(coolant_at(
