@@ -31,6 +31,7 @@ pub mod signif;
 pub mod spectrum;
 pub mod spill;
 pub mod summary;
+pub mod transient;
 pub mod variants;
 
 use crate::num::lsq;
@@ -544,7 +545,20 @@ fn look_at(al: &align::Aligned, c: usize, snr: &[f64], n_fit: usize, rule: Rule)
     }
     let none_after = scored[0].rms_after;
     scored.sort_by(|a, b| a.rms_after.total_cmp(&b.rms_after));
-    let verdict = verdict(&scored, snr[c] >= MIN_GAP_SNR, &rule);
+    let verdict = transient::lag_not_heat(
+        &scored,
+        verdict(&scored, snr[c] >= MIN_GAP_SNR, &rule),
+        crate::data::runfile::is_temperature_column(&ch.name),
+        // Against the baseline only: the heat winner has already beaten
+        // the raw residual on this look.
+        |s| {
+            let baseline_only = Rule {
+                raw_reference: false,
+                ..rule
+            };
+            passes(s, &baseline_only)
+        },
+    );
     Ok(Look {
         channel: c,
         scored,
@@ -717,18 +731,23 @@ pub fn verdict(scored: &[Scored], gap_significant: bool, rule: &Rule) -> String 
     scored
         .iter()
         .filter(|s| s.name != "none")
-        .find(|s| {
-            let p = s.p_adjusted.unwrap_or(1.0);
-            let r = if rule.raw_reference {
-                s.ratio_to_reference()
-            } else {
-                s.ratio_to_none
-            };
-            let significant = (p <= rule.alpha && r <= rule.max_ratio_to_none)
-                || (p <= STRONG_ALPHA && r <= STRONG_RATIO);
-            significant && s.shrink_pct >= rule.min_shrink_pct
-        })
+        .find(|s| passes(s, rule))
         .map_or_else(|| "none".to_string(), |s| s.name.clone())
+}
+
+/// Whether candidate `s` passes `rule` (see [`verdict`]): significant at
+/// the rule's level and practical size, or at the decisive size, and
+/// shrinking the held-out rms by the rule's minimum.
+pub fn passes(s: &Scored, rule: &Rule) -> bool {
+    let p = s.p_adjusted.unwrap_or(1.0);
+    let r = if rule.raw_reference {
+        s.ratio_to_reference()
+    } else {
+        s.ratio_to_none
+    };
+    let significant = (p <= rule.alpha && r <= rule.max_ratio_to_none)
+        || (p <= STRONG_ALPHA && r <= STRONG_RATIO);
+    significant && s.shrink_pct >= rule.min_shrink_pct
 }
 
 #[cfg(test)]
