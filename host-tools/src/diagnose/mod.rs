@@ -359,7 +359,8 @@ fn rule_text() -> String {
          held-out absolute-error differential against the mismatch baseline, Holm-adjusted over the candidates), \
          shrink the held-out rms by >= {MIN_SHRINK_PCT} % and leave <= {MAX_RATIO_TO_NONE} x what the baseline \
          leaves (coolant: in the chiller band), or <= {STRONG_RATIO} x at p <= {STRONG_ALPHA} (on the other channels \
-         of the better of the baseline and the raw residual); the verdict is the channel's whose winner leaves the smallest share \
+         of the better of the baseline and the raw residual); on a temperature channel a cutting or motor_loss winner \
+         whose two responses keep < {} of their size at steady state is sensor_lag if that passes too; the verdict is the channel's whose winner leaves the smallest share \
          of its baseline, where ambient, cutting and motor_loss count only at <= {STRONG_RATIO} x or seen on a second \
          channel, and any other effect off the main channel at <= {SOLO_RATIO} x or seen on a second channel; else none. If the winner leaves > {MIN_GAP_SNR} noise sigmas and a joint two-effect model \
          leaves <= {PAIR_MAX_RATIO} x its held-out rms, significantly, the pair's more important member is the \
@@ -367,15 +368,19 @@ fn rule_text() -> String {
          chiller band (>= {} x its noise and >= {} K rms) makes coolant the verdict of a `none` if its candidate is \
          significant somewhere leaving < {} x the baseline (unless the sim's coolant_c cycles too); one that does not cycle vetoes coolant; a `none` \
          becomes motor_loss where motor_loss is a look's best significant candidate leaving <= {} x the baseline \
-         and is significant on another look leaving <= {} x, one of the two an axis; a `none` becomes sensor_lag where \
+         and is significant on another look leaving <= {} x, one of the two an axis, or is the best candidate of {} \
+         looks leaving <= {} x each; a `none` becomes sensor_lag where \
          sensor_lag is a temperature look's best candidate leaving <= {} x the better of baseline and raw residual at \
          p <= {STRONG_ALPHA}",
         FALLBACK_RULE.alpha,
+        transient::TRANSIENT_SHARE,
         gates::COOLANT_CYCLE_SNR,
         gates::MIN_COOLANT_CYCLE_K,
         gates::COOLANT_RATIO,
         gates::MOTOR_RATIO,
         gates::MOTOR_CORROBORATE,
+        gates::MOTOR_SPREAD_LOOKS,
+        gates::MOTOR_SPREAD_RATIO,
         gates::LAG_RATIO
     )
 }
