@@ -81,7 +81,7 @@ use super::align::{is_displacement, Aligned};
 use super::quiet::quiet_cycle;
 use super::transient::{steady_share, TRANSIENT_SHARE};
 use super::variants::CHILLER_BAND_S;
-use super::{seen_on, Look, MAX_RATIO_TO_NONE, SOLO_RATIO, STRONG_ALPHA};
+use super::{seen_on, Look, SOLO_RATIO, STRONG_ALPHA};
 use crate::data::runfile::{is_temperature_column, resample_linear, RunFile};
 use crate::num::lsq;
 
@@ -133,10 +133,17 @@ pub const MOTOR_SPREAD_RATIO: f64 = 0.7;
 /// (plants a-i): 4 missed motor losses at 0.31-0.39 (two of plant i's
 /// motor frame), none of the `none` cases below 0.49 (an axis).
 pub const MOTOR_SOLO_RATIO: f64 = SOLO_RATIO;
-/// Largest share of the baseline's held-out rms a `sensor_lag` winner of a
-/// temperature look may leave under gate 4: the verdict rule's own
-/// practical size ([`MAX_RATIO_TO_NONE`]), only the level relaxed.
-pub const LAG_RATIO: f64 = MAX_RATIO_TO_NONE;
+/// Largest share of the better of the baseline and the raw residual a
+/// `sensor_lag` winner of a temperature look may leave under gate 4. Until
+/// the fifth round the verdict rule's own practical size
+/// ([`super::MAX_RATIO_TO_NONE`], 0.5), only the level relaxed. Development
+/// seed 1 (plants a-i, every temperature look of every case left at
+/// `none`): five lags missed at 0.503-0.584 (four of them at 0.503-0.511,
+/// just above 0.5); where no lag was, the lag candidate was never a
+/// temperature look's best below 0.706 (a `none` case of plant i; seed 2,
+/// checked: 0.765). 0.55 takes four of the five and keeps a margin of 0.15
+/// to the nearest `none`; 0.6 would take the fifth at 0.1.
+pub const LAG_RATIO: f64 = 0.55;
 
 /// The logged coolant's fast content.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -740,7 +747,7 @@ mod tests {
         assert_eq!((g.look, g.verdict.as_str()), (1, "sensor_lag"));
         // Not above LAG_RATIO, not at p > STRONG_ALPHA, not on an axis,
         // not without a significant gap.
-        assert!(gate(&al, &lag(1, 0.55, 0.2), "none", true, false).is_none());
+        assert!(gate(&al, &lag(1, 0.6, 0.2), "none", true, false).is_none());
         assert!(gate(&al, &lag(1, 0.45, 0.35), "none", true, false).is_none());
         assert!(gate(&al, &lag(0, 0.45, 0.2), "none", true, false).is_none());
         assert!(gate(&al, &lag(1, 0.45, 0.2), "none", false, false).is_none());
