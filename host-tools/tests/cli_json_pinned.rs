@@ -16,7 +16,9 @@
 //! rmse 0.634 -> 0.630 um). diagnose once when looks whose verdict may not
 //! decide alone were set to `none` (issue 13, third round: one look's
 //! `ambient` -> `none` and the `rule` text; the verdict and every number
-//! unchanged).
+//! unchanged), and again when the rule text gained the fifth round's
+//! lag-or-heat check, gate 3's two new ways and gate 4's size 0.55 (issue
+//! 13; the `rule` text only, every other byte unchanged).
 //!
 //! Every command runs in the repository root with the relative paths the
 //! fixtures were captured with (`eval` names each run's file). `fit --model

@@ -31,6 +31,7 @@ pub mod signif;
 pub mod spectrum;
 pub mod spill;
 pub mod summary;
+pub mod transient;
 pub mod variants;
 
 use crate::num::lsq;
@@ -358,7 +359,8 @@ fn rule_text() -> String {
          held-out absolute-error differential against the mismatch baseline, Holm-adjusted over the candidates), \
          shrink the held-out rms by >= {MIN_SHRINK_PCT} % and leave <= {MAX_RATIO_TO_NONE} x what the baseline \
          leaves (coolant: in the chiller band), or <= {STRONG_RATIO} x at p <= {STRONG_ALPHA} (on the other channels \
-         of the better of the baseline and the raw residual); the verdict is the channel's whose winner leaves the smallest share \
+         of the better of the baseline and the raw residual); on a temperature channel a cutting or motor_loss winner \
+         whose two responses keep < {} of their size at steady state is sensor_lag if that passes too; the verdict is the channel's whose winner leaves the smallest share \
          of its baseline, where ambient, cutting and motor_loss count only at <= {STRONG_RATIO} x or seen on a second \
          channel, and any other effect off the main channel at <= {SOLO_RATIO} x or seen on a second channel; else none. If the winner leaves > {MIN_GAP_SNR} noise sigmas and a joint two-effect model \
          leaves <= {PAIR_MAX_RATIO} x its held-out rms, significantly, the pair's more important member is the \
@@ -366,15 +368,19 @@ fn rule_text() -> String {
          chiller band (>= {} x its noise and >= {} K rms) makes coolant the verdict of a `none` if its candidate is \
          significant somewhere leaving < {} x the baseline (unless the sim's coolant_c cycles too); one that does not cycle vetoes coolant; a `none` \
          becomes motor_loss where motor_loss is a look's best significant candidate leaving <= {} x the baseline \
-         and is significant on another look leaving <= {} x, one of the two an axis; a `none` becomes sensor_lag where \
+         and is significant on another look leaving <= {} x, one of the two an axis, or is the best candidate of {} \
+         looks leaving <= {} x each; a `none` becomes sensor_lag where \
          sensor_lag is a temperature look's best candidate leaving <= {} x the better of baseline and raw residual at \
          p <= {STRONG_ALPHA}",
         FALLBACK_RULE.alpha,
+        transient::TRANSIENT_SHARE,
         gates::COOLANT_CYCLE_SNR,
         gates::MIN_COOLANT_CYCLE_K,
         gates::COOLANT_RATIO,
         gates::MOTOR_RATIO,
         gates::MOTOR_CORROBORATE,
+        gates::MOTOR_SPREAD_LOOKS,
+        gates::MOTOR_SPREAD_RATIO,
         gates::LAG_RATIO
     )
 }
@@ -544,7 +550,20 @@ fn look_at(al: &align::Aligned, c: usize, snr: &[f64], n_fit: usize, rule: Rule)
     }
     let none_after = scored[0].rms_after;
     scored.sort_by(|a, b| a.rms_after.total_cmp(&b.rms_after));
-    let verdict = verdict(&scored, snr[c] >= MIN_GAP_SNR, &rule);
+    let verdict = transient::lag_not_heat(
+        &scored,
+        verdict(&scored, snr[c] >= MIN_GAP_SNR, &rule),
+        crate::data::runfile::is_temperature_column(&ch.name),
+        // Against the baseline only: the heat winner has already beaten
+        // the raw residual on this look.
+        |s| {
+            let baseline_only = Rule {
+                raw_reference: false,
+                ..rule
+            };
+            passes(s, &baseline_only)
+        },
+    );
     Ok(Look {
         channel: c,
         scored,
@@ -717,18 +736,23 @@ pub fn verdict(scored: &[Scored], gap_significant: bool, rule: &Rule) -> String 
     scored
         .iter()
         .filter(|s| s.name != "none")
-        .find(|s| {
-            let p = s.p_adjusted.unwrap_or(1.0);
-            let r = if rule.raw_reference {
-                s.ratio_to_reference()
-            } else {
-                s.ratio_to_none
-            };
-            let significant = (p <= rule.alpha && r <= rule.max_ratio_to_none)
-                || (p <= STRONG_ALPHA && r <= STRONG_RATIO);
-            significant && s.shrink_pct >= rule.min_shrink_pct
-        })
+        .find(|s| passes(s, rule))
         .map_or_else(|| "none".to_string(), |s| s.name.clone())
+}
+
+/// Whether candidate `s` passes `rule` (see [`verdict`]): significant at
+/// the rule's level and practical size, or at the decisive size, and
+/// shrinking the held-out rms by the rule's minimum.
+pub fn passes(s: &Scored, rule: &Rule) -> bool {
+    let p = s.p_adjusted.unwrap_or(1.0);
+    let r = if rule.raw_reference {
+        s.ratio_to_reference()
+    } else {
+        s.ratio_to_none
+    };
+    let significant = (p <= rule.alpha && r <= rule.max_ratio_to_none)
+        || (p <= STRONG_ALPHA && r <= STRONG_RATIO);
+    significant && s.shrink_pct >= rule.min_shrink_pct
 }
 
 #[cfg(test)]

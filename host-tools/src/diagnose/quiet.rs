@@ -18,9 +18,26 @@
 //! takes three of sixty degrees of freedom) and grows with the cycle's
 //! amplitude at that channel: [`QuietCycle::cycles`].
 //!
-//! It looks at no period and no phase, so a drifting period does not
-//! matter, and it uses quiet rows only, so no load cycle of a part program
-//! (whose response the twin gets roughly right) can pass for a chiller.
+//! The ratio looks at no period and no phase, so a drifting period does
+//! not matter, and it uses quiet rows only, so no load cycle of a part
+//! program (whose response the twin gets roughly right) can pass for a
+//! chiller.
+//!
+//! **Its period.** A chiller's on/off cycle takes minutes to about an hour
+//! (the tank's heat capacity times the hysteresis band over the compressor's
+//! net power); the room's air handling swings over hours (a building's
+//! HVAC schedule, the day). A slow swing of large amplitude still leaves a
+//! little in each window once the quadratic is out (a cubic-like rest), so
+//! the ratio alone could call it a chiller. The cycle's period is therefore
+//! measured where the ratio is: a sinusoid of period `P` (free phase per
+//! window) is added to each window's quadratic, and the `P` of a log grid
+//! ([`PERIOD_GRID_S`]) whose sinusoids take the most of what the quadratics
+//! leave, pooled over the windows, is the quiet period
+//! ([`QuietCycle::period_s`]). Within one window a swing slower than the
+//! window is a near-cubic whatever its period, so every slow `P` explains it
+//! about as well and the scan lands at the slow end of the grid; a cycle
+//! that turns within the window picks its own period. A cycle counts for a
+//! chiller only at a period up to [`MAX_PERIOD_S`].
 
 use super::align::Aligned;
 use crate::num::lsq;
@@ -42,6 +59,23 @@ pub const MIN_WINDOWS: usize = 3;
 /// ~1.3 (0.97 is white noise); unlogged chillers reached 2-20 on the
 /// channel that leans to the coolant.
 pub const CYCLE_RATIO: f64 = 1.6;
+/// Periods scanned for the quiet cycle's period: a log grid of
+/// [`PERIOD_STEPS`] from 5 min (the chiller band's fast end,
+/// [`super::variants::CHILLER_BAND_S`]) to 8 h, s.
+pub const PERIOD_GRID_S: (f64, f64) = (300.0, 28_800.0);
+/// Points of the period grid (about 10 % apart).
+const PERIOD_STEPS: usize = 49;
+/// Longest quiet period that counts for a chiller, s: minutes to about an
+/// hour. A chiller's period at rest is `C band (1/Q_warm + 1/Q_cool)`:
+/// the zoo's chillers (plants a-i) cycle in 25-67 min at rest and 10-30 min
+/// at top speed at their nominal band. Development seed 1 (the 21 cases of
+/// plants a-i where gate 5 or the quiet confirmation of gate 1 named the
+/// chiller): quiet periods 13-49 min. On synthetic quiet days (0.01 K
+/// noise, the scan of [`quiet_period_s`]): chiller triangles of 30, 45
+/// and 67 min scan to 30, 44 and 72 min (slower ones to their corners'
+/// shorter periods), room swings of 90 min and 2 h to 105 min and of 3-6 h
+/// to the grid's slow end (unit test `a_slow_room_swing_is_no_chiller`).
+pub const MAX_PERIOD_S: f64 = 4500.0;
 /// A step of the logged speed larger than this share of the run's top
 /// speed is a change.
 const SPEED_STEP: f64 = 0.005;
@@ -63,12 +97,15 @@ pub struct QuietCycle {
     pub ratio: f64,
     /// Number of quiet windows.
     pub windows: usize,
+    /// Period of the sinusoid that takes most of the windows' rest, s.
+    pub period_s: f64,
 }
 
 impl QuietCycle {
-    /// Whether the channel carries a cycle ([`CYCLE_RATIO`]).
+    /// Whether the channel carries a cycle ([`CYCLE_RATIO`]) of a
+    /// chiller's period (<= [`MAX_PERIOD_S`]).
     pub fn cycles(&self) -> bool {
-        self.ratio >= CYCLE_RATIO
+        self.ratio >= CYCLE_RATIO && self.period_s <= MAX_PERIOD_S
     }
 }
 
@@ -128,17 +165,63 @@ pub fn quiet_windows(t: &[f64], changed: &[bool]) -> Vec<Range<usize>> {
     out
 }
 
-/// What a least-squares quadratic in time leaves of `y` on the times `t`
-/// (time centred and scaled to +-1 first, so the columns are of one size).
-pub fn quadratic_residual(t: &[f64], y: &[f64]) -> Vec<f64> {
+/// A quadratic in time on the times `t` (centred and scaled to +-1, so the
+/// columns are of one size): the columns `1, x^2, x`.
+fn quadratic_columns(t: &[f64]) -> Vec<Vec<f64>> {
     let tm = t.iter().sum::<f64>() / t.len().max(1) as f64;
     let span = t.iter().map(|v| (v - tm).abs()).fold(1e-12, f64::max);
     let x: Vec<f64> = t.iter().map(|v| (v - tm) / span).collect();
-    let cols = vec![vec![1.0; x.len()], x.iter().map(|v| v * v).collect(), x];
-    match lsq::fit(&cols, y, y.len()) {
+    vec![vec![1.0; x.len()], x.iter().map(|v| v * v).collect(), x]
+}
+
+/// What a least-squares fit of `cols` leaves of `y` (all of `y` if the
+/// fit fails).
+fn left_by(cols: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
+    match lsq::fit(cols, y, y.len()) {
         Some(f) => y.iter().zip(&f.pred).map(|(v, p)| v - p).collect(),
         None => y.to_vec(),
     }
+}
+
+/// What a least-squares quadratic in time leaves of `y` on the times `t`.
+pub fn quadratic_residual(t: &[f64], y: &[f64]) -> Vec<f64> {
+    left_by(&quadratic_columns(t), y)
+}
+
+/// The energy a sinusoid of period `period_s` (free amplitude and phase)
+/// takes from each window's quadratic rest of `resid`, summed.
+fn sinusoid_gain(t: &[f64], resid: &[f64], windows: &[Range<usize>], period_s: f64) -> f64 {
+    let w = std::f64::consts::TAU / period_s;
+    windows
+        .iter()
+        .map(|r| {
+            let (tw, yw) = (&t[r.clone()], &resid[r.clone()]);
+            let mut cols = quadratic_columns(tw);
+            let quad = lsq::rms(&left_by(&cols, yw));
+            cols.push(tw.iter().map(|v| (w * v).sin()).collect());
+            cols.push(tw.iter().map(|v| (w * v).cos()).collect());
+            let with = lsq::rms(&left_by(&cols, yw));
+            yw.len() as f64 * (quad * quad - with * with)
+        })
+        .sum()
+}
+
+/// The period of [`PERIOD_GRID_S`] whose sinusoids take the most of what
+/// the windows' quadratics leave of `resid` (the slowest of equal ones).
+pub fn quiet_period_s(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
+    let (lo, hi) = PERIOD_GRID_S;
+    let step = (hi / lo).ln() / (PERIOD_STEPS - 1) as f64;
+    (0..PERIOD_STEPS)
+        .map(|k| lo * (step * k as f64).exp())
+        .map(|p| (p, sinusoid_gain(t, resid, windows, p)))
+        .fold((hi, f64::NEG_INFINITY), |best, (p, g)| {
+            if g > best.1 * (1.0 + 1e-9) {
+                (p, g)
+            } else {
+                best
+            }
+        })
+        .0
 }
 
 /// What the windows' quadratics leave of `resid`, over its white noise.
@@ -157,13 +240,15 @@ pub fn quiet_cycle(al: &Aligned) -> Option<QuietCycle> {
     if windows.len() < MIN_WINDOWS {
         return None;
     }
-    (0..al.channels.len())
-        .map(|i| QuietCycle {
-            channel: al.channels.name(i).to_string(),
-            ratio: quiet_ratio(&al.t_s, &al.channels.resid(i), &windows),
-            windows: windows.len(),
-        })
-        .max_by(|a, b| a.ratio.total_cmp(&b.ratio))
+    let (i, ratio) = (0..al.channels.len())
+        .map(|i| (i, quiet_ratio(&al.t_s, &al.channels.resid(i), &windows)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(QuietCycle {
+        channel: al.channels.name(i).to_string(),
+        ratio,
+        windows: windows.len(),
+        period_s: quiet_period_s(&al.t_s, &al.channels.resid(i), &windows),
+    })
 }
 
 #[cfg(test)]
@@ -238,5 +323,60 @@ mod tests {
             .collect();
         let r = quiet_ratio(&t, &cycle, &w);
         assert!(r > 2.0, "{r} (CYCLE_RATIO {CYCLE_RATIO})");
+    }
+
+    /// 24 h of quiet rows after one change, the windows and white noise
+    /// of 0.01 K.
+    fn quiet_day() -> (Vec<f64>, Vec<Range<usize>>, Vec<f64>) {
+        let n = 24 * 60;
+        let t: Vec<f64> = (0..n).map(|k| 60.0 * k as f64).collect();
+        let mut ch = vec![false; n];
+        ch[0] = true;
+        let w = quiet_windows(&t, &ch);
+        (t, w, noise(n, 0.01, 5))
+    }
+
+    fn cycle_of(t: &[f64], w: &[Range<usize>], y: &[f64]) -> QuietCycle {
+        QuietCycle {
+            channel: "T1".into(),
+            ratio: quiet_ratio(t, y, w),
+            windows: w.len(),
+            period_s: quiet_period_s(t, y, w),
+        }
+    }
+
+    #[test]
+    fn a_chiller_cycle_has_its_period() {
+        // A 0.1 K triangle every 30 min: the scan finds 30 min (+-10 %,
+        // the grid's step), and it is a chiller's cycle.
+        let (t, w, e) = quiet_day();
+        let y: Vec<f64> = t
+            .iter()
+            .zip(&e)
+            .map(|(v, e)| {
+                let ph = (v / 1800.0).fract();
+                0.1 * (if ph < 0.5 { 2.0 * ph } else { 2.0 - 2.0 * ph } - 0.5) + e
+            })
+            .collect();
+        let q = cycle_of(&t, &w, &y);
+        assert!((1620.0..1980.0).contains(&q.period_s), "{q:?}");
+        assert!(q.cycles(), "{q:?}");
+    }
+
+    #[test]
+    fn a_slow_room_swing_is_no_chiller() {
+        // A room swinging 1 K every 3 h leaves ~2 x the noise in the
+        // windows (a near-cubic rest): the ratio alone would call it a
+        // chiller, its period (the grid's slow end) does not.
+        let (t, w, e) = quiet_day();
+        let y: Vec<f64> = t
+            .iter()
+            .zip(&e)
+            .map(|(v, e)| (std::f64::consts::TAU * v / 10_800.0).sin() + e)
+            .collect();
+        let q = cycle_of(&t, &w, &y);
+        assert!(q.ratio >= CYCLE_RATIO, "{q:?}");
+        assert!(q.period_s > MAX_PERIOD_S, "{q:?}");
+        assert!(!q.cycles());
     }
 }
