@@ -2,13 +2,15 @@
 //! own `t_s`, with the simulation interpolated onto it, and the residual
 //! `r = real - sim` of every channel both files have.
 
-use super::baseline::Col;
 use super::spill::Spill;
 use crate::data::runfile::{is_temperature_column, resample_linear, ReadOptions, RunFile};
 use anyhow::{bail, Context, Result};
 use std::collections::HashMap;
 use std::path::Path;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
+
+/// A regressor column, shared (not copied) between the designs that use it.
+pub type Col = Arc<Vec<f64>>;
 
 /// One compared channel.
 #[derive(Debug, Clone)]
@@ -418,7 +420,7 @@ impl Builder {
             self.power = filled(real, "power_kw", grid);
             self.ambient = filled(real, "ambient_c", grid);
             self.coolant = filled(real, "coolant_c", grid);
-            self.sim_coolant_cycles = super::gates::sim_coolant_cycles(sim, grid);
+            self.sim_coolant_cycles = super::chiller::sim_coolant_cycles(sim, grid);
         }
         for name in names {
             let s = filled(sim, name, grid).unwrap_or_else(|| vec![f64::NAN; grid.len()]);

@@ -28,12 +28,8 @@
 //! its knee and its jump at standstill, a periodic chiller component, a lag
 //! of a temperature sensor much faster than its part.
 
-use super::align::{Aligned, Channel};
+use super::align::{Aligned, Channel, Col};
 use crate::num::lsq;
-use std::sync::Arc;
-
-/// A regressor column, shared (not copied) between the designs that use it.
-pub type Col = Arc<Vec<f64>>;
 
 /// Time constants tried for a channel's own response, s (5 min .. 6 h: the
 /// twin's fastest sensor sites to its structure's 1.9 h and beyond).
@@ -150,7 +146,7 @@ fn load_inputs(al: &Aligned, unit: &str) -> Vec<(Vec<f64>, String, bool)> {
         out.push((cut, format!("cut_gain_{unit}_per_kw"), true));
     }
     let top = al.speed_rpm.iter().fold(0.0f64, |a, &n| a.max(n.abs()));
-    let w = super::variants::low_speed_weight(al, BASE_KNEE_SHARE * top);
+    let w = super::regime::low_speed_weight(&al.speed_rpm, BASE_KNEE_SHARE * top);
     out.push((w, format!("low_speed_gain_{unit}"), false));
     out
 }

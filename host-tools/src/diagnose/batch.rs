@@ -4,7 +4,7 @@
 //! ([`crate::num::batch`]) while the grid is still made one point at a
 //! time and each point's columns live only while its batch is looked at.
 
-use super::baseline::Col;
+use super::align::Col;
 use super::variants::Variant;
 use crate::num::lsq;
 use std::ops::Range;

@@ -12,71 +12,18 @@
 //! input (`gain_um_per_k`, `gain_um_per_kw`, ...). Each candidate's held-out
 //! errors are then compared with the baseline's ([`super::signif`]).
 
-use super::align::{Aligned, Channel};
-use super::baseline::{self, Baseline, Col};
+use super::align::Col;
+use super::baseline::{self, Baseline};
+use super::chiller::CHILLER_BAND_S;
 use super::outcome::{Effect, Param, Params};
+use super::problem::{Problem, Rows};
 use super::signif;
-use super::variants::{high_pass, variants, Variant, CHILLER_BAND_S};
+use super::variants::{high_pass, variants, Variant};
 use crate::num::batch::{self, Batched};
 use crate::num::lsq::{self, LinearFit};
 
 /// Names of the candidates, in CONTRACT order.
 pub const NAMES: [&str; 5] = ["ambient", "coolant", "cutting", "motor_loss", "sensor_lag"];
-
-/// A contiguous range of rows.
-pub type Rows = std::ops::Range<usize>;
-
-/// The problem a candidate is fitted to.
-#[derive(Clone)]
-pub struct Problem<'a> {
-    /// Aligned runs.
-    pub al: &'a Aligned,
-    /// Channel whose residual is explained.
-    pub ch: &'a Channel,
-    /// Rows `0..n_fit` are the fit part, the rest the hold-out.
-    pub n_fit: usize,
-    /// Roles swapped (the backward fold of the significance test): fit on
-    /// the hold-out rows, predict the fit part.
-    pub swapped: bool,
-}
-
-impl<'a> Problem<'a> {
-    /// Fit on rows `0..n_fit`, score on the rest.
-    pub fn new(al: &'a Aligned, ch: &'a Channel, n_fit: usize) -> Self {
-        Problem {
-            al,
-            ch,
-            n_fit,
-            swapped: false,
-        }
-    }
-
-    /// The same problem with the fit and test rows swapped.
-    pub fn swapped(&self) -> Self {
-        Problem {
-            swapped: !self.swapped,
-            ..self.clone()
-        }
-    }
-
-    /// Rows the candidates are fitted on.
-    pub fn fit_rows(&self) -> Rows {
-        if self.swapped {
-            self.n_fit..self.ch.resid.len()
-        } else {
-            0..self.n_fit
-        }
-    }
-
-    /// Rows the candidates are scored on.
-    pub fn test_rows(&self) -> Rows {
-        if self.swapped {
-            0..self.n_fit
-        } else {
-            self.n_fit..self.ch.resid.len()
-        }
-    }
-}
 
 /// A fitted candidate, scored on the hold-out part.
 #[derive(Debug, Clone)]

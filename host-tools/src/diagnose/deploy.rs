@@ -19,8 +19,9 @@
 //! the twin before training compensation on it.
 
 use super::align::Aligned;
-use super::candidates::{self, round, Problem, Rows};
+use super::candidates::{self, round};
 use super::outcome::{Comparison, Deployment, Trained};
+use super::problem::{Problem, Rows};
 use super::spill::Spill;
 use crate::num::linalg;
 use crate::num::lsq;

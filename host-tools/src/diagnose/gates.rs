@@ -15,7 +15,7 @@
 //!    turns it down although the log shows the cause.
 //! 2. **A logged coolant that does not cycle cannot be the cause**: a
 //!    `coolant` verdict is vetoed when `coolant_c` is logged and flat (its
-//!    band rms within [`COOLANT_CYCLE_SNR`] of what its noise leaves).
+//!    band rms within [`super::chiller::COOLANT_CYCLE_SNR`] of what its noise leaves).
 //! 3. **A low-speed motor loss seen on two channels.** With no verdict, a
 //!    look whose best significant candidate is `motor_loss` and leaves <=
 //!    [`MOTOR_RATIO`] of the baseline decides if `motor_loss` is also
@@ -78,25 +78,12 @@
 //!    a channel swinging with it while quiet are two observations).
 
 use super::align::{is_displacement, Aligned};
+use super::chiller::{cycle_of, CoolantCycle};
 use super::quiet::quiet_cycle;
 use super::transient::{steady_share, TRANSIENT_SHARE};
-use super::variants::CHILLER_BAND_S;
 use super::{seen_on, Look, SOLO_RATIO, STRONG_ALPHA};
-use crate::data::runfile::{is_temperature_column, resample_linear, RunFile};
-use crate::num::lsq;
+use crate::data::runfile::is_temperature_column;
 
-/// A logged coolant cycles when the rms of its fast part (the log minus
-/// its centred mean over [`SLOW_WINDOW_S`]) exceeds this many times its
-/// white noise.
-pub const COOLANT_CYCLE_SNR: f64 = 3.0;
-/// ... and this many kelvin (a supply regulated to +-0.05 K does not
-/// cycle, whatever its logger's resolution).
-pub const MIN_COOLANT_CYCLE_K: f64 = 0.03;
-/// Window of the centred mean that takes out slow moves of the supply (a
-/// chiller following the room over the day), s: the slow end of the
-/// chiller band [`CHILLER_BAND_S`]. A 12 h swing keeps 5 % of its
-/// amplitude; a 45 min cycle keeps all of it.
-pub const SLOW_WINDOW_S: f64 = CHILLER_BAND_S.1;
 /// A cycling coolant is the verdict if its candidate leaves less than this
 /// share of the baseline's held-out rms in the chiller band on some look
 /// (significantly): the log names the cause, the data need only support
@@ -145,77 +132,11 @@ pub const MOTOR_SOLO_RATIO: f64 = SOLO_RATIO;
 /// to the nearest `none`; 0.6 would take the fifth at 0.1.
 pub const LAG_RATIO: f64 = 0.55;
 
-/// The logged coolant's fast content.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CoolantCycle {
-    /// Rms of the log minus its centred [`SLOW_WINDOW_S`] mean, K.
-    pub band_rms_k: f64,
-    /// That over the log's white noise.
-    pub snr: f64,
-}
-
-impl CoolantCycle {
-    /// Whether the log carries a chiller cycle.
-    pub fn cycles(&self) -> bool {
-        self.snr >= COOLANT_CYCLE_SNR && self.band_rms_k >= MIN_COOLANT_CYCLE_K
-    }
-}
-
-/// Centred mean of `x` over `t +- half_s` at every row (prefix sums; the
-/// window's ends move forward with the row, so the work is linear in the
-/// rows: `t` is increasing).
-fn centred_mean(t: &[f64], x: &[f64], half_s: f64) -> Vec<f64> {
-    let mut cum = Vec::with_capacity(x.len() + 1);
-    cum.push(0.0);
-    for v in x {
-        cum.push(cum[cum.len() - 1] + v);
-    }
-    let (mut a, mut b) = (0, 0);
-    t.iter()
-        .map(|&tk| {
-            // The first rows at or after tk - half_s, and after tk + half_s.
-            while a < t.len() && t[a] < tk - half_s {
-                a += 1;
-            }
-            while b < t.len() && t[b] <= tk + half_s {
-                b += 1;
-            }
-            (cum[b] - cum[a]) / (b - a).max(1) as f64
-        })
-        .collect()
-}
-
 /// The fast content of the logged `coolant_c` (`None` when it is not
 /// logged): the log minus its centred mean over [`SLOW_WINDOW_S`], away
 /// from the run's ends (half a window each).
 pub fn coolant_cycle(al: &Aligned) -> Option<CoolantCycle> {
     cycle_of(&al.t_s, al.coolant_c.as_deref()?)
-}
-
-/// Whether the simulated run's own `coolant_c` (on the real run's time
-/// base) cycles: a twin that models its chiller leaves nothing of it.
-pub fn sim_coolant_cycles(sim: &RunFile, t: &[f64]) -> bool {
-    let Some(col) = sim.column("coolant_c") else {
-        return false;
-    };
-    let c: Option<Vec<f64>> = resample_linear(&sim.t_s, col, t).into_iter().collect();
-    c.and_then(|c| cycle_of(t, &c)).is_some_and(|c| c.cycles())
-}
-
-fn cycle_of(t: &[f64], c: &[f64]) -> Option<CoolantCycle> {
-    let half = 0.5 * SLOW_WINDOW_S;
-    let a = t.partition_point(|&x| x < t[0] + half);
-    let b = t.partition_point(|&x| x <= t[t.len() - 1] - half);
-    if b < a + 8 {
-        return None;
-    }
-    let m = centred_mean(t, c, half);
-    let fast: Vec<f64> = (a..b).map(|k| c[k] - m[k]).collect();
-    let band_rms_k = lsq::rms(&fast);
-    Some(CoolantCycle {
-        band_rms_k,
-        snr: band_rms_k / lsq::white_sigma(c).max(1e-12),
-    })
 }
 
 /// A verdict set by a gate.
@@ -485,6 +406,7 @@ fn lag_gate(al: &Aligned, looks: &[Look]) -> Option<Gated> {
 #[cfg(test)]
 mod tests {
     use super::super::candidates::Scored;
+    use super::super::chiller::MIN_COOLANT_CYCLE_K;
     use super::super::outcome::Param;
     use super::super::{Rule, FALLBACK_RULE, MAIN_RULE};
     use super::*;

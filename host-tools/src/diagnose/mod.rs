@@ -19,11 +19,13 @@ pub mod align;
 pub mod baseline;
 pub mod batch;
 pub mod candidates;
+pub mod chiller;
 pub mod deploy;
 pub mod gates;
 pub mod outcome;
 pub mod pair;
 pub mod physical;
+pub mod problem;
 pub mod quiet;
 pub mod regime;
 pub mod report;
@@ -36,8 +38,9 @@ pub mod variants;
 
 use crate::num::lsq;
 use anyhow::{bail, Result};
-use candidates::{round, Problem, Scored};
+use candidates::{round, Scored};
 use outcome::{Band, CandidateFigures, Diagnosis, Effect, Gap, LookFigures, Segment};
+use problem::Problem;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -374,8 +377,8 @@ fn rule_text() -> String {
          p <= {STRONG_ALPHA}",
         FALLBACK_RULE.alpha,
         transient::TRANSIENT_SHARE,
-        gates::COOLANT_CYCLE_SNR,
-        gates::MIN_COOLANT_CYCLE_K,
+        chiller::COOLANT_CYCLE_SNR,
+        chiller::MIN_COOLANT_CYCLE_K,
         gates::COOLANT_RATIO,
         gates::MOTOR_RATIO,
         gates::MOTOR_CORROBORATE,

@@ -12,8 +12,9 @@
 //! cuts held at once were up to 40 full-length columns).
 
 use super::batch::batches;
-use super::candidates::{below, params_of, score, Design, Problem, Scored, NAMES};
+use super::candidates::{below, params_of, score, Design, Scored, NAMES};
 use super::outcome::Params;
+use super::problem::Problem;
 use super::variants::{variants, Variant};
 use crate::num::lsq::{self, LinearFit};
 use std::cmp::Ordering;

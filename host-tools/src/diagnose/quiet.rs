@@ -61,7 +61,7 @@ pub const MIN_WINDOWS: usize = 3;
 pub const CYCLE_RATIO: f64 = 1.6;
 /// Periods scanned for the quiet cycle's period: a log grid of
 /// [`PERIOD_STEPS`] from 5 min (the chiller band's fast end,
-/// [`super::variants::CHILLER_BAND_S`]) to 8 h, s.
+/// [`super::chiller::CHILLER_BAND_S`]) to 8 h, s.
 pub const PERIOD_GRID_S: (f64, f64) = (300.0, 28_800.0);
 /// Points of the period grid (about 10 % apart).
 const PERIOD_STEPS: usize = 49;

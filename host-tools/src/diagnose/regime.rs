@@ -149,6 +149,21 @@ pub fn cutting_excess_kw(speed_rpm: &[f64], power_kw: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// The low-speed weight `[n > 0] max(0, 1 - n/knee)` of each sample: the
+/// regressor of a motor's extra loss below its knee speed.
+pub fn low_speed_weight(speed_rpm: &[f64], knee: f64) -> Vec<f64> {
+    speed_rpm
+        .iter()
+        .map(|&n| {
+            if n > 0.0 {
+                (1.0 - n / knee).max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// Splits a run into regime segments.
 pub fn segments(t_s: &[f64], speed_rpm: &[f64], power_kw: Option<&[f64]>) -> Vec<Segment> {
     let n = t_s.len();

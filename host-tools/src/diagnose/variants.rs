@@ -15,8 +15,10 @@
 //! ```
 
 use super::align::Aligned;
-use super::baseline::{self, Col};
-use super::candidates::Problem;
+use super::align::Col;
+use super::baseline;
+use super::chiller::CHILLER_BAND_S;
+use super::problem::Problem;
 use super::regime;
 use super::spectrum;
 use crate::num::lsq;
@@ -42,9 +44,6 @@ const MIN_SWING_K: f64 = 0.1;
 const MIN_CUT_KW: f64 = 0.1;
 /// Day period of the inferred ambient, s.
 const DAY_S: f64 = 86_400.0;
-/// Periods of chiller cycling tracked on temperature channels, s: 5 min
-/// (2.5 samples at 60 s) .. 2 h (the slow end of the `mid` band).
-pub const CHILLER_BAND_S: (f64, f64) = (300.0, 7200.0);
 /// A channel carries a chiller cycle when its band-passed
 /// residual (after its own mismatch baseline) has at least this many times
 /// the rms that white noise of the channel's level leaves in the band
@@ -421,20 +420,6 @@ fn cutting<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
     )
 }
 
-/// The low-speed weight `[n > 0] max(0, 1 - n/knee)`.
-pub fn low_speed_weight(al: &Aligned, knee: f64) -> Vec<f64> {
-    al.speed_rpm
-        .iter()
-        .map(|&n| {
-            if n > 0.0 {
-                (1.0 - n / knee).max(0.0)
-            } else {
-                0.0
-            }
-        })
-        .collect()
-}
-
 /// Motor losses: responses to the low-speed weight at each knee (one
 /// knee's responses made at a time).
 fn motor_loss<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
@@ -453,7 +438,7 @@ fn motor_loss<'a>(p: &Problem<'a>) -> (Vars<'a>, String) {
     let empty = knees.is_empty();
     let q = p.clone();
     let v = knees.into_iter().flat_map(move |knee| {
-        let u = Col::new(low_speed_weight(q.al, knee));
+        let u = Col::new(regime::low_speed_weight(&q.al.speed_rpm, knee));
         with_sign(
             response_pairs(
                 &q,
