@@ -229,11 +229,10 @@ fn run_data<'a>(
     form: InputForm,
     calib_end: usize,
 ) -> Result<RunData<'a>> {
+    // No overflow check: a run file's columns always centre and scale (the
+    // assertion beside `runfile::MAX_CELL_MAGNITUDE`).
     let x = columns(run, inputs)?;
     let y = columns(run, targets)?;
-    for (name, c) in inputs.iter().chain(targets).zip(x.iter().chain(&y)) {
-        check_column(run, name, *c)?;
-    }
     let first = (0..run.len()).find(|&r| x.iter().all(|c| c.get(r).is_some()));
     let x_ref = x
         .iter()
@@ -286,7 +285,7 @@ impl<'a> Dataset<'a> {
             form,
             runs: out,
         };
-        if ds.calibration_len() == 0 {
+        if ds.complete_calibration_rows().next().is_none() {
             bail!("no calibration rows: every row is held out or lacks a value (check --holdout-from-s and the columns)");
         }
         Ok(ds)
@@ -422,19 +421,13 @@ impl<'a> Dataset<'a> {
     }
 }
 
-/// Refuses a column too large to centre and scale, naming file and column
-/// (see [`crate::num::linalg::check_scalable`]).
-fn check_column(run: &RunFile, name: &str, values: Cells<'_>) -> Result<()> {
-    let label = format!("{}: column {name}", run.path.display());
-    crate::num::linalg::check_scalable(&label, values.present())
-}
-
 /// Refuses any column read from `run` that is too large to centre and
-/// scale, naming file and column: for callers that fit or rank on every
-/// column they read (refit, select).
+/// scale, naming file and column (see [`crate::num::linalg::check_scalable`]):
+/// for callers that fit or rank on every column they read (refit, select).
 pub fn check_scalable_columns(run: &RunFile) -> Result<()> {
     for (name, values) in run.iter_columns() {
-        check_column(run, name, values)?;
+        let label = format!("{}: column {name}", run.path.display());
+        crate::num::linalg::check_scalable(&label, values.present())?;
     }
     Ok(())
 }

@@ -1033,6 +1033,15 @@ fn check_memory_cell(v: f64, column: usize, name: &str) -> Result<(), RowErrorKi
 /// microseconds (1.7e15 in 2023 would not: seconds or milliseconds do).
 pub const MAX_CELL_MAGNITUDE: f64 = 1e15;
 
+// Every column of a `RunFile` can be centred and scaled without overflow:
+// at most `MAX_CELLS` cells, each at most `MAX_CELL_MAGNITUDE` from zero and
+// so at most twice that from the column's mean, have a centred sum of
+// squares of at most 4e38, far inside f64. So a fit on run-file columns
+// needs no overflow check (`num::linalg::check_scalable` is for data that
+// comes another way).
+const _: () =
+    assert!((MAX_CELLS as f64) * (2.0 * MAX_CELL_MAGNITUDE) * (2.0 * MAX_CELL_MAGNITUDE) < 1e300);
+
 /// Parse one cell: blank (after trimming) is `None`; otherwise it must be a
 /// finite number in Rust's float syntax (which accepts `1`, `-1.5`, `.5`,
 /// `1e-3`, ...) of magnitude at most [`MAX_CELL_MAGNITUDE`].
