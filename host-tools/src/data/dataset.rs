@@ -431,3 +431,100 @@ pub fn check_scalable_columns(run: &RunFile) -> Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::runfile::ReadOptions;
+
+    fn run(csv: &str) -> RunFile {
+        RunFile::from_reader("run.csv", csv.as_bytes(), &ReadOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn names(n: &[&str]) -> Vec<String> {
+        n.iter().map(|s| (*s).to_string()).collect()
+    }
+
+    /// Row 0 lacks T2, row 2 lacks the target: the reference is row 1's,
+    /// and only rows 1 and 3 are calibration rows.
+    const GAPPY: &str = "t_s,T1,T2,dz_um\n0,10,,1\n1,11,20,2\n2,12,21,\n3,13.5,22,4\n";
+
+    #[test]
+    fn empty_cells_stay_missing_and_the_reference_is_the_first_complete_row() {
+        let runs = [run(GAPPY)];
+        let ds = Dataset::new(
+            &runs,
+            &[],
+            &names(&["T1", "T2"]),
+            &names(&["dz_um"]),
+            InputForm::Change,
+            None,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let r = &ds.runs[0];
+        // Exact: differences of the decimal values as doubles.
+        assert_eq!(r.x_column(0), [Some(-1.0), Some(0.0), Some(1.0), Some(2.5)]);
+        assert_eq!(r.x_column(1), [None, Some(0.0), Some(1.0), Some(2.0)]);
+        assert_eq!(
+            r.y_column(0).to_options(),
+            [Some(1.0), Some(2.0), None, Some(4.0)]
+        );
+        assert_eq!(ds.calibration_len(), 2);
+        let (xs, ys) = ds.calibration_rows();
+        assert_eq!(xs, [vec![0.0, 0.0], vec![2.5, 2.0]]);
+        assert_eq!(ys, [vec![2.0], vec![4.0]]);
+        let mut visited = Vec::new();
+        ds.visit_calibration_rows(&mut |x, y| visited.push((x.to_vec(), y.to_vec())));
+        assert_eq!(visited, xs.into_iter().zip(ys).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn the_absolute_form_is_the_logged_values_and_a_subset_re_references() {
+        let runs = [run(GAPPY)];
+        let (inputs, targets) = (names(&["T1", "T2"]), names(&["dz_um"]));
+        let abs = Dataset::new(&runs, &[], &inputs, &targets, InputForm::Absolute, None)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            abs.runs[0].x_column(0),
+            [Some(10.0), Some(11.0), Some(12.0), Some(13.5)]
+        );
+        let change = Dataset::new(&runs, &[], &inputs, &targets, InputForm::Change, None)
+            .unwrap_or_else(|e| panic!("{e}"));
+        // T1 alone is complete from row 0: its reference moves there.
+        let t1 = change.with_inputs(&[0]);
+        assert_eq!(t1.inputs, ["T1"]);
+        assert_eq!(
+            t1.runs[0].x_column(0),
+            [Some(0.0), Some(1.0), Some(2.0), Some(3.5)]
+        );
+    }
+
+    #[test]
+    fn a_missing_column_and_no_complete_row_are_errors_as_before() {
+        let runs = [run(GAPPY)];
+        let e = Dataset::new(
+            &runs,
+            &[],
+            &names(&["T9"]),
+            &names(&["dz_um"]),
+            InputForm::Change,
+            None,
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "run.csv: no column \"T9\" (columns: T1, T2, dz_um)"
+        );
+        let e = Dataset::new(
+            &runs,
+            &[],
+            &names(&["T1"]),
+            &names(&["dz_um"]),
+            InputForm::Change,
+            Some(0.0),
+        )
+        .unwrap_err();
+        assert!(e.to_string().starts_with("no calibration rows"), "{e}");
+    }
+}
