@@ -373,8 +373,8 @@ fn score_run(
             (Some(yi), Some(yhat)) => {
                 // Both are finite: the reader rejects non-finite
                 // cells and the runner non-finite outputs.
-                acc.push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
-                all.push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+                acc.push(yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+                all.push(yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
             }
             _ => skipped += 1,
         }

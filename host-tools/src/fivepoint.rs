@@ -16,6 +16,7 @@
 //! `theta_x_urad` S1 and S3, `theta_y_urad` S2 and S4, the tip all five and
 //! a tool length. No row is ever dropped.
 
+use crate::data::cells::Cells;
 use anyhow::{anyhow, bail, Result};
 use model_core::fivepoint::{is_five_point, FivePoint, DEFAULT_L_DEFL_MM};
 use model_core::geometry::{spindle_drift, ProbeReadings, SpindleDrift};
@@ -86,9 +87,9 @@ pub struct ProbeRun<'a> {
     /// Sample times, s (for messages).
     pub t_s: &'a [f64],
     /// S1..S5, µm, one value per row (`None`: empty cell).
-    pub probes: [&'a [Option<f64>]; 5],
+    pub probes: [Cells<'a>; 5],
     /// The run's `tool_mm` column, if it has one.
-    pub tool_mm: Option<&'a [Option<f64>]>,
+    pub tool_mm: Option<Cells<'a>>,
 }
 
 /// The computed columns, one value per row, in [`OUTPUT_COLUMNS`] order.
@@ -117,23 +118,19 @@ pub struct FivePointOutcome {
 
 /// Each probe's first reading: the reference its changes are taken from.
 fn references(run: &ProbeRun<'_>) -> [Option<f64>; 5] {
-    run.probes.map(|col| {
-        col.iter()
-            .copied()
-            .find_map(|v| v.filter(|x| x.is_finite()))
-    })
+    run.probes
+        .map(|col| col.iter().find_map(|v| v.filter(|x| x.is_finite())))
 }
 
 /// Change of probe `i` at `row` from its reference.
 fn change(run: &ProbeRun<'_>, refs: &[Option<f64>; 5], i: usize, row: usize) -> Option<f64> {
-    let v = run.probes.get(i)?.get(row).copied().flatten()?;
+    let v = run.probes.get(i)?.get(row)?;
     Some(v - refs.get(i).copied().flatten()?)
 }
 
 /// The tool length of `row`.
 fn tool_at(p: &FivePointParams, run: &ProbeRun<'_>, row: usize) -> Option<f64> {
-    p.tool_mm
-        .or_else(|| run.tool_mm.and_then(|c| c.get(row).copied().flatten()))
+    p.tool_mm.or_else(|| run.tool_mm.and_then(|c| c.get(row)))
 }
 
 /// One row: E, θx, θy (each when its probes have values) and the tip.
@@ -268,13 +265,14 @@ mod tests {
     #[test]
     fn changes_are_from_the_first_reading_and_gaps_stay_empty() {
         // S1 moves +12 um from 100 (row 2); S5 +20 um; row 1 has no S3.
-        let s1 = [Some(100.0), Some(106.0), Some(112.0)];
-        let s3 = [Some(50.0), None, Some(50.0)];
-        let zero = [Some(7.0); 3];
-        let s5 = [Some(-3.0), Some(7.0), Some(17.0)];
+        let s1 = [100.0, 106.0, 112.0];
+        let s3 = [50.0, f64::NAN, 50.0];
+        let zero = [7.0; 3];
+        let s5 = [-3.0, 7.0, 17.0];
+        let [s1, s3, zero, s5] = [&s1, &s3, &zero, &s5].map(|c| Cells::new(c));
         let run = ProbeRun {
             t_s: &[0.0, 1.0, 2.0],
-            probes: [&s1, &zero, &s3, &zero, &s5],
+            probes: [s1, zero, s3, zero, s5],
             tool_mm: None,
         };
         let (c, o) = compute(&params(Some(100.0)), &run).unwrap_or_else(|e| panic!("{e}"));

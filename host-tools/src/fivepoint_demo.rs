@@ -59,7 +59,7 @@ pub fn step(run: &Path) -> Result<Value> {
     let last = (0..r.len()).rev().find(|&k| c.columns[3][k].is_some());
     let end = |k: usize| last.and_then(|row| c.columns[k][row]).unwrap_or(0.0);
     let tool_now = last
-        .and_then(|row| col(TOOL_COLUMN).ok()?[row])
+        .and_then(|row| col(TOOL_COLUMN).ok()?.get(row))
         .unwrap_or(0.0);
     // theta [urad] x delta tool [mm] = 1e-3 um.
     let moved = end(1) * (OTHER_TOOL_MM - tool_now) * 1e-3;

@@ -11,6 +11,7 @@
 //! A five-point model's predictions also carry the tool-tip drift from its
 //! outputs and each row's `tool_mm`, as the hub computes it.
 
+use crate::data::cells::{CellColumn, Cells};
 use crate::data::runfile::{resample_linear, uniform_grid_len, RunFile, Sampling};
 use crate::fivepoint::TOOL_COLUMN;
 use anyhow::{bail, Result};
@@ -94,7 +95,7 @@ fn input_columns<'r>(
     model: &ValidModel,
     run: &'r RunFile,
     map: &ColumnMap,
-) -> Result<Vec<&'r [Option<f64>]>> {
+) -> Result<Vec<Cells<'r>>> {
     model
         .inputs()
         .iter()
@@ -196,7 +197,7 @@ impl<'m> RowStepper<'m> {
 /// Steps the model over aligned input samples (`inputs[channel][sample]`,
 /// raw values in channel order) from a fresh state; `None` where an input
 /// is missing or the step was refused. With bounds, also each output's band.
-pub fn step_all<C: AsRef<[Option<f64>]>>(
+pub fn step_all<C: CellColumn>(
     model: &ValidModel,
     inputs: &[C],
     len: usize,
@@ -210,7 +211,7 @@ pub fn step_all<C: AsRef<[Option<f64>]>>(
     let mut stepper = RowStepper::new(model);
     let (mut row_values, mut row_bands) = (vec![None; n_out], vec![None; n_bands]);
     for i in 0..len {
-        let row = inputs.iter().map(|c| c.as_ref().get(i).copied().flatten());
+        let row = inputs.iter().map(|c| c.cell(i));
         stepper.step(row, &mut row_values, &mut row_bands);
         for (col, v) in values.iter_mut().zip(&row_values) {
             col.push(*v);
@@ -260,7 +261,7 @@ pub fn tool_note() -> String {
 fn tool_tip_columns(
     tip: &TipMap,
     outputs: &[Vec<Option<f64>>],
-    tool: Option<&[Option<f64>]>,
+    tool: Option<Cells<'_>>,
     len: usize,
 ) -> [Vec<Option<f64>>; 3] {
     let mut cols: [Vec<Option<f64>>; 3] = Default::default();
@@ -268,7 +269,7 @@ fn tool_tip_columns(
     for row in 0..len {
         values.clear();
         values.extend(outputs.iter().map(|c| c.get(row).copied().flatten()));
-        let tool_mm = tool.and_then(|t| t.get(row).copied().flatten());
+        let tool_mm = tool.and_then(|t| t.get(row));
         let drift = tool_tip_row(tip, &values, tool_mm);
         for (col, d) in cols.iter_mut().zip(drift) {
             col.push(d);
@@ -435,7 +436,7 @@ fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result
         .iter()
         .map(|c| {
             bridged += c.iter().filter(|v| v.is_none()).count();
-            resample_linear(&run.t_s, c, &input_t)
+            resample_linear(&run.t_s, *c, &input_t)
         })
         .collect();
     if bridged > 0 {
@@ -447,7 +448,7 @@ fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result
             cols
         } else {
             cols.iter()
-                .map(|v| resample_linear(&grid, v, &run.t_s))
+                .map(|v| resample_linear(&grid, v.iter().copied(), &run.t_s))
                 .collect()
         }
     };

@@ -66,7 +66,7 @@ pub fn score(model: &ValidModel, runs: &[(&RunFile, usize)]) -> Result<Vec<Targe
                         } else {
                             &mut held[k]
                         };
-                        acc.push(*yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
+                        acc.push(yi, yhat).map_err(|e| anyhow!("{name}: {e}"))?;
                     }
                     (_, None) => unscored[k].no_prediction += 1,
                     (None, Some(_)) => unscored[k].no_measurement += 1,

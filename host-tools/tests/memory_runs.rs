@@ -33,7 +33,11 @@ fn columns_hold_what_the_csv_holds() {
         // Exact: both are the same decimal numbers as doubles.
         assert_eq!(mem.column(name), csv.column(name), "{name}");
     }
-    assert_eq!(mem.column("T2").unwrap()[1], None, "NaN is a missing cell");
+    assert_eq!(
+        mem.column("T2").unwrap().get(1),
+        None,
+        "NaN is a missing cell"
+    );
 }
 
 #[test]

@@ -248,11 +248,12 @@ fn simulate(options: Vec<(String, String)>) -> PyResult<(Vec<f64>, Columns)> {
             Some(cal) => cal.simulate(args.seed)?,
             None => host_tools::simulate::simulate(&args.params().check()?)?,
         };
+        // Stored cells are already NaN where missing.
         let cols = run
             .iter_columns()
-            .map(|(n, v)| (n.to_string(), v.to_vec()))
+            .map(|(n, v)| (n.to_string(), v.stored().to_vec()))
             .collect();
-        Ok((run.t_s.clone(), nan_columns(cols)))
+        Ok((run.t_s.clone(), cols))
     };
     job().map_err(py_err)
 }

@@ -8,6 +8,7 @@
 //! radial offset up to 35 um in X). The cases below are derived by hand,
 //! each chosen so that the exact answer has a short closed form.
 
+use host_tools::data::cells::Cells;
 use host_tools::fivepoint::{compute, FivePointParams, ProbeRun};
 use model_core::geometry::{GeometryError, SpindleDrift};
 use model_core::ValidModel;
@@ -94,11 +95,12 @@ fn exact_geometry_of_a_3_4_5_tilt() {
 fn fivepoint_at_seed_001_magnitudes() {
     let cold = [1503.0, 987.0, 1490.0, 1011.0, 2040.0];
     let warm = [1503.0 + 12.0, 987.0 - 6.0, 1490.0, 1011.0, 2040.0 + 39.6];
-    let col = |i: usize| vec![Some(cold[i]), Some(warm[i])];
-    let cols: Vec<Vec<Option<f64>>> = (0..5).map(col).collect();
+    let col = |i: usize| vec![cold[i], warm[i]];
+    let cols: Vec<Vec<f64>> = (0..5).map(col).collect();
+    let probes = [0, 1, 2, 3, 4].map(|i| Cells::new(&cols[i]));
     let run = ProbeRun {
         t_s: &[0.0, 60.0],
-        probes: [&cols[0], &cols[1], &cols[2], &cols[3], &cols[4]],
+        probes,
         tool_mm: None,
     };
     let params = FivePointParams {

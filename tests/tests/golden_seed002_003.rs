@@ -46,12 +46,12 @@ coef = { T3 = 0.0189, T4 = -0.0124, T10 = 0.0082, T12 = -0.0074 }
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/seed002_fig3.csv");
     let run = host_tools::data::runfile::RunFile::read(path.as_ref(), &Default::default()).unwrap();
     assert_eq!(run.len(), EXPECTED.len());
-    let cols: Vec<&[Option<f64>]> = ["T3", "T4", "T10", "T12"]
+    let cols: Vec<host_tools::data::cells::Cells> = ["T3", "T4", "T10", "T12"]
         .iter()
         .map(|c| run.column(c).unwrap())
         .collect();
     for (row, expected) in EXPECTED.iter().enumerate() {
-        let x: Vec<f64> = cols.iter().map(|c| c[row].unwrap()).collect();
+        let x: Vec<f64> = cols.iter().map(|c| c.get(row).unwrap()).collect();
         let got = step(&model, &x);
         // f64 rounding of five products of size ~0.3: well under 1e-12.
         assert!(

@@ -7,9 +7,11 @@
 //! with `--validate` are held out whole. Fits only ever see calibration
 //! rows; every figure reported as held-out comes from rows no fit touched.
 
+use crate::data::cells::{self, Cells};
 use crate::data::runfile::{resample_linear, uniform_grid, RunFile};
 use anyhow::{anyhow, bail, Result};
 use model_core::Reference;
+use std::borrow::Cow;
 
 /// How temperatures enter a model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,19 +41,138 @@ impl InputForm {
     }
 }
 
-/// One run's columns, inputs already in the model's form.
+/// One run's columns: the inputs as the model sees them (see
+/// [`RunData::x`]), the targets, and where the held-out part starts.
+///
+/// The columns are the run file's own, borrowed (no copy: a 1 M-row fit
+/// would otherwise hold every input twice), or owned when they were derived
+/// (a grid, a reduced input set); either way stored as
+/// [`crate::data::cells`] (`NaN` for a missing cell).
 #[derive(Clone, Debug)]
-pub struct RunData {
+pub struct RunData<'a> {
     /// The file, for messages.
     pub name: String,
     /// Sample times.
-    pub t_s: Vec<f64>,
-    /// `x[i][row]`: input `i` (reference-adjusted; `None` where missing).
-    pub x: Vec<Vec<Option<f64>>>,
-    /// `y[k][row]`: target `k`.
-    pub y: Vec<Vec<Option<f64>>>,
+    pub t_s: Cow<'a, [f64]>,
+    /// `x[i]`: input `i` as stored, before `x_ref[i]` is taken off.
+    x: Vec<Cow<'a, [f64]>>,
+    /// `x_ref[i]`: what is subtracted from input `i` (its reference value
+    /// in the change form, 0 in the absolute form).
+    x_ref: Vec<f64>,
+    /// `y[k]`: target `k` as stored.
+    y: Vec<Cow<'a, [f64]>>,
     /// Rows `..calib_end` are calibration, the rest held out.
     pub calib_end: usize,
+}
+
+impl<'a> RunData<'a> {
+    /// A run of derived columns (no reference taken off: `x` is as the model
+    /// sees it), every cell present.
+    pub fn owned(
+        name: String,
+        t_s: Vec<f64>,
+        x: Vec<Vec<f64>>,
+        y: Vec<Vec<f64>>,
+        calib_end: usize,
+    ) -> RunData<'static> {
+        RunData {
+            name,
+            t_s: Cow::Owned(t_s),
+            x_ref: vec![0.0; x.len()],
+            x: x.into_iter().map(Cow::Owned).collect(),
+            y: y.into_iter().map(Cow::Owned).collect(),
+            calib_end,
+        }
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    /// Whether the run has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// Input `i` at `row` in the model's form (`None` where missing).
+    pub fn x(&self, i: usize, row: usize) -> Option<f64> {
+        let stored = self.x.get(i)?.get(row)?;
+        cells::read(stored - self.x_ref[i])
+    }
+
+    /// Target `k` at `row` (`None` where missing).
+    pub fn y(&self, k: usize, row: usize) -> Option<f64> {
+        cells::read(*self.y.get(k)?.get(row)?)
+    }
+
+    /// Input `i` in the model's form, every row.
+    pub fn x_column(&self, i: usize) -> Vec<Option<f64>> {
+        (0..self.len()).map(|r| self.x(i, r)).collect()
+    }
+
+    /// Target `k`, every row.
+    pub fn y_column(&self, k: usize) -> Cells<'_> {
+        self.y.get(k).map_or_else(Cells::default, |c| Cells::new(c))
+    }
+
+    /// The inputs at `row` in the model's form, `None` if one is missing.
+    pub fn x_row(&self, row: usize) -> Option<Vec<f64>> {
+        (0..self.x.len()).map(|i| self.x(i, row)).collect()
+    }
+
+    /// The targets at `row`, `None` if one is missing.
+    pub fn y_row(&self, row: usize) -> Option<Vec<f64>> {
+        (0..self.y.len()).map(|k| self.y(k, row)).collect()
+    }
+
+    /// `x[i] = input i at row` and `y[k] = target k at row`; false when a
+    /// cell is missing (the buffers then hold `NaN`s).
+    fn fill(&self, row: usize, x: &mut [f64], y: &mut [f64]) -> bool {
+        for ((o, c), r0) in x.iter_mut().zip(&self.x).zip(&self.x_ref) {
+            *o = c[row] - r0;
+        }
+        for (o, c) in y.iter_mut().zip(&self.y) {
+            *o = c[row];
+        }
+        !x.iter().chain(y.iter()).any(|v| v.is_nan())
+    }
+
+    /// This run with only the inputs `idx` (in that order). In the change
+    /// form the reference is re-taken at the first row where every kept
+    /// input has a value (from the inputs as they were, so the values are
+    /// those of subtracting it from them).
+    pub fn with_inputs(&self, idx: &[usize], form: InputForm) -> RunData<'a> {
+        let mut out = RunData {
+            x: idx.iter().map(|&i| self.x[i].clone()).collect(),
+            x_ref: idx.iter().map(|&i| self.x_ref[i]).collect(),
+            ..self.clone_without_inputs()
+        };
+        if form == InputForm::Change {
+            if let Some(first) =
+                (0..out.len()).find(|&r| (0..idx.len()).all(|i| out.x(i, r).is_some()))
+            {
+                for i in 0..idx.len() {
+                    let column = out.x_column(i);
+                    out.x[i] = Cow::Owned(column.iter().map(|v| cells::stored(*v)).collect());
+                    out.x_ref[i] = column[first].unwrap_or(0.0);
+                }
+            }
+        }
+        out
+    }
+
+    /// A copy with no inputs (the rest borrowed as it is).
+    fn clone_without_inputs(&self) -> RunData<'a> {
+        RunData {
+            name: self.name.clone(),
+            t_s: self.t_s.clone(),
+            x: Vec::new(),
+            x_ref: Vec::new(),
+            y: self.y.clone(),
+            calib_end: self.calib_end,
+        }
+    }
 }
 
 /// A run resampled to a model's sample time, gaps bridged, trimmed to where
@@ -72,7 +193,7 @@ pub struct GridRun {
 
 /// Every run of a fit, with the names of its inputs and targets.
 #[derive(Clone, Debug)]
-pub struct Dataset {
+pub struct Dataset<'a> {
     /// Input column names.
     pub inputs: Vec<String>,
     /// Target column names.
@@ -80,21 +201,10 @@ pub struct Dataset {
     /// The form of the inputs.
     pub form: InputForm,
     /// Calibration runs (possibly with a held-out tail) and validation runs.
-    pub runs: Vec<RunData>,
+    pub runs: Vec<RunData<'a>>,
 }
 
-/// `out[i] = cols[i][r]`; false when a cell is missing.
-fn fill(out: &mut [f64], cols: &[Vec<Option<f64>>], r: usize) -> bool {
-    for (o, c) in out.iter_mut().zip(cols) {
-        match c[r] {
-            Some(v) => *o = v,
-            None => return false,
-        }
-    }
-    true
-}
-
-fn column<'a>(run: &'a RunFile, name: &str) -> Result<&'a [Option<f64>]> {
+fn column<'a>(run: &'a RunFile, name: &str) -> Result<Cells<'a>> {
     run.column(name).ok_or_else(|| {
         anyhow!(
             "{}: no column \"{name}\" (columns: {})",
@@ -104,12 +214,50 @@ fn column<'a>(run: &'a RunFile, name: &str) -> Result<&'a [Option<f64>]> {
     })
 }
 
-impl Dataset {
+/// The columns `names` of `run`.
+fn columns<'a>(run: &'a RunFile, names: &[String]) -> Result<Vec<Cells<'a>>> {
+    names.iter().map(|c| column(run, c)).collect()
+}
+
+/// `run`'s inputs and targets, borrowed, with the inputs' reference in
+/// `form`: the first row where every input has a value, the same row at
+/// which the hub (and `predict`) captures it.
+fn run_data<'a>(
+    run: &'a RunFile,
+    inputs: &[String],
+    targets: &[String],
+    form: InputForm,
+    calib_end: usize,
+) -> Result<RunData<'a>> {
+    // No overflow check: a run file's columns always centre and scale (the
+    // assertion beside `runfile::MAX_CELL_MAGNITUDE`).
+    let x = columns(run, inputs)?;
+    let y = columns(run, targets)?;
+    let first = (0..run.len()).find(|&r| x.iter().all(|c| c.get(r).is_some()));
+    let x_ref = x
+        .iter()
+        .map(|c| match form {
+            InputForm::Absolute => 0.0,
+            InputForm::Change => first.and_then(|r| c.get(r)).unwrap_or(0.0),
+        })
+        .collect();
+    let borrow = |c: &Cells<'a>| Cow::Borrowed(c.stored());
+    Ok(RunData {
+        name: run.path.display().to_string(),
+        t_s: Cow::Borrowed(&run.t_s),
+        x: x.iter().map(borrow).collect(),
+        x_ref,
+        y: y.iter().map(borrow).collect(),
+        calib_end,
+    })
+}
+
+impl<'a> Dataset<'a> {
     /// Assembles the data: `runs` are split at `holdout_from_s` (if given),
-    /// `validate` runs are held out whole.
+    /// `validate` runs are held out whole. The columns are borrowed.
     pub fn new(
-        runs: &[RunFile],
-        validate: &[RunFile],
+        runs: &'a [RunFile],
+        validate: &'a [RunFile],
         inputs: &[String],
         targets: &[String],
         form: InputForm,
@@ -124,47 +272,12 @@ impl Dataset {
             .map(|r| (r, false))
             .chain(validate.iter().map(|r| (r, true)))
         {
-            let raw: Vec<&[Option<f64>]> = inputs
-                .iter()
-                .map(|c| column(run, c))
-                .collect::<Result<_>>()?;
-            let y: Vec<Vec<Option<f64>>> = targets
-                .iter()
-                .map(|c| column(run, c).map(<[_]>::to_vec))
-                .collect::<Result<_>>()?;
-            for (name, c) in inputs.iter().zip(&raw) {
-                check_column(run, name, c)?;
-            }
-            for (name, c) in targets.iter().zip(&y) {
-                check_column(run, name, c)?;
-            }
-            // The reference is the first row where every input has a value:
-            // the same row at which the hub (and `predict`) captures it.
-            let first = (0..run.len()).find(|&r| raw.iter().all(|c| c[r].is_some()));
-            let x = raw
-                .iter()
-                .map(|c| {
-                    let r0 = first.and_then(|r| c[r]).unwrap_or(0.0);
-                    c.iter()
-                        .map(|v| match form {
-                            InputForm::Absolute => *v,
-                            InputForm::Change => v.map(|v| v - r0),
-                        })
-                        .collect()
-                })
-                .collect();
             let calib_end = if held_out_whole {
                 0
             } else {
                 holdout_from_s.map_or(run.len(), |h| run.t_s.partition_point(|t| *t < h))
             };
-            out.push(RunData {
-                name: run.path.display().to_string(),
-                t_s: run.t_s.clone(),
-                x,
-                y,
-                calib_end,
-            });
+            out.push(run_data(run, inputs, targets, form, calib_end)?);
         }
         let ds = Self {
             inputs: inputs.to_vec(),
@@ -172,10 +285,25 @@ impl Dataset {
             form,
             runs: out,
         };
-        if ds.calibration_len() == 0 {
+        if ds.complete_calibration_rows().next().is_none() {
             bail!("no calibration rows: every row is held out or lacks a value (check --holdout-from-s and the columns)");
         }
         Ok(ds)
+    }
+
+    /// This dataset restricted to the inputs `idx` (in that order), each
+    /// run by [`RunData::with_inputs`].
+    pub fn with_inputs(&self, idx: &[usize]) -> Dataset<'a> {
+        Dataset {
+            inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
+            targets: self.targets.clone(),
+            form: self.form,
+            runs: self
+                .runs
+                .iter()
+                .map(|r| r.with_inputs(idx, self.form))
+                .collect(),
+        }
     }
 
     /// Calibration rows with every input and target present, as row vectors
@@ -184,9 +312,7 @@ impl Dataset {
         let (mut xs, mut ys) = (Vec::new(), Vec::new());
         for run in &self.runs {
             for r in 0..run.calib_end {
-                let x: Option<Vec<f64>> = run.x.iter().map(|c| c[r]).collect();
-                let y: Option<Vec<f64>> = run.y.iter().map(|c| c[r]).collect();
-                if let (Some(x), Some(y)) = (x, y) {
+                if let (Some(x), Some(y)) = (run.x_row(r), run.y_row(r)) {
                     xs.push(x);
                     ys.push(y);
                 }
@@ -199,11 +325,11 @@ impl Dataset {
     /// calibration runs (`runs`, in this dataset's order) at their split,
     /// the validation runs (`validate`) held out whole. What scoring a
     /// fitted model on calibration and held-out rows needs.
-    pub fn scoring_split<'a>(
+    pub fn scoring_split<'r>(
         &self,
-        runs: &'a [RunFile],
-        validate: &'a [RunFile],
-    ) -> Vec<(&'a RunFile, usize)> {
+        runs: &'r [RunFile],
+        validate: &'r [RunFile],
+    ) -> Vec<(&'r RunFile, usize)> {
         runs.iter()
             .zip(&self.runs)
             .map(|(r, d)| (r, d.calib_end))
@@ -219,7 +345,7 @@ impl Dataset {
         let mut y = vec![0.0; self.targets.len()];
         for run in &self.runs {
             for r in 0..run.calib_end {
-                if fill(&mut x, &run.x, r) && fill(&mut y, &run.y, r) {
+                if run.fill(r, &mut x, &mut y) {
                     f(&x, &y);
                 }
             }
@@ -229,14 +355,18 @@ impl Dataset {
     /// How many calibration rows have every input and target (what
     /// [`Dataset::calibration_rows`] returns), counted without copying them.
     pub fn calibration_len(&self) -> usize {
+        self.complete_calibration_rows().count()
+    }
+
+    /// The calibration rows with every input and target, as (run, row).
+    fn complete_calibration_rows(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        let mut x = vec![0.0; self.inputs.len()];
+        let mut y = vec![0.0; self.targets.len()];
         self.runs
             .iter()
-            .map(|run| {
-                (0..run.calib_end)
-                    .filter(|&r| run.x.iter().chain(&run.y).all(|c| c[r].is_some()))
-                    .count()
-            })
-            .sum()
+            .enumerate()
+            .flat_map(|(i, run)| (0..run.calib_end).map(move |r| (i, r)))
+            .filter(move |&(i, r)| self.runs[i].fill(r, &mut x, &mut y))
     }
 
     /// Rows held out from calibration (in held-out tails and validation runs).
@@ -249,11 +379,15 @@ impl Dataset {
     pub fn on_grid(&self, dt_s: f64) -> Result<Vec<GridRun>> {
         let mut out = Vec::new();
         for run in &self.runs {
-            let cols = run.x.iter().chain(&run.y);
+            let x: Vec<Vec<Option<f64>>> =
+                (0..self.inputs.len()).map(|i| run.x_column(i)).collect();
+            let y: Vec<Vec<Option<f64>>> = (0..self.targets.len())
+                .map(|k| run.y_column(k).to_options())
+                .collect();
             // Span where every column has at least started and not yet ended.
             let mut lo = f64::NEG_INFINITY;
             let mut hi = f64::INFINITY;
-            for c in cols {
+            for c in x.iter().chain(&y) {
                 let first = c.iter().position(Option::is_some);
                 let last = c.iter().rposition(Option::is_some);
                 match (first, last) {
@@ -269,7 +403,7 @@ impl Dataset {
             }
             let grid = uniform_grid(lo, hi, dt_s).map_err(|e| anyhow!("{}: {e}", run.name))?;
             let fill = |c: &Vec<Option<f64>>| -> Vec<f64> {
-                resample_linear(&run.t_s, c, &grid)
+                resample_linear(&run.t_s, c.iter().copied(), &grid)
                     .into_iter()
                     .map(|v| v.unwrap_or(0.0))
                     .collect()
@@ -278,8 +412,8 @@ impl Dataset {
             out.push(GridRun {
                 name: run.name.clone(),
                 calib_end: grid.partition_point(|t| *t < split_t),
-                x: run.x.iter().map(fill).collect(),
-                y: run.y.iter().map(fill).collect(),
+                x: x.iter().map(fill).collect(),
+                y: y.iter().map(fill).collect(),
                 t_s: grid,
             });
         }
@@ -287,19 +421,110 @@ impl Dataset {
     }
 }
 
-/// Refuses a column too large to centre and scale, naming file and column
-/// (see [`crate::num::linalg::check_scalable`]).
-fn check_column(run: &RunFile, name: &str, values: &[Option<f64>]) -> Result<()> {
-    let label = format!("{}: column {name}", run.path.display());
-    crate::num::linalg::check_scalable(&label, values.iter().flatten().copied())
-}
-
 /// Refuses any column read from `run` that is too large to centre and
-/// scale, naming file and column: for callers that fit or rank on every
-/// column they read (refit, select).
+/// scale, naming file and column (see [`crate::num::linalg::check_scalable`]):
+/// for callers that fit or rank on every column they read (refit, select).
 pub fn check_scalable_columns(run: &RunFile) -> Result<()> {
     for (name, values) in run.iter_columns() {
-        check_column(run, name, values)?;
+        let label = format!("{}: column {name}", run.path.display());
+        crate::num::linalg::check_scalable(&label, values.present())?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::runfile::ReadOptions;
+
+    fn run(csv: &str) -> RunFile {
+        RunFile::from_reader("run.csv", csv.as_bytes(), &ReadOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn names(n: &[&str]) -> Vec<String> {
+        n.iter().map(|s| (*s).to_string()).collect()
+    }
+
+    /// Row 0 lacks T2, row 2 lacks the target: the reference is row 1's,
+    /// and only rows 1 and 3 are calibration rows.
+    const GAPPY: &str = "t_s,T1,T2,dz_um\n0,10,,1\n1,11,20,2\n2,12,21,\n3,13.5,22,4\n";
+
+    #[test]
+    fn empty_cells_stay_missing_and_the_reference_is_the_first_complete_row() {
+        let runs = [run(GAPPY)];
+        let ds = Dataset::new(
+            &runs,
+            &[],
+            &names(&["T1", "T2"]),
+            &names(&["dz_um"]),
+            InputForm::Change,
+            None,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let r = &ds.runs[0];
+        // Exact: differences of the decimal values as doubles.
+        assert_eq!(r.x_column(0), [Some(-1.0), Some(0.0), Some(1.0), Some(2.5)]);
+        assert_eq!(r.x_column(1), [None, Some(0.0), Some(1.0), Some(2.0)]);
+        assert_eq!(
+            r.y_column(0).to_options(),
+            [Some(1.0), Some(2.0), None, Some(4.0)]
+        );
+        assert_eq!(ds.calibration_len(), 2);
+        let (xs, ys) = ds.calibration_rows();
+        assert_eq!(xs, [vec![0.0, 0.0], vec![2.5, 2.0]]);
+        assert_eq!(ys, [vec![2.0], vec![4.0]]);
+        let mut visited = Vec::new();
+        ds.visit_calibration_rows(&mut |x, y| visited.push((x.to_vec(), y.to_vec())));
+        assert_eq!(visited, xs.into_iter().zip(ys).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn the_absolute_form_is_the_logged_values_and_a_subset_re_references() {
+        let runs = [run(GAPPY)];
+        let (inputs, targets) = (names(&["T1", "T2"]), names(&["dz_um"]));
+        let abs = Dataset::new(&runs, &[], &inputs, &targets, InputForm::Absolute, None)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            abs.runs[0].x_column(0),
+            [Some(10.0), Some(11.0), Some(12.0), Some(13.5)]
+        );
+        let change = Dataset::new(&runs, &[], &inputs, &targets, InputForm::Change, None)
+            .unwrap_or_else(|e| panic!("{e}"));
+        // T1 alone is complete from row 0: its reference moves there.
+        let t1 = change.with_inputs(&[0]);
+        assert_eq!(t1.inputs, ["T1"]);
+        assert_eq!(
+            t1.runs[0].x_column(0),
+            [Some(0.0), Some(1.0), Some(2.0), Some(3.5)]
+        );
+    }
+
+    #[test]
+    fn a_missing_column_and_no_complete_row_are_errors_as_before() {
+        let runs = [run(GAPPY)];
+        let e = Dataset::new(
+            &runs,
+            &[],
+            &names(&["T9"]),
+            &names(&["dz_um"]),
+            InputForm::Change,
+            None,
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "run.csv: no column \"T9\" (columns: T1, T2, dz_um)"
+        );
+        let e = Dataset::new(
+            &runs,
+            &[],
+            &names(&["T1"]),
+            &names(&["dz_um"]),
+            InputForm::Change,
+            Some(0.0),
+        )
+        .unwrap_err();
+        assert!(e.to_string().starts_with("no calibration rows"), "{e}");
+    }
 }

@@ -4,6 +4,7 @@
 //! keeps (never overwrite an input, write atomically).
 
 pub mod blobfile;
+pub mod cells;
 pub mod dataset;
 pub mod fsio;
 pub mod rawcells;

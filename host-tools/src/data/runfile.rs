@@ -19,6 +19,7 @@
 //! run file needs to put runs on a common time base: [`uniform_grid`] and
 //! [`resample_linear`].
 
+use crate::data::cells::{self, Cells};
 use std::borrow::Cow;
 use std::collections::{HashMap, VecDeque};
 use std::fmt;
@@ -249,9 +250,10 @@ pub struct RunFile {
     pub columns: Vec<String>,
     /// Sample times in seconds: finite and strictly increasing.
     pub t_s: Vec<f64>,
-    /// Values of `columns[i]` in `values[i]`, one per sample; `None` is an
-    /// empty cell. Private so the columns cannot get out of step with the names.
-    values: Vec<Vec<Option<f64>>>,
+    /// Values of `columns[i]` in `values[i]`, one per sample, stored as
+    /// [`cells`] (`NaN` for an empty cell). Private so the columns cannot get
+    /// out of step with the names.
+    values: Vec<Vec<f64>>,
     /// Rows left out under [`ReadOptions::skip_bad_rows`], in file order.
     pub skipped: Vec<SkippedRow>,
     /// `read[i]`: whether `columns[i]` was parsed (see [`ReadOptions::only`]).
@@ -336,15 +338,14 @@ impl RunFile {
                 });
             }
             read.push(!cells.is_empty() || t_s.is_empty());
-            let checked = cells
-                .iter()
-                .enumerate()
-                .map(|(row, &v)| memory_cell(v, index + 2, &col).map_err(|k| row_error(row, k)))
-                .collect::<Result<Vec<_>, _>>()?;
-            values.push(if checked.is_empty() {
-                vec![None; t_s.len()]
+            for (row, &v) in cells.iter().enumerate() {
+                check_memory_cell(v, index + 2, &col).map_err(|k| row_error(row, k))?;
+            }
+            // `NaN` is a missing cell here and in storage alike.
+            values.push(if cells.is_empty() {
+                vec![f64::NAN; t_s.len()]
             } else {
-                checked
+                cells
             });
             names.push(col);
         }
@@ -379,12 +380,12 @@ impl RunFile {
     /// The values of the column called `name`, one per sample (`None` for an
     /// empty cell), or `None` if there is no such column. `t_s` is not a
     /// column here: it is [`RunFile::t_s`], which cannot have gaps.
-    pub fn column(&self, name: &str) -> Option<&[Option<f64>]> {
+    pub fn column(&self, name: &str) -> Option<Cells<'_>> {
         let index = self.columns.iter().position(|c| c == name)?;
         if !self.read.get(index).copied().unwrap_or(false) {
             return None;
         }
-        self.values.get(index).map(Vec::as_slice)
+        self.values.get(index).map(|v| Cells::new(v))
     }
 
     /// Whether the file has a column called `name` (not counting `t_s`, which
@@ -396,13 +397,13 @@ impl RunFile {
 
     /// Every column with its values, in file order, for consumers that handle
     /// columns they do not know by name (copying, listing, plotting).
-    pub fn iter_columns(&self) -> impl Iterator<Item = (&str, &[Option<f64>])> {
+    pub fn iter_columns(&self) -> impl Iterator<Item = (&str, Cells<'_>)> {
         self.columns
             .iter()
             .zip(&self.values)
             .zip(&self.read)
             .filter(|(_, read)| **read)
-            .map(|((name, values), _)| (name.as_str(), values.as_slice()))
+            .map(|((name, values), _)| (name.as_str(), Cells::new(values)))
     }
 
     /// The time steps of the run; see [`Sampling`].
@@ -598,14 +599,14 @@ impl<R: io::Read> RowStream<R> {
     }
 
     /// Appends the last row's read cells to their columns.
-    fn push_row_into(&self, values: &mut [Vec<Option<f64>>]) {
+    fn push_row_into(&self, values: &mut [Vec<f64>]) {
         for ((column, value), _) in values
             .iter_mut()
             .zip(&self.row)
             .zip(&self.read)
             .filter(|(_, r)| **r)
         {
-            column.push(*value);
+            column.push(cells::stored(*value));
         }
     }
 
@@ -671,7 +672,7 @@ fn reserve_for(
     size: Option<u64>,
     consumed: u64,
     t_s: &mut Vec<f64>,
-    values: &mut [Vec<Option<f64>>],
+    values: &mut [Vec<f64>],
     read: &[bool],
 ) {
     let Some(size) = size else { return };
@@ -1002,11 +1003,12 @@ fn check_names(file: &str, columns: &[(String, Option<Vec<f64>>)]) -> Result<(),
     Ok(())
 }
 
-/// One in-memory cell: `NaN` is a missing value, any other non-finite or
-/// too large value an error (as [`parse_cell`] judges a CSV cell).
-fn memory_cell(v: f64, column: usize, name: &str) -> Result<Option<f64>, RowErrorKind> {
+/// Checks one in-memory cell: `NaN` is a missing value (stored as is, see
+/// [`cells`]), any other non-finite or too large value an error (as
+/// [`parse_cell`] judges a CSV cell).
+fn check_memory_cell(v: f64, column: usize, name: &str) -> Result<(), RowErrorKind> {
     if v.is_nan() {
-        Ok(None)
+        Ok(())
     } else if !v.is_finite() {
         Err(RowErrorKind::NotFinite {
             column,
@@ -1020,7 +1022,7 @@ fn memory_cell(v: f64, column: usize, name: &str) -> Result<Option<f64>, RowErro
             text: format!("{v}"),
         })
     } else {
-        Ok(Some(v))
+        Ok(())
     }
 }
 
@@ -1030,6 +1032,15 @@ fn memory_cell(v: f64, column: usize, name: &str) -> Result<Option<f64>, RowErro
 /// and `select` call the target constant. 1e15 still takes epoch times in
 /// microseconds (1.7e15 in 2023 would not: seconds or milliseconds do).
 pub const MAX_CELL_MAGNITUDE: f64 = 1e15;
+
+// Every column of a `RunFile` can be centred and scaled without overflow:
+// at most `MAX_CELLS` cells, each at most `MAX_CELL_MAGNITUDE` from zero and
+// so at most twice that from the column's mean, have a centred sum of
+// squares of at most 4e38, far inside f64. So a fit on run-file columns
+// needs no overflow check (`num::linalg::check_scalable` is for data that
+// comes another way).
+const _: () =
+    assert!((MAX_CELLS as f64) * (2.0 * MAX_CELL_MAGNITUDE) * (2.0 * MAX_CELL_MAGNITUDE) < 1e300);
 
 /// Parse one cell: blank (after trimming) is `None`; otherwise it must be a
 /// finite number in Rust's float syntax (which accepts `1`, `-1.5`, `.5`,
@@ -1410,8 +1421,12 @@ impl std::error::Error for RowError {}
 /// panics: samples with a non-finite time or value count as missing, a
 /// non-finite grid point or one that goes back in time gives `None`, and if
 /// `t` and `x` differ in length the extra entries of the longer are ignored.
-pub fn resample_linear(t: &[f64], x: &[Option<f64>], grid: &[f64]) -> Vec<Option<f64>> {
-    let mut valid = t.iter().zip(x).filter_map(|(&t, &x)| match x {
+pub fn resample_linear(
+    t: &[f64],
+    x: impl IntoIterator<Item = Option<f64>>,
+    grid: &[f64],
+) -> Vec<Option<f64>> {
+    let mut valid = t.iter().zip(x).filter_map(|(&t, x)| match x {
         Some(x) if t.is_finite() && x.is_finite() => Some((t, x)),
         _ => None,
     });
@@ -1692,7 +1707,7 @@ mod tests {
     }
 
     fn col(run: &RunFile, name: &str) -> Vec<Option<f64>> {
-        run.column(name).expect("column exists").to_vec()
+        run.column(name).expect("column exists").to_options()
     }
 
     #[test]
@@ -2115,12 +2130,12 @@ mod tests {
         let t = [0.0, 10.0, 20.0];
         let x = [Some(1.0), Some(3.0), Some(-1.0)];
         assert_eq!(
-            resample_linear(&t, &x, &[0.0, 5.0, 10.0, 12.5, 20.0]),
+            resample_linear(&t, x, &[0.0, 5.0, 10.0, 12.5, 20.0]),
             [Some(1.0), Some(2.0), Some(3.0), Some(2.0), Some(-1.0)]
         );
         // Several grid points between two samples, and grid == t.
-        assert_eq!(resample_linear(&t, &x, &[2.5, 7.5]), [Some(1.5), Some(2.5)]);
-        assert_eq!(resample_linear(&t, &x, &t), x);
+        assert_eq!(resample_linear(&t, x, &[2.5, 7.5]), [Some(1.5), Some(2.5)]);
+        assert_eq!(resample_linear(&t, x, &t), x);
     }
 
     #[test]
@@ -2130,7 +2145,7 @@ mod tests {
         assert_eq!(
             resample_linear(
                 &t,
-                &x,
+                x,
                 &[-5.0, 0.0, 5.0, 10.0, 15.0, 20.0, 30.0, 35.0, 40.0, 50.0]
             ),
             [
@@ -2148,12 +2163,12 @@ mod tests {
         );
         // A single valid sample is only known at its own time.
         assert_eq!(
-            resample_linear(&[0.0, 1.0], &[None, Some(4.0)], &[0.5, 1.0, 1.5]),
+            resample_linear(&[0.0, 1.0], [None, Some(4.0)], &[0.5, 1.0, 1.5]),
             [None, Some(4.0), None]
         );
         // Non-finite values count as gaps.
         assert_eq!(
-            resample_linear(&t[..3], &[Some(0.0), Some(f64::NAN), Some(2.0)], &[10.0]),
+            resample_linear(&t[..3], [Some(0.0), Some(f64::NAN), Some(2.0)], &[10.0]),
             [Some(1.0)]
         );
     }
@@ -2162,18 +2177,21 @@ mod tests {
     fn resample_degenerate_inputs_do_not_panic() {
         let t = [0.0, 1.0, 2.0];
         let x = [Some(0.0), Some(1.0), Some(2.0)];
-        assert!(resample_linear(&t, &x, &[]).is_empty());
-        assert_eq!(resample_linear(&[], &[], &[0.0]), [None]);
-        assert_eq!(resample_linear(&t, &x[..2], &[0.5, 1.5]), [Some(0.5), None]);
-        assert_eq!(resample_linear(&t[..2], &x, &[0.5, 1.5]), [Some(0.5), None]);
+        assert!(resample_linear(&t, x, &[]).is_empty());
+        assert_eq!(resample_linear(&[], [], &[0.0]), [None]);
         assert_eq!(
-            resample_linear(&t, &x, &[f64::NAN, 0.5, f64::INFINITY, 1.5]),
+            resample_linear(&t, x[..2].iter().copied(), &[0.5, 1.5]),
+            [Some(0.5), None]
+        );
+        assert_eq!(resample_linear(&t[..2], x, &[0.5, 1.5]), [Some(0.5), None]);
+        assert_eq!(
+            resample_linear(&t, x, &[f64::NAN, 0.5, f64::INFINITY, 1.5]),
             [None, Some(0.5), None, Some(1.5)]
         );
         // A grid going back in time gives None rather than extrapolating.
-        assert_eq!(resample_linear(&t, &x, &[1.5, 0.5]), [Some(1.5), None]);
+        assert_eq!(resample_linear(&t, x, &[1.5, 0.5]), [Some(1.5), None]);
         // Huge values of opposite sign do not overflow.
-        let big = resample_linear(&[0.0, 1.0], &[Some(-f64::MAX), Some(f64::MAX)], &[0.5]);
+        let big = resample_linear(&[0.0, 1.0], [Some(-f64::MAX), Some(f64::MAX)], &[0.5]);
         assert_eq!(big, [Some(0.0)]);
     }
 
@@ -2320,10 +2338,7 @@ mod tests {
             (s.dt_median_s, s.dt_min_s, s.dt_max_s),
             (Some(15.0), Some(15.0), Some(15.0))
         );
-        assert_eq!(
-            run.column("T1").and_then(|c| c.first()).copied(),
-            Some(Some(26.1909))
-        );
+        assert_eq!(run.column("T1").and_then(|c| c.get(0)), Some(26.1909));
         assert_eq!(run.t_s.first(), Some(&0.0));
         for (name, values) in run.iter_columns() {
             assert_eq!(values.len(), run.len(), "{name}");
@@ -2343,7 +2358,10 @@ mod tests {
         )
         .unwrap();
         assert_eq!(run.columns, ["T1", "program", "T2"]);
-        assert_eq!(run.column("T1"), Some(&[Some(20.0), Some(21.0)][..]));
+        assert_eq!(
+            run.column("T1").map(Cells::to_options),
+            Some(vec![Some(20.0), Some(21.0)])
+        );
         assert_eq!(run.column("program"), None);
         assert!(run.has_column("T2"));
         assert_eq!(run.iter_columns().count(), 1);

@@ -909,7 +909,7 @@ fn replay_agreement(model: &ValidModel, trace: &Path, data: &Path) -> Result<Agr
     };
     let mut j = 0;
     for row in 0..tr.len() {
-        let (Some(s), Some(st), Some(fl)) = (sent[row], state[row], flags[row]) else {
+        let (Some(s), Some(st), Some(fl)) = (sent.get(row), state.get(row), flags.get(row)) else {
             a.limited += 1;
             continue;
         };

@@ -359,7 +359,7 @@ fn check_values<'n>(
                 continue;
             };
             let label = format!("{}: column {name}", run.path.display());
-            crate::num::linalg::check_scalable(&label, values.iter().flatten().copied())?;
+            crate::num::linalg::check_scalable(&label, values.present())?;
         }
     }
     Ok(())

@@ -37,8 +37,7 @@ pub fn periodogram(t_s: &[f64], x: &[f64]) -> (Vec<(f64, f64)>, f64) {
     let dt = grid_step_s(t_s);
     let m = ((span / dt).floor() as usize + 1).min(MAX_POINTS);
     let grid: Vec<f64> = (0..m).map(|k| t_s[0] + k as f64 * dt).collect();
-    let xo: Vec<Option<f64>> = x.iter().map(|&v| Some(v)).collect();
-    let xs: Vec<f64> = resample_linear(t_s, &xo, &grid)
+    let xs: Vec<f64> = resample_linear(t_s, x.iter().map(|&v| Some(v)), &grid)
         .into_iter()
         .map(|v| v.unwrap_or(0.0))
         .collect();

@@ -47,7 +47,7 @@ use super::dynamic::bank::{bank, entry, step_info};
 use super::dynamic::grid::{grid_runs, sample_time};
 use super::dynamic::options::{DynamicOptions, Ridge, Selection};
 use super::dynamic::orders::{candidates, OrderRange, Orders};
-use super::dynamic::select::{forward_select, max_selected, names_only, sub_grid, subset};
+use super::dynamic::select::{forward_select, max_selected, names_only, sub_grid};
 use super::dynamic::sim_fit::fit_pct;
 use super::dynamic::split::SearchScheme;
 use super::Fitted;
@@ -391,7 +391,7 @@ pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
         })?;
     selection["orders_during_selection"] = json!("the full order search at every trial");
     selection["ridge_during_selection"] = json!(0.0);
-    fit_inputs(&subset(ds, &idx), args, scheme, dt, &cands, selection)
+    fit_inputs(&ds.with_inputs(&idx), args, scheme, dt, &cands, selection)
 }
 
 /// Every candidate order at every ridge penalty of `lambdas`, scored by

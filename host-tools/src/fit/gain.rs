@@ -98,7 +98,9 @@ fn least_squares_gain(
                 .column(name)
                 .ok_or_else(|| anyhow!("{}: no column \"{name}\"", run.path.display()))?;
             for row in 0..data.calib_end.min(y.len()) {
-                if let (Some(y), Some(s), Some(r)) = (y[row], s.values[k][row], r.values[k][row]) {
+                if let (Some(y), Some(s), Some(r)) =
+                    (y.get(row), s.values[k][row], r.values[k][row])
+                {
                     sxy += s * (y - r);
                     sxx += s * s;
                     n += 1;

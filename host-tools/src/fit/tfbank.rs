@@ -33,7 +33,7 @@ use super::dynamic::bank::{bank, entry, step_info};
 use super::dynamic::grid::{grid_runs, sample_time};
 use super::dynamic::options::{DynamicOptions, Selection};
 use super::dynamic::orders::{candidates, OrderRange, Orders};
-use super::dynamic::select::{forward_select, max_selected, sub_grid, subset};
+use super::dynamic::select::{forward_select, max_selected, sub_grid};
 use super::dynamic::sim_fit::fit_pct;
 use super::dynamic::split::search_split;
 use super::Fitted;
@@ -458,7 +458,7 @@ pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
             Some((sum / ds.targets.len() as f64, start.json()))
         })?;
     selection["orders_during_selection"] = start.json();
-    fit_inputs(&subset(ds, &idx), args, selection)
+    fit_inputs(&ds.with_inputs(&idx), args, selection)
 }
 
 /// The per-input order search and the final fit on `ds`'s inputs.

@@ -12,6 +12,8 @@ use nalgebra::{DMatrix, DVector};
 pub struct Tsqr {
     p: usize,
     r: Option<DMatrix<f64>>,
+    /// The block's rows column by column: cell `(row, j)` at
+    /// `j * BLOCK + row` (nalgebra's order, so a flush copies whole columns).
     buf: Vec<f64>,
     rows: usize,
     total: usize,
@@ -35,13 +37,19 @@ impl Tsqr {
 
     /// Adds one row: `x` (length p) and target `y`.
     pub fn push(&mut self, x: &[f64], y: f64) {
-        if self.buf.capacity() == 0 {
-            self.buf.reserve_exact(BLOCK * (self.p + 1));
-        }
-        self.buf.extend_from_slice(x);
-        self.buf.push(y);
-        self.rows += 1;
+        self.push_row(x.iter().copied().chain([y]));
         self.total += 1;
+    }
+
+    /// Adds the `p + 1` cells of one row of `[X | y]` to the block.
+    fn push_row(&mut self, cells: impl Iterator<Item = f64>) {
+        if self.buf.is_empty() {
+            self.buf.resize(BLOCK * (self.p + 1), 0.0);
+        }
+        for (column, v) in self.buf.chunks_exact_mut(BLOCK).zip(cells) {
+            column[self.rows] = v;
+        }
+        self.rows += 1;
         if self.rows == BLOCK {
             self.flush();
         }
@@ -52,18 +60,17 @@ impl Tsqr {
             return;
         }
         let c = self.p + 1;
-        let block = DMatrix::from_row_slice(self.rows, c, &self.buf);
-        let stacked = match self.r.take() {
-            None => block,
-            Some(r) => {
-                let mut s = DMatrix::zeros(r.nrows() + self.rows, c);
-                s.rows_mut(0, r.nrows()).copy_from(&r);
-                s.rows_mut(r.nrows(), self.rows).copy_from(&block);
-                s
-            }
-        };
+        let above = self.r.as_ref().map_or(0, DMatrix::nrows);
+        let mut stacked = DMatrix::zeros(above + self.rows, c);
+        if let Some(r) = self.r.take() {
+            stacked.rows_mut(0, above).copy_from(&r);
+        }
+        for (j, column) in self.buf.chunks_exact(BLOCK).enumerate() {
+            stacked
+                .view_mut((above, j), (self.rows, 1))
+                .copy_from_slice(&column[..self.rows]);
+        }
         self.r = Some(stacked.qr().r());
-        self.buf.clear();
         self.rows = 0;
     }
 
@@ -80,20 +87,16 @@ impl Tsqr {
     /// Adds every row `other` has seen, through its `R` (the same
     /// least-squares problem): combines row sets without another pass.
     pub fn absorb(&mut self, other: &Tsqr) {
-        let mut rows = other
-            .buf
-            .chunks_exact(other.p + 1)
-            .map(<[f64]>::to_vec)
-            .collect::<Vec<_>>();
+        let pending = (0..other.rows).map(|i| {
+            let row = other.buf.chunks_exact(BLOCK).map(move |column| column[i]);
+            row.collect::<Vec<_>>()
+        });
+        let mut rows: Vec<Vec<f64>> = pending.collect();
         if let Some(r) = &other.r {
             rows.extend(r.row_iter().map(|row| row.iter().copied().collect()));
         }
         for row in rows {
-            self.buf.extend_from_slice(&row);
-            self.rows += 1;
-            if self.rows == BLOCK {
-                self.flush();
-            }
+            self.push_row(row.into_iter());
         }
         self.total += other.total;
     }

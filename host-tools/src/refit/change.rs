@@ -4,6 +4,7 @@
 
 use super::stats::{drift_test, DriftTest, Sample};
 use super::ValidRefitParams;
+use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
 use crate::score::{score, TargetScore};
@@ -48,7 +49,7 @@ pub struct BaselineFigures {
 pub(crate) fn measured_outputs<'r>(
     runs: &'r [RunFile],
     outputs: &[String],
-) -> Result<Vec<Vec<&'r [Option<f64>]>>> {
+) -> Result<Vec<Vec<Cells<'r>>>> {
     runs.iter()
         .map(|r| {
             outputs
@@ -99,7 +100,7 @@ pub(crate) fn predictions(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<runn
 pub(crate) fn residual_samples(
     runs: &[RunFile],
     preds: &[runner::Prediction],
-    ys: &[Vec<&[Option<f64>]>],
+    ys: &[Vec<Cells<'_>>],
     k: usize,
 ) -> Vec<Vec<Sample>> {
     runs.iter()
@@ -108,7 +109,7 @@ pub(crate) fn residual_samples(
         .map(|((run, p), y)| {
             let t0 = run.t_s.first().copied().unwrap_or(0.0);
             (0..run.len())
-                .filter_map(|row| match (y[k][row], p.values[k][row]) {
+                .filter_map(|row| match (y[k].get(row), p.values[k][row]) {
                     (Some(y), Some(yhat)) => Some(Sample {
                         tau_h: (run.t_s[row] - t0) / 3600.0,
                         yhat,
@@ -151,7 +152,7 @@ pub(crate) fn test_outputs(
     old: &ValidModel,
     (runs, baseline): (&[RunFile], &[RunFile]),
     preds: &[runner::Prediction],
-    ys: &[Vec<&[Option<f64>]>],
+    ys: &[Vec<Cells<'_>>],
 ) -> Result<Vec<Verdict>> {
     let whole = |rs: &[RunFile]| -> Result<Vec<TargetScore>> {
         let pairs: Vec<(&RunFile, usize)> = rs.iter().map(|r| (r, r.len())).collect();

@@ -4,6 +4,7 @@
 //! with new coefficients written back into its form.
 
 use super::rls::Coefs;
+use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
 use anyhow::{anyhow, bail, Result};
@@ -22,7 +23,7 @@ pub(crate) type RegressorFn = Box<dyn Fn(&[f64]) -> Vec<f64>>;
 /// the runner applies them: `first` is the first row where every input has
 /// a value).
 pub(crate) fn model_inputs(model: &ValidModel, run: &RunFile) -> Result<Vec<Option<Vec<f64>>>> {
-    let cols: Vec<&[Option<f64>]> = model
+    let cols: Vec<Cells<'_>> = model
         .inputs()
         .iter()
         .map(|ch| {
@@ -35,10 +36,10 @@ pub(crate) fn model_inputs(model: &ValidModel, run: &RunFile) -> Result<Vec<Opti
             })
         })
         .collect::<Result<_>>()?;
-    let first = (0..run.len()).find(|&r| cols.iter().all(|c| c[r].is_some()));
+    let first = (0..run.len()).find(|&r| cols.iter().all(|c| c.get(r).is_some()));
     Ok((0..run.len())
         .map(|r| {
-            let raw: Option<Vec<f64>> = cols.iter().map(|c| c[r]).collect();
+            let raw: Option<Vec<f64>> = cols.iter().map(|c| c.get(r)).collect();
             raw.map(|raw| {
                 raw.iter()
                     .zip(model.inputs())
@@ -46,7 +47,7 @@ pub(crate) fn model_inputs(model: &ValidModel, run: &RunFile) -> Result<Vec<Opti
                     .map(|((v, ch), col)| match ch.reference {
                         Reference::Absolute => *v,
                         Reference::Value(x) => v - x,
-                        Reference::First => v - first.and_then(|f| col[f]).unwrap_or(*v),
+                        Reference::First => v - first.and_then(|f| col.get(f)).unwrap_or(*v),
                     })
                     .collect()
             })

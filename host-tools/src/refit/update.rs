@@ -8,6 +8,7 @@ use super::outcome::{Equation, UpdateEntry};
 use super::rls::{self, Coefs};
 use super::structure::{structures, with_updates, Structure};
 use super::{Method, ValidRefitParams};
+use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
@@ -55,7 +56,7 @@ pub(crate) struct UpdateSettings {
 pub(crate) fn update_rows(
     st: &Structure,
     runs: &[RunFile],
-    ys: &[&[Option<f64>]],
+    ys: &[Cells<'_>],
     split: &[usize],
     from_s: impl Fn(usize) -> f64,
 ) -> (Vec<Vec<f64>>, Vec<f64>) {
@@ -66,7 +67,7 @@ pub(crate) fn update_rows(
         for ((t, x), y) in rows {
             if let (true, Some(x), Some(y)) = (*t >= lo, x, y) {
                 xs.push(x.clone());
-                yv.push(*y);
+                yv.push(y);
             }
         }
     }
@@ -77,7 +78,7 @@ pub(crate) fn update_rows(
 pub(crate) fn update_one(
     st: &Structure,
     runs: &[RunFile],
-    ys: &[&[Option<f64>]],
+    ys: &[Cells<'_>],
     split: &[usize],
     s: &UpdateSettings,
 ) -> Result<Coefs> {
@@ -136,7 +137,7 @@ pub(crate) fn update_settings(
 /// where each run's held-out tail starts.
 pub(crate) struct UpdateData<'r> {
     pub(crate) runs: &'r [RunFile],
-    pub(crate) ys: &'r [Vec<&'r [Option<f64>]>],
+    pub(crate) ys: &'r [Vec<Cells<'r>>],
     pub(crate) split: &'r [usize],
 }
 
@@ -164,7 +165,7 @@ pub(crate) fn candidates(
     settings: &UpdateSettings,
     notes: &mut Vec<String>,
 ) -> Vec<(usize, Coefs)> {
-    let ys_k = |k: usize| -> Vec<&[Option<f64>]> { data.ys.iter().map(|y| y[k]).collect() };
+    let ys_k = |k: usize| -> Vec<Cells<'_>> { data.ys.iter().map(|y| y[k]).collect() };
     let mut out = Vec::new();
     for (k, v) in verdicts.iter().enumerate() {
         if !v.changed {

@@ -5,6 +5,7 @@
 
 use super::grey;
 use super::outcome::ScaleFallback;
+use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
 use crate::num::stats;
 use anyhow::{anyhow, bail, Result};
@@ -26,12 +27,13 @@ impl Table {
         let mut runs = Vec::with_capacity(files.len());
         let mut left_out = Vec::with_capacity(files.len());
         for f in files {
-            let src: Vec<&[Option<f64>]> =
-                names.iter().map(|n| f.column(n).unwrap_or(&[])).collect();
+            let src: Vec<Cells<'_>> = names
+                .iter()
+                .map(|n| f.column(n).unwrap_or_default())
+                .collect();
             let (mut kept, mut out) = (0usize, 0usize);
             for row in 0..f.len() {
-                let vals: Option<Vec<f64>> =
-                    src.iter().map(|c| c.get(row).copied().flatten()).collect();
+                let vals: Option<Vec<f64>> = src.iter().map(|c| c.get(row)).collect();
                 match vals {
                     Some(v) => {
                         for (col, x) in cols.iter_mut().zip(v) {

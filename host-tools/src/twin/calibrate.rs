@@ -161,7 +161,7 @@ impl Measured {
             );
         }
         let series = |name: &str, unit_floor: f64| -> Option<Series> {
-            let values = run.column(name)?.to_vec();
+            let values = run.column(name)?.to_options();
             Some(series(name, values, n_fit, unit_floor))
         };
         let is_disp = |c: &&String| c.ends_with("_um");

@@ -9,6 +9,7 @@
 //! | `file:PATH` | the `speed_rpm` (and, if present, `power_kw`, `tool_mm`) columns of a run file, on its own time grid |
 
 use super::rng::{Rng, Stream};
+use crate::data::cells::Cells;
 use crate::data::runfile::{ReadOptions, RunFile};
 use anyhow::{anyhow, bail, Result};
 use std::path::{Path, PathBuf};
@@ -200,8 +201,9 @@ fn from_file(path: &Path, hours: Option<f64>) -> Result<Schedule> {
         Some(h) => bail!("--hours must be finite and > 0 (got {h})"),
         None => run.len(),
     };
-    let dense = |name: &str, values: &[Option<f64>]| -> Result<Vec<f64>> {
-        values[..keep]
+    let dense = |name: &str, values: Cells<'_>| -> Result<Vec<f64>> {
+        values
+            .slice(0..keep)
             .iter()
             .zip(&run.t_s)
             .map(|(v, t)| v.ok_or_else(|| anyhow!("{file}: {name} is empty at t_s = {t}")))

@@ -158,19 +158,19 @@ pub fn cut_dataset(
     names: &Dataset,
     idx: &[usize],
     form: Form,
-) -> Dataset {
+) -> Dataset<'static> {
     let runs = cuts
         .iter()
         .map(|c| {
             let g = &grid[c.run];
-            let some = |v: &[f64]| v[..c.rows].iter().map(|&v| Some(v)).collect();
-            RunData {
-                name: g.name.clone(),
-                t_s: g.t_s[..c.rows].to_vec(),
-                x: idx.iter().map(|&i| some(&x[c.run][i])).collect(),
-                y: g.y.iter().map(|y| some(y)).collect(),
-                calib_end: c.calib,
-            }
+            let head = |v: &[f64]| v[..c.rows].to_vec();
+            RunData::owned(
+                g.name.clone(),
+                head(&g.t_s),
+                idx.iter().map(|&i| head(&x[c.run][i])).collect(),
+                g.y.iter().map(|y| head(y)).collect(),
+                c.calib,
+            )
         })
         .collect();
     Dataset {
@@ -216,7 +216,7 @@ pub struct Bench<'a> {
     grid: &'a [GridRun],
     folds: &'a Folds,
     /// Input and target names (inputs absolute on the grid).
-    ds: &'a Dataset,
+    ds: &'a Dataset<'a>,
     trainers: &'a Trainers,
     /// The grid's inputs in each form, every input referenced alike.
     xs: Vec<(Form, GridX)>,

@@ -160,10 +160,9 @@ fn holdout_figures(ds: &Dataset, net: &BpNet) -> Result<Value> {
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     for run in &ds.runs {
         for r in run.calib_end..run.t_s.len() {
-            let x: Option<Vec<f64>> = run.x.iter().map(|c| c[r]).collect();
-            if let Some(x) = x {
+            if let Some(x) = run.x_row(r) {
                 xs.push(x);
-                ys.push(run.y.iter().map(|c| c[r]).collect::<Vec<_>>());
+                ys.push((0..q).map(|k| run.y(k, r)).collect::<Vec<_>>());
             }
         }
     }

@@ -1,38 +1,15 @@
 //! Forward input selection shared by `arx` and `tf` (`--select-inputs
 //! forward`): a dataset or grid restricted to a subset of its inputs, the
-//! cap on how many inputs a bank can hold, and the greedy search that adds
+//! cap on how many inputs a bank can hold (the dataset's side is
+//! [`Dataset::with_inputs`]), and the greedy search that adds
 //! the input with the best score until the gain falls below a threshold.
 
 use super::options::DynamicOptions;
-use crate::data::dataset::{Dataset, GridRun, InputForm};
+use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
 use anyhow::{bail, Result};
 use model_core::tf::MAX_TF_ENTRIES;
 use serde_json::{json, Map, Value};
-
-/// `ds` restricted to the inputs `idx` (in that order). In the change form
-/// the reference is re-taken at the first row where every kept input has a
-/// value, as the hub will take it for a model with only those inputs.
-pub fn subset(ds: &Dataset, idx: &[usize]) -> Dataset {
-    let mut out = ds.clone();
-    out.inputs = idx.iter().map(|&i| ds.inputs[i].clone()).collect();
-    for run in &mut out.runs {
-        let mut x: Vec<Vec<Option<f64>>> = idx.iter().map(|&i| run.x[i].clone()).collect();
-        if ds.form == InputForm::Change {
-            let n = run.t_s.len();
-            if let Some(first) = (0..n).find(|&r| x.iter().all(|c| c[r].is_some())) {
-                for c in &mut x {
-                    let r0 = c[first].unwrap_or(0.0);
-                    for v in c.iter_mut().flatten() {
-                        *v -= r0;
-                    }
-                }
-            }
-        }
-        run.x = x;
-    }
-    out
-}
 
 /// Grid runs with only the inputs `idx`.
 pub fn sub_grid(grid: &[GridRun], idx: &[usize]) -> Vec<GridRun> {
@@ -48,7 +25,7 @@ pub fn sub_grid(grid: &[GridRun], idx: &[usize]) -> Vec<GridRun> {
 }
 
 /// Names only (no rows): enough for [`bank`]'s model-core check.
-pub fn names_only(ds: &Dataset, idx: &[usize]) -> Dataset {
+pub fn names_only(ds: &Dataset, idx: &[usize]) -> Dataset<'static> {
     Dataset {
         inputs: idx.iter().map(|&i| ds.inputs[i].clone()).collect(),
         targets: ds.targets.clone(),
