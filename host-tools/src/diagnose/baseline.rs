@@ -29,7 +29,7 @@
 //! of a temperature sensor much faster than its part.
 
 use super::align::{Aligned, Channel, Col};
-use crate::num::lsq;
+use crate::num::{batch, lsq};
 
 /// Time constants tried for a channel's own response, s (5 min .. 6 h: the
 /// twin's fastest sensor sites to its structure's 1.9 h and beyond).
@@ -117,7 +117,7 @@ pub fn channel_tau_s(t_s: &[f64], sim: &[f64], shapes: &[Vec<f64>; 2]) -> f64 {
     for tau in CHANNEL_TAUS_S {
         let ab = lsq::lowpass_each(t_s, &[(&shapes[0], tau, 0.0), (&shapes[1], tau, 0.0)]);
         let cols = [&one[..], &ab[0], &ab[1]];
-        if let Some(f) = lsq::solve_streamed(&cols, sim, None, 0..n, &[]) {
+        if let Some(f) = batch::solve_streamed(&cols, sim, None, 0..n, &[]) {
             if f.sse_fit < best.0 {
                 best = (f.sse_fit, tau);
             }
@@ -173,7 +173,7 @@ fn load_priors(sim: &[f64], speed: &[Col; 2], loads: &[Load], swing: f64) -> Vec
     let one = vec![1.0; n];
     let mut cols: Vec<&[f64]> = vec![&one, &speed[0], &speed[1]];
     cols.extend(loads.iter().map(|l| l.0.as_slice()));
-    let coef = lsq::solve_streamed(&cols, sim, None, 0..n, &[])
+    let coef = batch::solve_streamed(&cols, sim, None, 0..n, &[])
         .map_or_else(|| vec![0.0; cols.len()], |f| f.coef);
     (3..cols.len())
         .map(|j| {
@@ -182,7 +182,7 @@ fn load_priors(sim: &[f64], speed: &[Col; 2], loads: &[Load], swing: f64) -> Vec
                 .map(|i| cols[i])
                 .collect();
             let sst = spread(cols[j]).powi(2) * n as f64;
-            let r2 = lsq::solve_streamed(&others, cols[j], None, 0..n, &[])
+            let r2 = batch::solve_streamed(&others, cols[j], None, 0..n, &[])
                 .map_or(0.0, |f| (1.0 - f.sse_fit / sst.max(1e-300)).clamp(0.0, 1.0));
             let own_input = loads[j - 3].2;
             let unidentified = if own_input {

@@ -169,7 +169,7 @@ impl Design {
     pub(super) fn fit_alone(&self, y: &[f64], rows: &Rows) -> Option<LinearFit> {
         let cols = self.base.slices();
         let scales = self.scales_with(&[], rows);
-        let s = lsq::solve_scaled(&cols, &scales, y, None, rows.clone(), &self.penalty)?;
+        let s = batch::solve_scaled(&cols, &scales, y, None, rows.clone(), &self.penalty)?;
         Some(LinearFit {
             pred: lsq::predict(&cols, &s.coef, None, y.len()),
             coef: s.coef,
@@ -192,7 +192,7 @@ impl Design {
     /// columns, none copied, and no prediction made. Returns the
     /// coefficients (baseline, then `v`'s regressors) and the fit-part
     /// error, or `None` if the fit fails or breaks `v`'s sign rule.
-    pub(super) fn solve(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<lsq::Solved> {
+    pub(super) fn solve(&self, v: &Variant, y: &[f64], rows: &Rows) -> Option<batch::Solved> {
         self.solve_many(&[v], y, rows).pop().flatten()
     }
 
@@ -205,7 +205,7 @@ impl Design {
         vars: &[&Variant],
         y: &[f64],
         rows: &Rows,
-    ) -> Vec<Option<lsq::Solved>> {
+    ) -> Vec<Option<batch::Solved>> {
         let mut known = super::batch::Scales::new(rows.clone());
         let designs: Vec<Batched> = vars
             .iter()
@@ -234,7 +234,7 @@ impl Design {
 
     /// The fit `s` of variant `v` ([`Design::solve`]) with its prediction
     /// on every row (`v`'s fixed part added back).
-    fn predicted(&self, v: &Variant, s: lsq::Solved, n: usize) -> LinearFit {
+    fn predicted(&self, v: &Variant, s: batch::Solved, n: usize) -> LinearFit {
         LinearFit {
             pred: lsq::predict(&self.columns(v), &s.coef, v.fixed_part.as_deref(), n),
             coef: s.coef,
@@ -256,7 +256,7 @@ impl Design {
         y: &[f64],
         rows: &Rows,
     ) -> Option<(LinearFit, Variant)> {
-        let mut best: Option<(lsq::Solved, Variant)> = None;
+        let mut best: Option<(batch::Solved, Variant)> = None;
         for batch in super::batch::batches(vars.into_iter(), |v| v) {
             let refs: Vec<&Variant> = batch.iter().collect();
             let solved = self.solve_many(&refs, y, rows);

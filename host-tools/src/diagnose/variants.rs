@@ -21,7 +21,7 @@ use super::chiller::CHILLER_BAND_S;
 use super::problem::Problem;
 use super::regime;
 use super::spectrum;
-use crate::num::lsq;
+use crate::num::{batch, lsq};
 
 /// Time constants of ambient responses, s (0.5 h .. 8 h).
 const AMBIENT_TAUS_S: [f64; 5] = [1800.0, 3600.0, 7200.0, 14400.0, 28800.0];
@@ -359,7 +359,7 @@ fn chiller_component(
 ) -> Option<(f64, Vec<f64>)> {
     let base = baseline::mismatch_baseline(al, c);
     let penalty = base.penalties(&c.resid, rows.clone());
-    let f = lsq::fit_streamed(&base.slices(), &c.resid, None, rows.clone(), &penalty)?;
+    let f = batch::fit_streamed(&base.slices(), &c.resid, None, rows.clone(), &penalty)?;
     let left: Vec<f64> = c.resid.iter().zip(&f.pred).map(|(r, q)| r - q).collect();
     let x = band_pass(&al.t_s, &left, CHILLER_BAND_S);
     let white = 0.45 * lsq::noise_sigma(&c.resid).max(1e-12);

@@ -149,7 +149,7 @@ pub fn fit(ds: &Dataset, args: &PcrOptions) -> Result<Fitted> {
     let (mean, std) = linalg::moments(&x, m);
     let z = linalg::standardised(&x, &mean, &std);
     let corr = (z.transpose() * &z) / (n as f64 - 1.0);
-    let eig = linalg::symmetric_eigen(corr)?;
+    let eig = crate::num::decomp::symmetric_eigen(corr)?;
     let (order, values) = ranked_components(&eig);
     let total: f64 = values.iter().sum();
     if total <= 0.0 {

@@ -311,7 +311,7 @@ fn damped_step(
         }
     });
     let b = DVector::from_fn(k + p, |i, _| if i < k { z[i] } else { 0.0 });
-    let svd = crate::num::linalg::svd(a).ok()?;
+    let svd = crate::num::decomp::svd(a).ok()?;
     let tol = 1e-13 * svd.singular_values.max();
     svd.solve(&b, tol).ok()
 }

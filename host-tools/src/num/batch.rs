@@ -1,5 +1,7 @@
-//! Many streamed least-squares fits over shared columns in one walk of the
-//! rows: a grid search fits one design per grid point, each the same
+//! Streamed least squares: one fit straight from borrowed columns through a
+//! blocked QR ([`fit_streamed`], [`solve_streamed`]), and many over shared
+//! columns in one walk of the rows ([`solve_batch`]), of which one fit is
+//! the batch of one. Many fits: a grid search fits one design per grid point, each the same
 //! baseline columns plus a few of its own, on the same rows. Fitted one
 //! after the other, every design reads every column of every row again,
 //! and on a long run (8 MB a column at 10^6 rows) each read comes from
@@ -10,12 +12,81 @@
 //! fit-part error.
 //!
 //! Each design sees exactly the pushes, in the same order, and its error
-//! the same sums in the same order, as [`super::lsq::solve_scaled`] of it
+//! the same sums in the same order, as [`solve_scaled`] of it
 //! alone would: the results are the same to the bit.
 
-use super::lsq::{live_of, predict_into, solve_triangle, Solved};
+use super::lsq::{self, live_of, predict_into, solve_triangle};
 use super::tsqr::{Tsqr, BLOCK};
 use std::ops::Range;
+
+/// [`super::lsq::fit_rows_penalised`] streamed: the rows go through a blocked QR
+/// ([`super::tsqr::Tsqr`]) straight from the borrowed columns, so no `n x k` matrix is
+/// built (memory for one block, one pass per fit), and the target is
+/// `y - fixed` (`fixed`: a part of the prediction whose gain is fixed at
+/// one) without a copy. The prediction returned includes `fixed`, and
+/// `sse_fit` is of `y` minus it on `rows`. The same scaling, rank
+/// tolerance and penalty rows as [`super::lsq::fit_rows_penalised`]; the solutions
+/// agree to rounding (the R factor of a blocked QR equals the one of a
+/// whole-matrix QR up to the signs of its rows).
+pub fn fit_streamed(
+    cols: &[&[f64]],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    penalty: &[f64],
+) -> Option<lsq::LinearFit> {
+    let s = solve_streamed(cols, y, fixed, rows, penalty)?;
+    Some(lsq::LinearFit {
+        pred: lsq::predict(cols, &s.coef, fixed, y.len()),
+        coef: s.coef,
+        sse_fit: s.sse_fit,
+    })
+}
+
+/// A streamed fit without its prediction ([`solve_streamed`]): what a
+/// search over many designs compares, the prediction being wanted of the
+/// one it keeps only ([`super::lsq::predict`]).
+#[derive(Debug, Clone)]
+pub struct Solved {
+    /// One coefficient per regressor (0 for a dead one).
+    pub coef: Vec<f64>,
+    /// Sum of squared residuals on the fit rows.
+    pub sse_fit: f64,
+}
+
+/// [`fit_streamed`] without the prediction: the coefficients and the fit
+/// rows' sum of squares, the same to the bit (each row's prediction is
+/// summed in the same order, block by block, never stored whole).
+pub fn solve_streamed(
+    cols: &[&[f64]],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    penalty: &[f64],
+) -> Option<Solved> {
+    let scales = lsq::column_scales(cols, &rows);
+    solve_scaled(cols, &scales, y, fixed, rows, penalty)
+}
+
+/// [`solve_streamed`] with the columns' scales on `rows` given
+/// ([`super::lsq::column_scales`]: the caller keeps those of the columns many fits
+/// share). [`solve_batch`] of one design.
+pub fn solve_scaled(
+    cols: &[&[f64]],
+    scales: &[f64],
+    y: &[f64],
+    fixed: Option<&[f64]>,
+    rows: std::ops::Range<usize>,
+    penalty: &[f64],
+) -> Option<Solved> {
+    let design = Batched {
+        cols: cols.to_vec(),
+        scales: scales.to_vec(),
+        fixed,
+        penalty,
+    };
+    solve_batch(&[design], y, rows).pop().flatten()
+}
 
 /// Rows of a block: the block's columns (a baseline's eight and a grid's
 /// responses, 16 kB each) stay in a core's cache while every design of
@@ -39,7 +110,7 @@ pub struct Batched<'a> {
     pub penalty: &'a [f64],
 }
 
-/// Each design fitted to `y` on `rows` as [`super::lsq::solve_scaled`]
+/// Each design fitted to `y` on `rows` as [`solve_scaled`]
 /// fits it (`None` where that gives `None`), in one walk of the rows for
 /// the blocked QRs and one for the fit-part errors.
 pub fn solve_batch(designs: &[Batched], y: &[f64], rows: Range<usize>) -> Vec<Option<Solved>> {
@@ -156,7 +227,7 @@ fn errors(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::num::lsq::{column_scales, lowpass, solve_scaled};
+    use crate::num::lsq::{column_scales, lowpass};
 
     /// A design's columns and fixed part.
     type Set<'a> = (Vec<&'a [f64]>, Option<&'a [f64]>);

@@ -15,7 +15,7 @@ pub(super) fn solve_triangle(
     live: &[usize],
     scales: &[f64],
 ) -> Option<Vec<f64>> {
-    let svd = crate::num::linalg::svd(r).ok()?;
+    let svd = crate::num::decomp::svd(r).ok()?;
     let smax = svd.singular_values.max();
     let x = svd.solve(&qtb, smax * 1e-10).ok()?;
     let mut coef = vec![0.0; scales.len()];
@@ -206,77 +206,6 @@ pub fn fit_rows_penalised(
     })
 }
 
-/// [`fit_rows_penalised`] streamed: the rows go through a blocked QR
-/// ([`super::tsqr::Tsqr`]) straight from the borrowed columns, so no `n x k` matrix is
-/// built (memory for one block, one pass per fit), and the target is
-/// `y - fixed` (`fixed`: a part of the prediction whose gain is fixed at
-/// one) without a copy. The prediction returned includes `fixed`, and
-/// `sse_fit` is of `y` minus it on `rows`. The same scaling, rank
-/// tolerance and penalty rows as [`fit_rows_penalised`]; the solutions
-/// agree to rounding (the R factor of a blocked QR equals the one of a
-/// whole-matrix QR up to the signs of its rows).
-pub fn fit_streamed(
-    cols: &[&[f64]],
-    y: &[f64],
-    fixed: Option<&[f64]>,
-    rows: std::ops::Range<usize>,
-    penalty: &[f64],
-) -> Option<LinearFit> {
-    let s = solve_streamed(cols, y, fixed, rows, penalty)?;
-    Some(LinearFit {
-        pred: predict(cols, &s.coef, fixed, y.len()),
-        coef: s.coef,
-        sse_fit: s.sse_fit,
-    })
-}
-
-/// A streamed fit without its prediction ([`solve_streamed`]): what a
-/// search over many designs compares, the prediction being wanted of the
-/// one it keeps only ([`predict`]).
-#[derive(Debug, Clone)]
-pub struct Solved {
-    /// One coefficient per regressor (0 for a dead one).
-    pub coef: Vec<f64>,
-    /// Sum of squared residuals on the fit rows.
-    pub sse_fit: f64,
-}
-
-/// [`fit_streamed`] without the prediction: the coefficients and the fit
-/// rows' sum of squares, the same to the bit (each row's prediction is
-/// summed in the same order, block by block, never stored whole).
-pub fn solve_streamed(
-    cols: &[&[f64]],
-    y: &[f64],
-    fixed: Option<&[f64]>,
-    rows: std::ops::Range<usize>,
-    penalty: &[f64],
-) -> Option<Solved> {
-    let scales = column_scales(cols, &rows);
-    solve_scaled(cols, &scales, y, fixed, rows, penalty)
-}
-
-/// [`solve_streamed`] with the columns' scales on `rows` given
-/// ([`column_scales`]: the caller keeps those of the columns many fits
-/// share). [`super::batch::solve_batch`] of one design.
-pub fn solve_scaled(
-    cols: &[&[f64]],
-    scales: &[f64],
-    y: &[f64],
-    fixed: Option<&[f64]>,
-    rows: std::ops::Range<usize>,
-    penalty: &[f64],
-) -> Option<Solved> {
-    let design = super::batch::Batched {
-        cols: cols.to_vec(),
-        scales: scales.to_vec(),
-        fixed,
-        penalty,
-    };
-    super::batch::solve_batch(&[design], y, rows)
-        .pop()
-        .flatten()
-}
-
 /// The prediction `fixed + sum_j coef_j cols_j` on rows `rows` into
 /// `out`, summed column by column in order (the bits of [`predict`]).
 pub(super) fn predict_into(
@@ -358,6 +287,7 @@ fn median_abs_sigma(d: impl Iterator<Item = f64>, var_factor: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::num::batch::fit_streamed;
 
     #[test]
     fn lowpass_matches_the_closed_form_step_response() {

@@ -3,6 +3,7 @@
 //! never from a sibling job.
 
 pub mod batch;
+pub mod decomp;
 pub mod distributions;
 pub mod linalg;
 pub mod lp3;

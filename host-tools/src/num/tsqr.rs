@@ -201,7 +201,7 @@ impl Triangle {
                 0.0
             }
         });
-        let svd = crate::num::linalg::svd(scaled)?;
+        let svd = crate::num::decomp::svd(scaled)?;
         let tol = 1e-10 * svd.singular_values.max();
         let beta = svd
             .solve(&zz, tol)

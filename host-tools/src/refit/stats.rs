@@ -74,7 +74,7 @@ fn mean_std(v: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
 /// `None` for non-finite entries or no convergence.
 fn pinv_sym(a: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
     let sym = (a + a.transpose()) * 0.5;
-    let eig = crate::num::linalg::symmetric_eigen(sym).ok()?;
+    let eig = crate::num::decomp::symmetric_eigen(sym).ok()?;
     let top = eig.eigenvalues.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     let n = a.nrows();
     let mut inv = DMatrix::zeros(n, n);

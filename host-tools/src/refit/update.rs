@@ -34,7 +34,7 @@ pub(crate) fn gains_ls(rows: &[Vec<f64>], y: &[f64], m: usize) -> Result<Vec<f64
             0.0
         }
     });
-    let svd = crate::num::linalg::svd(a)?;
+    let svd = crate::num::decomp::svd(a)?;
     let tol = 1e-10 * svd.singular_values.max();
     let g = svd
         .solve(&DVector::from_column_slice(y), tol)
