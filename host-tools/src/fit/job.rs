@@ -6,13 +6,14 @@
 use super::{arma, arx, auto, bp, gain, mlr, pcr, tfbank, FitKind, Fitted, AUTO_EXTRA_INPUTS};
 use crate::data::dataset::{Dataset, InputForm};
 use crate::data::runfile::{ReadOptions, RunFile};
-use crate::eval::MetricsReport;
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
 use model_core::ValidModel;
 use serde::Serialize;
 use serde_json::Value;
 use std::collections::BTreeMap;
+
+pub use crate::score::TargetReport;
 
 /// Every kind's training options; [`Default`] is `thermcomp fit`'s
 /// defaults (the CLI's flag groups convert into it, `cli::fit`).
@@ -151,27 +152,6 @@ impl ValidFitParams {
             .into_iter()
             .filter(|c| !p.targets.contains(c))
             .collect())
-    }
-}
-
-/// One target's figures on calibration and held-out rows.
-#[derive(Clone, Debug, Serialize)]
-pub struct TargetReport {
-    /// Over calibration rows (`null` if none).
-    pub calibration: Option<MetricsReport>,
-    /// Over held-out rows (`null` if none).
-    pub holdout: Option<MetricsReport>,
-    /// Rows with no prediction or no measured value.
-    pub rows_not_scored: usize,
-}
-
-impl From<&TargetScore> for TargetReport {
-    fn from(t: &TargetScore) -> Self {
-        Self {
-            calibration: t.calibration.as_ref().map(MetricsReport::from),
-            holdout: t.holdout.as_ref().map(MetricsReport::from),
-            rows_not_scored: t.rows_not_scored,
-        }
     }
 }
 
