@@ -5,13 +5,12 @@
 //! they belong to.
 
 use crate::data::runfile::RunFile;
-use crate::eval::{metrics_json, MetricsReport};
+use crate::eval::MetricsReport;
 use crate::runner::{self, ColumnMap};
 use anyhow::{anyhow, Result};
 use model_core::metrics::{Metrics, MetricsAccumulator};
 use model_core::ValidModel;
 use serde::Serialize;
-use serde_json::{json, Value};
 
 /// One output's figures.
 #[derive(Clone, Debug)]
@@ -25,17 +24,6 @@ pub struct TargetScore {
     /// Rows with no prediction or no measured value: not in either `n`
     /// (and reported on stderr when there are any).
     pub rows_not_scored: usize,
-}
-
-impl TargetScore {
-    /// `{"calibration": {...}, "holdout": {...}}` with eval's keys.
-    pub fn json(&self) -> Value {
-        json!({
-            "calibration": self.calibration.as_ref().map(metrics_json),
-            "holdout": self.holdout.as_ref().map(metrics_json),
-            "rows_not_scored": self.rows_not_scored,
-        })
-    }
 }
 
 /// One target's figures on calibration and held-out rows, under eval's
