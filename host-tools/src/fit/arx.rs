@@ -52,7 +52,7 @@ use super::dynamic::select::{
 };
 use super::dynamic::sim_fit::fit_pct;
 use super::dynamic::split::{SchemeReport, SearchScheme};
-use super::Fitted;
+use super::{Details, Fitted};
 use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
 use crate::num::tsqr::{Triangle, Tsqr};
@@ -687,7 +687,7 @@ fn fit_inputs(
     };
     Ok(Fitted {
         model,
-        details: serde_json::to_value(&details)?,
+        details: Details::Arx(Box::new(details)),
     })
 }
 

@@ -11,7 +11,7 @@
 //! numerators of those entries by `g` (poles, hence time constants, stay).
 
 use super::dynamic::options::DynamicOptions;
-use super::Fitted;
+use super::{Details, Fitted};
 use crate::data::dataset::Dataset;
 use crate::data::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
@@ -216,6 +216,6 @@ pub fn fit(
     };
     Ok(Fitted {
         model,
-        details: serde_json::to_value(&details)?,
+        details: Details::Gain(details),
     })
 }

@@ -3,14 +3,15 @@
 //! memory -> [`FitOutcome`], whose [`FitReport`] serialises to the object
 //! `fit --json` prints (less its `out`, the path the CLI wrote).
 
-use super::{arma, arx, auto, bp, gain, mlr, pcr, tfbank, FitKind, Fitted, AUTO_EXTRA_INPUTS};
+use super::{
+    arma, arx, auto, bp, gain, mlr, pcr, tfbank, Details, FitKind, Fitted, AUTO_EXTRA_INPUTS,
+};
 use crate::data::dataset::{Dataset, InputForm};
 use crate::data::runfile::{ReadOptions, RunFile};
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
 use model_core::ValidModel;
 use serde::Serialize;
-use serde_json::Value;
 use std::collections::BTreeMap;
 
 pub use crate::score::TargetReport;
@@ -180,7 +181,7 @@ pub struct FitReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub l_defl_mm: Option<f64>,
     /// Kind-specific figures (search tables, chosen orders, ...).
-    pub details: Value,
+    pub details: Details,
 }
 
 /// What [`fit`] produced.
@@ -265,7 +266,7 @@ fn train(
                 eliminate: o.auto.auto_eliminate,
                 families: o.auto.auto_families.clone(),
             };
-            Ok(auto::fit(ds, &params.check(ds)?)?.0)
+            auto::fit(ds, &params.check(ds)?)
         }
         FitKind::Mlr => mlr::fit(ds),
         FitKind::Pcr => pcr::fit(ds, &o.pcr),

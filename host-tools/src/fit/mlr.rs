@@ -1,7 +1,7 @@
 //! Multiple linear regression (seed 002, Eq. 2-6): one least-squares
 //! equation per target on the calibration rows, written as a `linear` model.
 
-use super::{channels, outputs, Fitted};
+use super::{channels, outputs, Details, Fitted};
 use crate::data::dataset::Dataset;
 use crate::num::linalg;
 use anyhow::{anyhow, Result};
@@ -78,6 +78,6 @@ pub fn fit(ds: &Dataset) -> Result<Fitted> {
     };
     Ok(Fitted {
         model,
-        details: serde_json::to_value(&details)?,
+        details: Details::Mlr(details),
     })
 }

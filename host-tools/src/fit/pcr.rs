@@ -7,7 +7,7 @@
 //! the PCR form, with the standardisation folded into each component:
 //! `C_j = c_j + sum_i w_ji x_i`, `w_ji = v_ij / s_i`, `c_j = -sum_i v_ij m_i / s_i`.
 
-use super::{channels, outputs, Fitted};
+use super::{channels, outputs, Details, Fitted};
 use crate::data::dataset::Dataset;
 use crate::num::linalg;
 use anyhow::{anyhow, bail, Result};
@@ -261,6 +261,6 @@ pub fn fit(ds: &Dataset, args: &PcrOptions) -> Result<Fitted> {
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;
     Ok(Fitted {
         model,
-        details: serde_json::to_value(&details)?,
+        details: Details::Pcr(details),
     })
 }

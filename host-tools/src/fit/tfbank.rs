@@ -38,7 +38,7 @@ use super::dynamic::select::{
 };
 use super::dynamic::sim_fit::fit_pct;
 use super::dynamic::split::search_split;
-use super::Fitted;
+use super::{Details, Fitted};
 use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
 use crate::num::tsqr::Tsqr;
@@ -682,7 +682,7 @@ fn fit_inputs(
     };
     Ok(Fitted {
         model,
-        details: serde_json::to_value(&details)?,
+        details: Details::Tf(Box::new(details)),
     })
 }
 

@@ -31,7 +31,7 @@ pub mod report;
 pub mod transform;
 pub mod yule_walker;
 
-use super::{channels, outputs, Fitted};
+use super::{channels, outputs, Details, Fitted};
 use crate::data::dataset::{Dataset, GridRun, RunData};
 use anyhow::{anyhow, bail, Result};
 use estimate::Estimate;
@@ -444,6 +444,6 @@ pub fn fit(ds: &Dataset, args: &ArmaOptions, dt_s: Option<f64>) -> Result<Fitted
     };
     Ok(Fitted {
         model,
-        details: serde_json::to_value(&details)?,
+        details: Details::Arma(Box::new(details)),
     })
 }

@@ -25,7 +25,7 @@ pub mod lm;
 pub mod net;
 pub mod report;
 
-use super::{channels, outputs, Fitted};
+use super::{channels, outputs, Details, Fitted};
 use crate::data::dataset::Dataset;
 use crate::num::linalg;
 use crate::num::progress::progress;
@@ -412,7 +412,7 @@ pub fn fit(ds: &Dataset, args: &BpOptions, genetic: bool) -> Result<Fitted> {
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;
     Ok(Fitted {
         model,
-        details: serde_json::to_value(&details)?,
+        details: Details::Bp(Box::new(details)),
     })
 }
 
