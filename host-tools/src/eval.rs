@@ -8,7 +8,6 @@ use anyhow::{anyhow, bail, Result};
 use model_core::metrics::{Metrics, MetricsAccumulator};
 use model_core::ValidModel;
 use serde::Serialize;
-use serde_json::Value;
 
 /// One set of figures under the contract's metric keys (CONTRACT.md
 /// section 1) and a few more: what `eval --json` and `fit --json` print.
@@ -60,11 +59,6 @@ impl From<&Metrics> for MetricsReport {
             residual_max_um: m.residual_max,
         }
     }
-}
-
-/// [`MetricsReport`] as a JSON value (for trainers' `details`).
-pub fn metrics_json(m: &Metrics) -> Value {
-    serde_json::to_value(MetricsReport::from(m)).unwrap_or(Value::Null)
 }
 
 /// `eval`'s figures for one model output, over all runs and per run.

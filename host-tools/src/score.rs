@@ -5,12 +5,12 @@
 //! they belong to.
 
 use crate::data::runfile::RunFile;
-use crate::eval::metrics_json;
+use crate::eval::MetricsReport;
 use crate::runner::{self, ColumnMap};
 use anyhow::{anyhow, Result};
 use model_core::metrics::{Metrics, MetricsAccumulator};
 use model_core::ValidModel;
-use serde_json::{json, Value};
+use serde::Serialize;
 
 /// One output's figures.
 #[derive(Clone, Debug)]
@@ -26,14 +26,25 @@ pub struct TargetScore {
     pub rows_not_scored: usize,
 }
 
-impl TargetScore {
-    /// `{"calibration": {...}, "holdout": {...}}` with eval's keys.
-    pub fn json(&self) -> Value {
-        json!({
-            "calibration": self.calibration.as_ref().map(metrics_json),
-            "holdout": self.holdout.as_ref().map(metrics_json),
-            "rows_not_scored": self.rows_not_scored,
-        })
+/// One target's figures on calibration and held-out rows, under eval's
+/// keys: what `fit --json` reports per target.
+#[derive(Clone, Debug, Serialize)]
+pub struct TargetReport {
+    /// Over calibration rows (`null` if none).
+    pub calibration: Option<MetricsReport>,
+    /// Over held-out rows (`null` if none).
+    pub holdout: Option<MetricsReport>,
+    /// Rows with no prediction or no measured value.
+    pub rows_not_scored: usize,
+}
+
+impl From<&TargetScore> for TargetReport {
+    fn from(t: &TargetScore) -> Self {
+        Self {
+            calibration: t.calibration.as_ref().map(MetricsReport::from),
+            holdout: t.holdout.as_ref().map(MetricsReport::from),
+            rows_not_scored: t.rows_not_scored,
+        }
     }
 }
 

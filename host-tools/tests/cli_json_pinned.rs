@@ -26,9 +26,16 @@
 //! binary and is `#[ignore]`d in the plain test run; `.ci/run` builds the
 //! release binary and runs it with `--ignored`.
 //!
+//! The `details` of `fit` for pcr, arx, tf, bp, gabp and arma (the
+//! `fit_<kind>*.json` fixtures but fit_mlr and fit_auto) were captured with
+//! the release binary of commit c138810, the last whose trainers built
+//! `details` as `serde_json::Value`: they pin that the typed reports
+//! (`fit::Details`) serialise to what the `json!` code printed.
+//!
 //! Masked before comparing, because they legitimately vary: every key named
-//! `seconds` (wall-clock time of an auto candidate) and `out` (the blob path,
-//! a temporary directory here).
+//! `seconds` (wall-clock time of an auto candidate, an LM or GA run) or
+//! `ga_seconds` (gabp's GA), and `out` (the blob path, a temporary directory
+//! here).
 
 mod common;
 
@@ -86,10 +93,14 @@ fn mask(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     let mut rest = text;
     loop {
-        let next = [("\"seconds\":", false), ("\"out\":\"", true)]
-            .into_iter()
-            .filter_map(|(key, quoted)| rest.find(key).map(|i| (i, key, quoted)))
-            .min_by_key(|(i, _, _)| *i);
+        let next = [
+            ("\"seconds\":", false),
+            ("\"ga_seconds\":", false),
+            ("\"out\":\"", true),
+        ]
+        .into_iter()
+        .filter_map(|(key, quoted)| rest.find(key).map(|i| (i, key, quoted)))
+        .min_by_key(|(i, _, _)| *i);
         let Some((i, key, quoted)) = next else {
             out.push_str(rest);
             return out;
@@ -183,6 +194,124 @@ fn fit_auto_json_is_unchanged() {
             "--json",
         ],
         "fit_auto.json",
+    );
+}
+
+/// `fit --json` on [`SPINDLE`] (target dz_um, held out from 12 h) with the
+/// kind's `args`, against the fixture `fixture_name`.
+fn pinned_fit(args: &[&str], fixture_name: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.bin");
+    let mut all = vec![
+        "fit",
+        "--data",
+        SPINDLE,
+        "--target",
+        "dz_um",
+        "--holdout-from-s",
+        "43200",
+    ];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--out", p(&out), "--json"]);
+    pinned(&debug_bin(), &all, fixture_name);
+}
+
+#[test]
+fn fit_pcr_json_is_unchanged() {
+    pinned_fit(&["--model", "pcr"], "fit_pcr.json");
+}
+
+/// Forward selection and the tail search scheme (`--search-folds 1`).
+#[test]
+fn fit_arx_json_is_unchanged() {
+    pinned_fit(
+        &[
+            "--model",
+            "arx",
+            "--inputs",
+            "T1,T2,T3,T5,speed_rpm",
+            "--select-inputs",
+            "forward",
+            "--max-inputs",
+            "3",
+            "--search-folds",
+            "1",
+        ],
+        "fit_arx_forward.json",
+    );
+}
+
+#[test]
+fn fit_tf_json_is_unchanged() {
+    pinned_fit(
+        &[
+            "--model",
+            "tf",
+            "--inputs",
+            "T1,T2,T3",
+            "--select-inputs",
+            "forward",
+            "--max-inputs",
+            "2",
+            "--lm-iterations",
+            "5",
+        ],
+        "fit_tf_forward.json",
+    );
+}
+
+/// `--goal 0`: never reached, so no time-to-goal (wall-clock) is printed.
+#[test]
+fn fit_bp_json_is_unchanged() {
+    pinned_fit(
+        &[
+            "--model",
+            "bp",
+            "--inputs",
+            "T1,T2,T3,T5",
+            "--hidden",
+            "4",
+            "--epochs",
+            "20",
+            "--goal",
+            "0",
+        ],
+        "fit_bp.json",
+    );
+}
+
+/// With the convergence comparison (LM and gradient-descent runs).
+#[test]
+fn fit_gabp_json_is_unchanged() {
+    pinned_fit(
+        &[
+            "--model",
+            "gabp",
+            "--inputs",
+            "T1,T2,T3,T5",
+            "--epochs",
+            "10",
+            "--ga-population",
+            "4",
+            "--ga-generations",
+            "2",
+            "--ga-hidden",
+            "2..4",
+            "--gd-epochs",
+            "20",
+            "--report-convergence",
+            "--goal",
+            "0",
+        ],
+        "fit_gabp_convergence.json",
+    );
+}
+
+#[test]
+fn fit_arma_json_is_unchanged() {
+    pinned_fit(
+        &["--model", "arma", "--max-p", "2", "--max-q", "2"],
+        "fit_arma.json",
     );
 }
 

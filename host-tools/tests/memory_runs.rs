@@ -136,6 +136,14 @@ fn typed_fit_matches_fit_files_figure_for_figure() {
         4321 - 1440,
         "rows from 12 h on at 30 s: 1440 calibrate"
     );
+    // The kind's figures are typed: a library caller reads them without JSON keys.
+    let host_tools::fit::Details::Mlr(mlr) = &typed.report.details else {
+        panic!("an mlr fit reports MlrDetails");
+    };
+    let eq = &mlr.equations["dz_um"];
+    let inputs: Vec<&String> = eq.coef.keys().collect();
+    assert_eq!(inputs, ["T1", "T3", "speed_rpm"]);
+    assert!(eq.intercept.is_finite());
 }
 
 #[test]

@@ -43,14 +43,16 @@
 //! Export: one TF entry per (input, target), `a = [0; nk] ++ B_i` and
 //! `b = A` (the common denominator), so the bank sums to the ARX model.
 
-use super::dynamic::bank::{bank, entry, step_info};
+use super::dynamic::bank::{bank, entry, step_info, StepInfo};
 use super::dynamic::grid::{grid_runs, sample_time};
 use super::dynamic::options::{DynamicOptions, Ridge, Selection};
 use super::dynamic::orders::{candidates, OrderRange, Orders};
-use super::dynamic::select::{forward_select, max_selected, names_only, sub_grid};
+use super::dynamic::select::{
+    forward_select, max_selected, names_only, sub_grid, SelectionReport, TrialOrders,
+};
 use super::dynamic::sim_fit::fit_pct;
-use super::dynamic::split::SearchScheme;
-use super::Fitted;
+use super::dynamic::split::{SchemeReport, SearchScheme};
+use super::{Details, Fitted};
 use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
 use crate::num::tsqr::{Triangle, Tsqr};
@@ -58,7 +60,8 @@ use anyhow::{bail, Result};
 use model_core::tf::{TfEntry, MAX_TF_ENTRIES};
 use model_core::ValidModel;
 use rayon::prelude::*;
-use serde_json::{json, Map, Value};
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// Ridge penalties `auto` tries (0 first: plain least squares wins ties).
 pub const RIDGE_GRID: [f64; 7] = [0.0, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2];
@@ -69,6 +72,111 @@ const ARX_DEFAULTS: [OrderRange; 3] = [
     OrderRange::new(1, 3),
     OrderRange::new(0, 2),
 ];
+
+/// What `arx` reports (fields in the JSON's key order).
+#[derive(Clone, Debug, Serialize)]
+pub struct ArxDetails {
+    /// The row of the search kept.
+    pub chosen: ArxChosen,
+    /// Model sample time, s.
+    pub dt_s: f64,
+    /// Per target, its equation.
+    pub equations: BTreeMap<String, ArxEquation>,
+    /// Unit of the step gains.
+    pub gain_unit: &'static str,
+    /// Better rows whose re-estimate on every calibration sample the model
+    /// core refused.
+    pub refused_after_refit: Vec<RefusedRefit>,
+    /// The ridge penalty.
+    pub ridge: RidgeReport,
+    /// The order and ridge search.
+    pub search: ArxSearch,
+    /// Forward input selection (`null` with `--select-inputs off`).
+    pub selection: Option<SelectionReport>,
+    /// How the least squares were solved.
+    pub solver: &'static str,
+}
+
+/// The search row kept (fields in the JSON's key order).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArxChosen {
+    /// Its mean simulation fit over the targets in the search, %.
+    pub mean_sim_fit_pct: f64,
+    /// Its structure.
+    #[serde(flatten)]
+    pub orders: Orders,
+    /// Its ridge penalty.
+    pub ridge: f64,
+}
+
+/// A search row whose re-estimate was refused.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RefusedRefit {
+    /// Why (the model core's message).
+    pub error: String,
+    /// Its structure.
+    pub orders: Orders,
+    /// Its ridge penalty.
+    pub ridge: f64,
+}
+
+/// The ridge penalty: as set and as chosen.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RidgeReport {
+    /// What the penalty applies to.
+    pub basis: &'static str,
+    /// The penalty of the model.
+    pub chosen: f64,
+    /// `--ridge`: `"auto"` or the fixed penalty.
+    pub setting: Ridge,
+}
+
+/// The order and ridge search.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArxSearch {
+    /// Every (orders, penalty) tried, in grid order.
+    pub table: Vec<ArxTableRow>,
+    /// How a candidate was scored.
+    pub validation: SchemeReport,
+}
+
+/// One row of the search table (fields in the JSON's key order).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArxTableRow {
+    /// Mean simulation fit over the targets, % (`null` if any is missing).
+    pub mean_sim_fit_pct: Option<f64>,
+    /// The structure.
+    #[serde(flatten)]
+    pub orders: Orders,
+    /// Why the candidate was refused (the first fold that refused it).
+    pub note: Option<String>,
+    /// The ridge penalty.
+    pub ridge: f64,
+    /// Per target, the simulation fit, % (`null`: refused or not finite).
+    pub sim_fit_pct: BTreeMap<String, Option<f64>>,
+    /// Whether every fold's model was accepted by the model core.
+    pub stable: bool,
+}
+
+/// One target's ARX equation.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArxEquation {
+    /// `A`: `[1, a_1 .. a_na]`.
+    pub denominator: Vec<f64>,
+    /// Per input, its numerator and TF entry.
+    pub inputs: BTreeMap<String, ArxTerm>,
+}
+
+/// One input's part of an ARX equation, as the TF entry it is exported to.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArxTerm {
+    /// The TF entry's numerator, `[0; nk] ++ B_i`.
+    pub a_entry: Vec<f64>,
+    /// `B_i`: `[b_i0 .. b_i,nb-1]`.
+    pub b: Vec<f64>,
+    /// The entry's step response.
+    pub step: StepInfo,
+}
 
 /// An ARX model of one target: common denominator and one numerator per input.
 #[derive(Clone, Debug)]
@@ -373,7 +481,7 @@ pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
         bail!("arx: no order candidate within the model core's limits");
     }
     if args.select_inputs == Selection::Off {
-        return fit_inputs(ds, args, scheme, dt, &cands, Value::Null);
+        return fit_inputs(ds, args, scheme, dt, &cands, None);
     }
     let k_max = max_selected(args, ds)?;
     let grid = grid_runs(ds, dt, "arx")?;
@@ -387,11 +495,20 @@ pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
                 .iter()
                 .flat_map(|&o| eval_orders(&g, n_t, o, scheme, &[0.0], &check))
                 .collect();
-            best_row(&table).map(|(r, m)| (m, r.orders.json()))
+            best_row(&table).map(|(r, m)| (m, r.orders))
         })?;
-    selection["orders_during_selection"] = json!("the full order search at every trial");
-    selection["ridge_during_selection"] = json!(0.0);
-    fit_inputs(&ds.with_inputs(&idx), args, scheme, dt, &cands, selection)
+    selection.orders_during_selection = Some(TrialOrders::Searched(
+        "the full order search at every trial",
+    ));
+    selection.ridge_during_selection = Some(0.0);
+    fit_inputs(
+        &ds.with_inputs(&idx),
+        args,
+        scheme,
+        dt,
+        &cands,
+        Some(selection),
+    )
 }
 
 /// Every candidate order at every ridge penalty of `lambdas`, scored by
@@ -430,7 +547,7 @@ struct Refitted<'t> {
     polys: Vec<ArxPoly>,
     model: ValidModel,
     /// Better rows whose re-estimate was refused, with why.
-    refused: Vec<Value>,
+    refused: Vec<RefusedRefit>,
 }
 
 /// The best stable row of the search, re-estimated on every calibration
@@ -464,48 +581,60 @@ fn refit_best<'t>(
                     refused,
                 })
             }
-            Err(e) => refused.push(
-                json!({"orders": row.orders.json(), "ridge": row.ridge, "error": e.to_string()}),
-            ),
+            Err(e) => refused.push(RefusedRefit {
+                error: e.to_string(),
+                orders: row.orders,
+                ridge: row.ridge,
+            }),
         }
     }
     bail!("arx: no candidate order gave a stable model (try other --na/--nb/--nk or inputs)");
 }
 
-/// The search table as JSON: orders, penalty, fit per target, stability.
-fn search_table_json(ds: &Dataset, table: &[SearchRow]) -> Vec<Value> {
+/// The search table as reported: orders, penalty, fit per target, stability.
+fn search_table(ds: &Dataset, table: &[SearchRow]) -> Vec<ArxTableRow> {
     table
         .iter()
-        .map(|r| {
-            let fits: Map<String, Value> = ds
+        .map(|r| ArxTableRow {
+            mean_sim_fit_pct: r.mean(),
+            orders: r.orders,
+            note: r.note.clone(),
+            ridge: r.ridge,
+            sim_fit_pct: ds
                 .targets
                 .iter()
-                .zip(&r.fit)
-                .map(|(n, f)| (n.clone(), json!(f)))
-                .collect();
-            json!({"na": r.orders.na, "nb": r.orders.nb, "nk": r.orders.nk, "ridge": r.ridge,
-                   "sim_fit_pct": fits, "mean_sim_fit_pct": r.mean(), "stable": r.stable,
-                   "note": r.note})
+                .cloned()
+                .zip(r.fit.iter().copied())
+                .collect(),
+            stable: r.stable,
         })
         .collect()
 }
 
 /// Each target's equation: its denominator and, per input, the numerator
 /// and the entry's step response.
-fn equations_json(ds: &Dataset, polys: &[ArxPoly], dt: f64) -> Map<String, Value> {
-    let mut per_target = Map::new();
+fn equations(ds: &Dataset, polys: &[ArxPoly], dt: f64) -> BTreeMap<String, ArxEquation> {
+    let mut per_target = BTreeMap::new();
     for (t, p) in polys.iter().enumerate() {
-        let mut per_input = Map::new();
-        for (i, name) in ds.inputs.iter().enumerate() {
-            per_input.insert(
-                name.clone(),
-                json!({"b": p.num[i], "a_entry": p.entry_num(i),
-                       "step": step_info(&p.entry_num(i), &p.den, dt)}),
-            );
-        }
+        let inputs = ds
+            .inputs
+            .iter()
+            .enumerate()
+            .map(|(i, name)| {
+                let term = ArxTerm {
+                    a_entry: p.entry_num(i),
+                    b: p.num[i].clone(),
+                    step: step_info(&p.entry_num(i), &p.den, dt),
+                };
+                (name.clone(), term)
+            })
+            .collect();
         per_target.insert(
             ds.targets[t].clone(),
-            json!({"denominator": p.den, "inputs": per_input}),
+            ArxEquation {
+                denominator: p.den.clone(),
+                inputs,
+            },
         );
     }
     per_target
@@ -519,7 +648,7 @@ fn fit_inputs(
     scheme: SearchScheme,
     dt: f64,
     cands: &[Orders],
-    selection: Value,
+    selection: Option<SelectionReport>,
 ) -> Result<Fitted> {
     let (n_in, n_t) = (ds.inputs.len(), ds.targets.len());
     if n_in * n_t > MAX_TF_ENTRIES {
@@ -541,27 +670,32 @@ fn fit_inputs(
         model,
         refused,
     } = refit_best(ds, &grid, dt, &table)?;
-    let (orders, ridge) = (row.orders, row.ridge);
-    let details = json!({
-        "dt_s": dt,
-        "selection": selection,
-        "search": {
-            "validation": scheme.json(),
-            "table": search_table_json(ds, &table),
+    let details = ArxDetails {
+        chosen: ArxChosen {
+            mean_sim_fit_pct: score,
+            orders: row.orders,
+            ridge: row.ridge,
         },
-        "ridge": {
-            "setting": match args.ridge { Ridge::Auto => json!("auto"), Ridge::Fixed(v) => json!(v) },
-            "chosen": ridge,
-            "basis": "penalty on the column-scaled coefficients (unit-norm regressor columns)",
+        dt_s: dt,
+        equations: equations(ds, &polys, dt),
+        gain_unit: "target unit per input unit (um/K for temperatures)",
+        refused_after_refit: refused,
+        ridge: RidgeReport {
+            basis: "penalty on the column-scaled coefficients (unit-norm regressor columns)",
+            chosen: row.ridge,
+            setting: args.ridge,
         },
-        "chosen": {"na": orders.na, "nb": orders.nb, "nk": orders.nk, "mean_sim_fit_pct": score,
-                   "ridge": ridge},
-        "refused_after_refit": refused,
-        "solver": "blocked QR of [X | y], SVD of the column-scaled R (ridge rows appended when > 0)",
-        "gain_unit": "target unit per input unit (um/K for temperatures)",
-        "equations": equations_json(ds, &polys, dt),
-    });
-    Ok(Fitted { model, details })
+        search: ArxSearch {
+            table: search_table(ds, &table),
+            validation: scheme.report(),
+        },
+        selection,
+        solver: "blocked QR of [X | y], SVD of the column-scaled R (ridge rows appended when > 0)",
+    };
+    Ok(Fitted {
+        model,
+        details: Details::Arx(Box::new(details)),
+    })
 }
 
 /// TF entries of per-target ARX models: input-major within each target.

@@ -11,18 +11,47 @@
 //! numerators of those entries by `g` (poles, hence time constants, stay).
 
 use super::dynamic::options::DynamicOptions;
-use super::Fitted;
+use super::{Details, Fitted};
 use crate::data::dataset::Dataset;
 use crate::data::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
-use crate::score::score;
+use crate::score::{score, TargetReport};
 use anyhow::{anyhow, bail, Result};
 use model_core::{Model, Params, ValidModel};
-use serde_json::{json, Map, Value};
+use serde::Serialize;
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The input `seed 004` does not scale.
 const AMBIENT: &str = "ambient_c";
+
+/// What `gain` reports (fields in the JSON's key order).
+#[derive(Clone, Debug, Serialize)]
+pub struct GainDetails {
+    /// Per target, the scores of the model before scaling (`--gain-from` as is).
+    pub before: BTreeMap<String, TargetReport>,
+    /// Calibration samples (over every output) the gain was fitted on.
+    pub calibration_samples: usize,
+    /// Every TF entry of the model and whether the gain scales it.
+    pub entries: Vec<GainEntry>,
+    /// The blob scaled (`--gain-from`).
+    pub from: String,
+    /// The fitted gain `g` (dimensionless).
+    pub gain: f64,
+    /// Inputs whose entries are scaled.
+    pub scaled_inputs: Vec<String>,
+}
+
+/// One TF entry of the scaled model.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GainEntry {
+    /// Its input.
+    pub input: String,
+    /// Its output.
+    pub output: String,
+    /// Whether its numerator is multiplied by the gain.
+    pub scaled: bool,
+}
 
 /// `model` with the numerators of entries where `keep(entry index)` is false
 /// set to zero (entries stay, so every output keeps an entry).
@@ -162,32 +191,33 @@ pub fn fit(
     let (g, n) = least_squares_gain(ds, runs, &old, (&spindle, &rest))?;
     let model = scaled_model(&old, &scaled, g)?;
     let split = ds.scoring_split(runs, validate);
-    let before: Map<String, Value> = score(&old, &split)?
+    let before = score(&old, &split)?
         .iter()
-        .map(|t| (t.output.clone(), t.json()))
+        .map(|t| (t.output.clone(), TargetReport::from(t)))
         .collect();
     eprintln!(
         "gain: g = {g:.6} on the entries of {} ({n} calibration samples)",
         scaled_inputs.join(", ")
     );
-    let entries_json: Vec<Value> = entries
+    let entries = entries
         .iter()
         .zip(&scaled)
-        .map(|(e, s)| {
-            json!({"input": names[usize::from(e.input)],
-                   "output": old.outputs()[usize::from(e.output)].as_str(),
-                   "scaled": s})
+        .map(|(e, s)| GainEntry {
+            input: names[usize::from(e.input)].clone(),
+            output: old.outputs()[usize::from(e.output)].as_str().to_string(),
+            scaled: *s,
         })
         .collect();
+    let details = GainDetails {
+        before,
+        calibration_samples: n,
+        entries,
+        from: path.display().to_string(),
+        gain: g,
+        scaled_inputs,
+    };
     Ok(Fitted {
         model,
-        details: json!({
-            "gain": g,
-            "from": path.display().to_string(),
-            "scaled_inputs": scaled_inputs,
-            "entries": entries_json,
-            "calibration_samples": n,
-            "before": before,
-        }),
+        details: Details::Gain(details),
     })
 }

@@ -3,16 +3,18 @@
 //! memory -> [`FitOutcome`], whose [`FitReport`] serialises to the object
 //! `fit --json` prints (less its `out`, the path the CLI wrote).
 
-use super::{arma, arx, auto, bp, gain, mlr, pcr, tfbank, FitKind, Fitted, AUTO_EXTRA_INPUTS};
+use super::{
+    arma, arx, auto, bp, gain, mlr, pcr, tfbank, Details, FitKind, Fitted, AUTO_EXTRA_INPUTS,
+};
 use crate::data::dataset::{Dataset, InputForm};
 use crate::data::runfile::{ReadOptions, RunFile};
-use crate::eval::MetricsReport;
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
 use model_core::ValidModel;
 use serde::Serialize;
-use serde_json::Value;
 use std::collections::BTreeMap;
+
+pub use crate::score::TargetReport;
 
 /// Every kind's training options; [`Default`] is `thermcomp fit`'s
 /// defaults (the CLI's flag groups convert into it, `cli::fit`).
@@ -154,27 +156,6 @@ impl ValidFitParams {
     }
 }
 
-/// One target's figures on calibration and held-out rows.
-#[derive(Clone, Debug, Serialize)]
-pub struct TargetReport {
-    /// Over calibration rows (`null` if none).
-    pub calibration: Option<MetricsReport>,
-    /// Over held-out rows (`null` if none).
-    pub holdout: Option<MetricsReport>,
-    /// Rows with no prediction or no measured value.
-    pub rows_not_scored: usize,
-}
-
-impl From<&TargetScore> for TargetReport {
-    fn from(t: &TargetScore) -> Self {
-        Self {
-            calibration: t.calibration.as_ref().map(MetricsReport::from),
-            holdout: t.holdout.as_ref().map(MetricsReport::from),
-            rows_not_scored: t.rows_not_scored,
-        }
-    }
-}
-
 /// `fit --json`'s object, less `out`.
 #[derive(Clone, Debug, Serialize)]
 pub struct FitReport {
@@ -200,7 +181,7 @@ pub struct FitReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub l_defl_mm: Option<f64>,
     /// Kind-specific figures (search tables, chosen orders, ...).
-    pub details: Value,
+    pub details: Details,
 }
 
 /// What [`fit`] produced.
@@ -285,7 +266,7 @@ fn train(
                 eliminate: o.auto.auto_eliminate,
                 families: o.auto.auto_families.clone(),
             };
-            Ok(auto::fit(ds, &params.check(ds)?)?.0)
+            auto::fit(ds, &params.check(ds)?)
         }
         FitKind::Mlr => mlr::fit(ds),
         FitKind::Pcr => pcr::fit(ds, &o.pcr),

@@ -23,7 +23,7 @@ use crate::data::dataset::Dataset;
 use anyhow::{anyhow, Result};
 use model_core::model::{Name, MAX_CHANNELS, MAX_OUTPUTS};
 use model_core::{Channel, ValidModel};
-use serde_json::Value;
+use serde::Serialize;
 
 /// Model kinds `fit` trains.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,8 +60,34 @@ pub const AUTO_EXTRA_INPUTS: [&str; 4] = ["speed_rpm", "power_kw", "ambient_c", 
 pub struct Fitted {
     /// The validated model, ready to encode.
     pub model: ValidModel,
-    /// Kind-specific figures for the JSON (`details`).
-    pub details: Value,
+    /// Kind-specific figures (`details` in `fit --json`).
+    pub details: Details,
+}
+
+/// A trainer's kind-specific figures: one typed report per trainer, each
+/// beside its trainer. Serialised without a tag (`details` in `fit --json`
+/// is the report's object itself); each report's fields are declared in
+/// the JSON's key order, which is alphabetical (serde_json without
+/// `preserve_order`, as every `--json` is printed through a `Value`).
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum Details {
+    /// `auto`: the cross-validated choice of form, features and family.
+    Auto(Box<auto::AutoReport>),
+    /// `mlr`: one least-squares equation per target.
+    Mlr(mlr::MlrDetails),
+    /// `pcr`: the components kept and each target's regression on them.
+    Pcr(pcr::PcrDetails),
+    /// `arx`: the order and ridge search and the chosen equations.
+    Arx(Box<arx::ArxDetails>),
+    /// `tf`: the per-input order search and each SISO TF.
+    Tf(Box<tfbank::TfDetails>),
+    /// `gain`: the fitted gain and the scores of the model before it.
+    Gain(gain::GainDetails),
+    /// `bp` and `gabp`: the net, its training and (gabp) the GA.
+    Bp(Box<bp::report::BpDetails>),
+    /// `arma`: ADF tests, the AIC table, the chosen ARMA and its forecasts.
+    Arma(Box<arma::report::ArmaDetails>),
 }
 
 /// Model input channels for `ds`'s inputs in its form.

@@ -7,7 +7,7 @@
 //! the PCR form, with the standardisation folded into each component:
 //! `C_j = c_j + sum_i w_ji x_i`, `w_ji = v_ij / s_i`, `c_j = -sum_i v_ij m_i / s_i`.
 
-use super::{channels, outputs, Fitted};
+use super::{channels, outputs, Details, Fitted};
 use crate::data::dataset::Dataset;
 use crate::num::linalg;
 use anyhow::{anyhow, bail, Result};
@@ -15,7 +15,8 @@ use model_core::model::MAX_OUTPUTS;
 use model_core::pcr::{Component, Pcr, PcrOutput, MAX_COMPONENTS};
 use model_core::{Model, Params};
 use nalgebra::DMatrix;
-use serde_json::{json, Value};
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// PCR options (`fit --model pcr`); [`Default`] is `fit`'s defaults.
 #[derive(Clone, Debug, PartialEq)]
@@ -44,6 +45,43 @@ impl PcrOptions {
         }
         Ok(())
     }
+}
+
+/// What `pcr` reports (fields in the JSON's key order).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PcrDetails {
+    /// Components kept.
+    pub components_kept: usize,
+    /// Cumulative share of the variance, %, largest component first.
+    pub cumulative_pct: Vec<f64>,
+    /// Eigenvalues of the inputs' correlation matrix, largest first (clipped at 0).
+    pub eigenvalues: Vec<f64>,
+    /// Per target, its regression on the components.
+    pub equations: BTreeMap<String, PcrEquation>,
+    /// How many components were kept: `count` or the cumulative variance rule.
+    pub rule: String,
+    /// Each component's share of the variance, %.
+    pub variance_pct: Vec<f64>,
+}
+
+/// One target's regression on the component scores.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PcrEquation {
+    /// Coefficient per component kept (target unit per unit score).
+    pub beta: Vec<f64>,
+    /// The same equation on the raw inputs.
+    pub equivalent_linear: EquivalentLinear,
+    /// Intercept (target unit).
+    pub intercept: f64,
+}
+
+/// A PCR equation written on the raw inputs: `y = intercept + sum coef_i x_i`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EquivalentLinear {
+    /// Per input, in input order (target unit per input unit).
+    pub coef: Vec<f64>,
+    /// Intercept (target unit).
+    pub intercept: f64,
 }
 
 /// The components of the standardised inputs, largest variance first:
@@ -110,19 +148,14 @@ fn folded_components(
     Ok(components)
 }
 
-/// Each target regressed on the component scores: the equations and, per
-/// target, `{"intercept", "beta"}`.
+/// Each target regressed on the component scores: the equations.
 fn regress_targets(
     ds: &Dataset,
     y: &[Vec<f64>],
     score_rows: &[Vec<f64>],
-) -> Result<(
-    heapless::Vec<PcrOutput, MAX_OUTPUTS>,
-    serde_json::Map<String, Value>,
-)> {
+) -> Result<heapless::Vec<PcrOutput, MAX_OUTPUTS>> {
     let mut equations = heapless::Vec::new();
-    let mut per_target = serde_json::Map::new();
-    for (t, target) in ds.targets.iter().enumerate() {
+    for t in 0..ds.targets.len() {
         let yt: Vec<f64> = y.iter().map(|r| r[t]).collect();
         let (b0, beta) = linalg::least_squares(score_rows, &yt)?;
         let eq = PcrOutput {
@@ -134,9 +167,55 @@ fn regress_targets(
         equations
             .push(eq)
             .map_err(|_| anyhow!("too many targets"))?;
-        per_target.insert(target.clone(), json!({"intercept": b0, "beta": beta}));
     }
-    Ok((equations, per_target))
+    Ok(equations)
+}
+
+/// The report of a fitted `pcr` (`values`: the eigenvalues, largest
+/// first; `share`: each one's share of their sum).
+fn pcr_details(
+    ds: &Dataset,
+    pcr: &Pcr,
+    args: &PcrOptions,
+    values: Vec<f64>,
+    share: &[f64],
+) -> PcrDetails {
+    let equations = pcr
+        .outputs
+        .iter()
+        .zip(&ds.targets)
+        .map(|(eq, target)| {
+            let (d0, d) = pcr.equivalent_linear(eq);
+            let report = PcrEquation {
+                beta: eq.beta.to_vec(),
+                equivalent_linear: EquivalentLinear {
+                    coef: d.to_vec(),
+                    intercept: d0,
+                },
+                intercept: eq.intercept,
+            };
+            (target.clone(), report)
+        })
+        .collect();
+    let cumulative_pct = share
+        .iter()
+        .scan(0.0, |c, s| {
+            *c += s;
+            Some(*c * 100.0)
+        })
+        .collect();
+    PcrDetails {
+        components_kept: pcr.components.len(),
+        cumulative_pct,
+        eigenvalues: values,
+        equations,
+        rule: if args.components.is_some() {
+            "count".to_string()
+        } else {
+            format!("cumulative variance >= {}", args.variance)
+        },
+        variance_pct: share.iter().map(|s| s * 100.0).collect(),
+    }
 }
 
 /// Fits a PCR per target on shared components.
@@ -163,21 +242,13 @@ pub fn fit(ds: &Dataset, args: &PcrOptions) -> Result<Fitted> {
         .map(|r| scores.row(r).iter().copied().collect())
         .collect();
     let components = folded_components(&v, &mean, &std)?;
-    let (equations, mut per_target) = regress_targets(ds, &y, &score_rows)?;
+    let equations = regress_targets(ds, &y, &score_rows)?;
     let pcr = Pcr {
         inputs: (0..m).map(u8::try_from).collect::<Result<_, _>>()?,
         components,
         outputs: equations,
     };
-    for (eq, target) in pcr.outputs.iter().zip(&ds.targets) {
-        let (d0, d) = pcr.equivalent_linear(eq);
-        if let Some(Value::Object(o)) = per_target.get_mut(target) {
-            o.insert(
-                "equivalent_linear".into(),
-                json!({"intercept": d0, "coef": d.as_slice()}),
-            );
-        }
-    }
+    let details = pcr_details(ds, &pcr, args, values, &share);
     let model = Model {
         inputs: channels(ds)?,
         outputs: outputs(ds)?,
@@ -188,20 +259,8 @@ pub fn fit(ds: &Dataset, args: &PcrOptions) -> Result<Fitted> {
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;
-    let cumulative: Vec<f64> = share
-        .iter()
-        .scan(0.0, |c, s| {
-            *c += s;
-            Some(*c * 100.0)
-        })
-        .collect();
-    let details: Value = json!({
-        "components_kept": k,
-        "eigenvalues": values,
-        "variance_pct": share.iter().map(|s| s * 100.0).collect::<Vec<_>>(),
-        "cumulative_pct": cumulative,
-        "rule": if args.components.is_some() { "count".to_string() } else { format!("cumulative variance >= {}", args.variance) },
-        "equations": per_target,
-    });
-    Ok(Fitted { model, details })
+    Ok(Fitted {
+        model,
+        details: Details::Pcr(details),
+    })
 }

@@ -29,21 +29,24 @@
 //! every input at the smallest structure of the ranges (the per-input order
 //! search, a whole-bank fit per trial, runs only on the selected set).
 
-use super::dynamic::bank::{bank, entry, step_info};
+use super::dynamic::bank::{bank, entry, step_info, StepInfo};
 use super::dynamic::grid::{grid_runs, sample_time};
 use super::dynamic::options::{DynamicOptions, Selection};
 use super::dynamic::orders::{candidates, OrderRange, Orders};
-use super::dynamic::select::{forward_select, max_selected, sub_grid};
+use super::dynamic::select::{
+    forward_select, max_selected, sub_grid, SelectionReport, TrialOrders,
+};
 use super::dynamic::sim_fit::fit_pct;
 use super::dynamic::split::search_split;
-use super::Fitted;
+use super::{Details, Fitted};
 use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
 use crate::num::tsqr::Tsqr;
 use anyhow::{bail, Result};
-use model_core::tf::{RealisedTf, MAX_TF_ENTRIES};
+use model_core::tf::{RealisedTf, TfEntry, MAX_TF_ENTRIES};
 use nalgebra::{DMatrix, DVector};
-use serde_json::{json, Map, Value};
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// Default order ranges of `--model tf` (per input; modest, since the
 /// greedy search fits the whole bank for every trial).
@@ -149,19 +152,103 @@ fn filter(den: &[f64], x: &[f64]) -> Vec<f64> {
     w
 }
 
-/// How the output-error fit of one target went.
-#[derive(Clone, Debug)]
+/// How the output-error fit of one target went (`output_error` in the
+/// report; fields in the JSON's key order).
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OeReport {
-    /// RMS simulation error after backfitting.
-    pub rms_backfit: f64,
-    /// RMS simulation error after Levenberg-Marquardt.
-    pub rms_final: f64,
-    /// LM iterations (accepted and rejected trials).
-    pub iterations: usize,
     /// LM steps accepted.
+    #[serde(rename = "lm_accepted")]
     pub accepted: usize,
+    /// LM iterations (accepted and rejected trials).
+    #[serde(rename = "lm_trials")]
+    pub iterations: usize,
     /// LM steps refused because a TF would have become unstable.
+    #[serde(rename = "lm_unstable_rejected")]
     pub unstable_rejected: usize,
+    /// RMS simulation error after backfitting (target unit).
+    #[serde(rename = "rms_after_backfit")]
+    pub rms_backfit: f64,
+    /// RMS simulation error after Levenberg-Marquardt (target unit).
+    #[serde(rename = "rms_after_lm")]
+    pub rms_final: f64,
+}
+
+/// What `tf` reports (fields in the JSON's key order).
+#[derive(Clone, Debug, Serialize)]
+pub struct TfDetails {
+    /// `--backfit-rounds`.
+    pub backfit_rounds: usize,
+    /// Model sample time, s.
+    pub dt_s: f64,
+    /// Unit of the step gains.
+    pub gain_unit: &'static str,
+    /// `--lm-iterations`.
+    pub lm_iterations: usize,
+    /// How each target's bank is fitted.
+    pub method: &'static str,
+    /// How the orders were searched.
+    pub search: TfSearch,
+    /// Forward input selection (`null` with `--select-inputs off`).
+    pub selection: Option<SelectionReport>,
+    /// Per target, its search and bank.
+    pub targets: BTreeMap<String, TfTarget>,
+}
+
+/// How the per-input orders were searched.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TfSearch {
+    /// What a trial's score is.
+    pub score: &'static str,
+    /// `--search-holdout`: the fraction of each run's calibration samples scored.
+    pub search_holdout: f64,
+    /// The search's strategy.
+    pub strategy: &'static str,
+}
+
+/// One target's order search and fitted bank.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TfTarget {
+    /// Per input, its TF.
+    pub inputs: BTreeMap<String, TfTerm>,
+    /// How the final output-error fit went.
+    pub output_error: OeReport,
+    /// The order search.
+    pub search: TfTargetSearch,
+}
+
+/// One input's TF of a target (the bank's entry).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TfTerm {
+    /// Entry numerator `[0; nk] ++ B`.
+    pub a: Vec<f64>,
+    /// Entry denominator `[1, a_1 .. a_na]`.
+    pub b: Vec<f64>,
+    /// Its structure.
+    pub orders: Orders,
+    /// Its step response.
+    pub step: StepInfo,
+}
+
+/// One target's order search: every trial and the best fit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TfTargetSearch {
+    /// The best simulation fit on the search-validation part, %.
+    pub best_sim_fit_pct: f64,
+    /// Every trial, in the order tried.
+    pub table: Vec<TfTableRow>,
+}
+
+/// One trial of the order search.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TfTableRow {
+    /// Why the fit failed.
+    pub note: Option<String>,
+    /// Per input, the structure tried.
+    pub orders: BTreeMap<String, Orders>,
+    /// Simulation fit on the search-validation part, % (`null`: failed or not finite).
+    pub sim_fit_pct: Option<f64>,
+    /// Whether the fit succeeded.
+    pub stable: bool,
 }
 
 /// Simulated bank outputs `[run][input][k]` over `..end(run)`.
@@ -438,7 +525,7 @@ fn order_candidates(args: &DynamicOptions) -> Result<(Vec<Orders>, Orders)> {
 /// Fits `--model tf` (`args` checked by [`DynamicOptions::check`]).
 pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
     if args.select_inputs == Selection::Off {
-        return fit_inputs(ds, args, Value::Null);
+        return fit_inputs(ds, args, None);
     }
     let dt = sample_time(ds, args.dt_s)?;
     let k_max = max_selected(args, ds)?;
@@ -455,14 +542,109 @@ pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
                 let (models, _) = fit_target(&g, t, &orders, est_end, args).ok()?;
                 sum += validation_fit(&g, t, &models, h)?;
             }
-            Some((sum / ds.targets.len() as f64, start.json()))
+            Some((sum / ds.targets.len() as f64, start))
         })?;
-    selection["orders_during_selection"] = start.json();
-    fit_inputs(&ds.with_inputs(&idx), args, selection)
+    selection.orders_during_selection = Some(TrialOrders::Fixed(start));
+    fit_inputs(&ds.with_inputs(&idx), args, Some(selection))
+}
+
+/// Target `t`'s greedy per-input order search (every input starts at
+/// `start`, then each in turn tries every other structure of `cands`):
+/// the structures kept and the search's table.
+fn search_orders(
+    ds: &Dataset,
+    grid: &[GridRun],
+    t: usize,
+    (cands, start): (&[Orders], Orders),
+    args: &DynamicOptions,
+    tick: &dyn Fn(),
+) -> Result<(Vec<Orders>, TfTargetSearch)> {
+    let h = args.search_holdout;
+    let est_end = |g: &GridRun| search_split(g.calib_end, h);
+    let mut table = Vec::new();
+    let mut eval = |orders: &[Orders]| -> Option<f64> {
+        tick();
+        let (fit, note) = match fit_target(grid, t, orders, est_end, args) {
+            Ok((models, _)) => (validation_fit(grid, t, &models, h), None),
+            Err(e) => (None, Some(e.to_string())),
+        };
+        table.push(TfTableRow {
+            stable: note.is_none(),
+            note,
+            orders: ds
+                .inputs
+                .iter()
+                .cloned()
+                .zip(orders.iter().copied())
+                .collect(),
+            sim_fit_pct: fit,
+        });
+        fit
+    };
+    let n_in = ds.inputs.len();
+    let mut current = vec![start; n_in];
+    let mut best = eval(&current);
+    for i in 0..n_in {
+        for &o in cands {
+            if o == current[i] {
+                continue;
+            }
+            let mut trial = current.clone();
+            trial[i] = o;
+            let f = eval(&trial);
+            if let Some(f) = f {
+                if best.is_none_or(|b| f > b + 1e-9) {
+                    best = Some(f);
+                    current = trial;
+                }
+            }
+        }
+    }
+    let Some(best) = best else {
+        bail!("tf: {}: no structure could be fitted", ds.targets[t]);
+    };
+    let search = TfTargetSearch {
+        best_sim_fit_pct: best,
+        table,
+    };
+    Ok((current, search))
+}
+
+/// Target `t`'s bank with structures `orders`, fitted on every calibration
+/// sample: its report, its TF entries appended to `entries`.
+fn fit_bank_target(
+    ds: &Dataset,
+    grid: &[GridRun],
+    t: usize,
+    (orders, search): (&[Orders], TfTargetSearch),
+    (args, dt): (&DynamicOptions, f64),
+    entries: &mut Vec<TfEntry>,
+) -> Result<TfTarget> {
+    let (models, report) = fit_target(grid, t, orders, |g| g.calib_end, args)?;
+    let mut inputs = BTreeMap::new();
+    for (i, (m, name)) in models.iter().zip(&ds.inputs).enumerate() {
+        entries.push(entry(t, i, &m.entry_num(), &m.den)?);
+        let term = TfTerm {
+            a: m.entry_num(),
+            b: m.den.clone(),
+            orders: m.orders,
+            step: step_info(&m.entry_num(), &m.den, dt),
+        };
+        inputs.insert(name.clone(), term);
+    }
+    Ok(TfTarget {
+        inputs,
+        output_error: report,
+        search,
+    })
 }
 
 /// The per-input order search and the final fit on `ds`'s inputs.
-fn fit_inputs(ds: &Dataset, args: &DynamicOptions, selection: Value) -> Result<Fitted> {
+fn fit_inputs(
+    ds: &Dataset,
+    args: &DynamicOptions,
+    selection: Option<SelectionReport>,
+) -> Result<Fitted> {
     let dt = sample_time(ds, args.dt_s)?;
     let (n_in, n_t) = (ds.inputs.len(), ds.targets.len());
     if n_in * n_t > MAX_TF_ENTRIES {
@@ -473,88 +655,34 @@ fn fit_inputs(ds: &Dataset, args: &DynamicOptions, selection: Value) -> Result<F
     }
     let grid = grid_runs(ds, dt, "tf")?;
     let (cands, start) = order_candidates(args)?;
-    let h = args.search_holdout;
-    let est_end = |g: &GridRun| search_split(g.calib_end, h);
     let pb = progress(n_t * (1 + n_in * (cands.len() - 1)), "tf order search");
     let mut entries = Vec::new();
-    let mut per_target = Map::new();
+    let mut targets = BTreeMap::new();
     for (t, target) in ds.targets.iter().enumerate() {
-        let mut table = Vec::new();
-        let mut eval = |orders: &[Orders]| -> Option<f64> {
-            pb.inc(1);
-            let (fit, note) = match fit_target(&grid, t, orders, est_end, args) {
-                Ok((models, _)) => (validation_fit(&grid, t, &models, h), None),
-                Err(e) => (None, Some(e.to_string())),
-            };
-            table.push(json!({
-                "orders": ds.inputs.iter().zip(orders).map(|(n, o)| (n.clone(), o.json())).collect::<Map<_, _>>(),
-                "sim_fit_pct": fit, "stable": note.is_none(), "note": note,
-            }));
-            fit
-        };
-        let mut current = vec![start; n_in];
-        let mut best = eval(&current);
-        for i in 0..n_in {
-            for &o in &cands {
-                if o == current[i] {
-                    continue;
-                }
-                let mut trial = current.clone();
-                trial[i] = o;
-                let f = eval(&trial);
-                if let Some(f) = f {
-                    if best.is_none_or(|b| f > b + 1e-9) {
-                        best = Some(f);
-                        current = trial;
-                    }
-                }
-            }
-        }
-        let Some(best) = best else {
-            bail!("tf: {target}: no structure could be fitted");
-        };
-        let (models, report) = fit_target(&grid, t, &current, |g| g.calib_end, args)?;
-        let mut per_input = Map::new();
-        for (i, (m, name)) in models.iter().zip(&ds.inputs).enumerate() {
-            entries.push(entry(t, i, &m.entry_num(), &m.den)?);
-            per_input.insert(
-                name.clone(),
-                json!({"orders": m.orders.json(), "a": m.entry_num(), "b": m.den,
-                       "step": step_info(&m.entry_num(), &m.den, dt)}),
-            );
-        }
-        per_target.insert(
-            target.clone(),
-            json!({
-                "search": {"table": table, "best_sim_fit_pct": best},
-                "inputs": per_input,
-                "output_error": {"rms_after_backfit": report.rms_backfit,
-                                 "rms_after_lm": report.rms_final,
-                                 "lm_trials": report.iterations,
-                                 "lm_accepted": report.accepted,
-                                 "lm_unstable_rejected": report.unstable_rejected},
-            }),
-        );
+        let (orders, search) = search_orders(ds, &grid, t, (&cands, start), args, &|| pb.inc(1))?;
+        let report = fit_bank_target(ds, &grid, t, (&orders, search), (args, dt), &mut entries)?;
+        targets.insert(target.clone(), report);
     }
     pb.finish_and_clear();
     let model =
         bank(ds, dt, entries).map_err(|e| anyhow::anyhow!("tf: fitted model refused: {e}"))?;
+    let details = TfDetails {
+        backfit_rounds: args.backfit_rounds,
+        dt_s: dt,
+        gain_unit: "target unit per input unit (um/K for temperatures)",
+        lm_iterations: args.lm_iterations,
+        method: "per-input SISO TFs, SISO ARX backfitting then Levenberg-Marquardt on the simulation error",
+        search: TfSearch {
+            score: "simulation fit % from each run's start, scored on the last search_holdout of its calibration samples",
+            search_holdout: args.search_holdout,
+            strategy: "greedy, one pass over the inputs",
+        },
+        selection,
+        targets,
+    };
     Ok(Fitted {
         model,
-        details: json!({
-            "dt_s": dt,
-            "selection": selection,
-            "method": "per-input SISO TFs, SISO ARX backfitting then Levenberg-Marquardt on the simulation error",
-            "search": {
-                "score": "simulation fit % from each run's start, scored on the last search_holdout of its calibration samples",
-                "search_holdout": h,
-                "strategy": "greedy, one pass over the inputs",
-            },
-            "backfit_rounds": args.backfit_rounds,
-            "lm_iterations": args.lm_iterations,
-            "gain_unit": "target unit per input unit (um/K for temperatures)",
-            "targets": per_target,
-        }),
+        details: Details::Tf(Box::new(details)),
     })
 }
 

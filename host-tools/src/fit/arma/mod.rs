@@ -27,16 +27,19 @@ pub mod mackinnon;
 pub mod ols;
 pub mod optimise;
 pub mod order;
+pub mod report;
 pub mod transform;
 pub mod yule_walker;
 
-use super::{channels, outputs, Fitted};
+use super::{channels, outputs, Details, Fitted};
 use crate::data::dataset::{Dataset, GridRun, RunData};
 use anyhow::{anyhow, bail, Result};
 use estimate::Estimate;
 use model_core::arma::{Arma, ArmaState, MAX_ARMA_ORDER, MAX_DIFF};
 use model_core::{Model, Params};
-use serde_json::{json, Value};
+use report::{
+    AdfStep, ArmaDetails, ArmaOrder, Forecasts, Horizon, Standardisation, YuleWalkerReport,
+};
 
 /// ACF/PACF lags reported in the JSON.
 const REPORTED_LAGS: usize = 10;
@@ -249,7 +252,7 @@ struct Stationary {
     /// Differences taken.
     d: usize,
     /// Each ADF test's figures, `d` = 0 first.
-    steps: Vec<Value>,
+    steps: Vec<AdfStep>,
     /// The last test rejected the unit root (else `--max-diff` stopped it).
     stationary: bool,
 }
@@ -264,16 +267,20 @@ fn difference_to_stationary(z: &[f64], args: &ArmaOptions) -> Result<Stationary>
     let stationary = loop {
         let t = adf::adfuller(&w, args.adf_maxlag).map_err(|e| anyhow!("arma: d = {d}: {e}"))?;
         let rejects = t.pvalue <= args.adf_alpha;
-        let crit: serde_json::Map<String, Value> = mackinnon::CRIT_LEVELS
-            .iter()
-            .zip(t.crit)
-            .map(|(k, v)| (k.to_string(), json!(v)))
-            .collect();
-        steps.push(json!({
-            "d": d, "stat": t.stat, "pvalue": t.pvalue, "usedlag": t.usedlag, "nobs": t.nobs,
-            "maxlag": t.maxlag, "rejects_unit_root": rejects,
-            "crit": crit,
-        }));
+        steps.push(AdfStep {
+            crit: mackinnon::CRIT_LEVELS
+                .iter()
+                .map(|k| k.to_string())
+                .zip(t.crit)
+                .collect(),
+            d,
+            maxlag: t.maxlag,
+            nobs: t.nobs,
+            pvalue: t.pvalue,
+            rejects_unit_root: rejects,
+            stat: t.stat,
+            usedlag: t.usedlag,
+        });
         if rejects {
             break true;
         }
@@ -299,7 +306,10 @@ fn difference_to_stationary(z: &[f64], args: &ArmaOptions) -> Result<Stationary>
 
 /// Step 4, the order by AIC over `(p, q)`: the table of every cell and the
 /// best cell's estimate; the Yule-Walker AR estimate beside it.
-fn choose_order(w: &[f64], args: &ArmaOptions) -> Result<(Vec<order::Cell>, Estimate, Value)> {
+fn choose_order(
+    w: &[f64],
+    args: &ArmaOptions,
+) -> Result<(Vec<order::Cell>, Estimate, Option<YuleWalkerReport>)> {
     let (table, best) = order::search(w, args.max_p, args.max_q, true);
     let Some(best) = best else {
         let why = table
@@ -311,9 +321,14 @@ fn choose_order(w: &[f64], args: &ArmaOptions) -> Result<(Vec<order::Cell>, Esti
     let est = table[best].fit.clone().map_err(|e| anyhow!("arma: {e}"))?;
     let yw = if est.p > 0 {
         let y = yule_walker::yule_walker(w, est.p, args.yw_method)?;
-        json!({"method": args.yw_method, "order": est.p, "phi": y.phi, "sigma": y.sigma})
+        Some(YuleWalkerReport {
+            method: args.yw_method,
+            order: est.p,
+            phi: y.phi,
+            sigma: y.sigma,
+        })
     } else {
-        Value::Null
+        None
     };
     Ok((table, est, yw))
 }
@@ -322,30 +337,39 @@ fn choose_order(w: &[f64], args: &ArmaOptions) -> Result<(Vec<order::Cell>, Esti
 /// `..ce`, step `dt`): the trainer's and the blob's one-step forecasts, the
 /// blob's free run from the end of calibration and at fixed horizons, and
 /// persistence.
-fn forecasts_json(fitted: &ArmaFit, arma: &Arma, y_all: &[f64], ce: usize, dt: f64) -> Value {
+fn forecasts(fitted: &ArmaFit, arma: &Arma, y_all: &[f64], ce: usize, dt: f64) -> Forecasts {
     let y = &y_all[..ce];
     let trainer = fitted.one_step_forecasts(y_all);
     let (blob_one, free) = blob_forecasts(arma, y_all, ce);
     let held = y_all.len() - ce;
-    let horizon = |steps: usize| -> Value {
-        if steps == 0 || steps > held {
-            return Value::Null;
-        }
-        json!({"steps": steps, "minutes": steps as f64 * dt / 60.0,
-               "abs_error_um": (free[steps - 1] - y_all[ce + steps - 1]).abs()})
+    let horizon = |steps: usize| {
+        (steps > 0 && steps <= held).then(|| Horizon {
+            abs_error_um: (free[steps - 1] - y_all[ce + steps - 1]).abs(),
+            minutes: steps as f64 * dt / 60.0,
+            steps,
+        })
     };
-    let horizons: Vec<Value> = [1usize, 4, 40, 240, 960]
-        .iter()
-        .map(|h| horizon(*h))
-        .collect();
-    json!({
-        "trainer_one_step_rmse_calibration_um": rmse(trainer[..ce].iter().copied().zip(y.iter().copied())),
-        "blob_one_step_rmse_calibration_um": rmse(blob_one[..ce].iter().copied().zip(y.iter().copied())),
-        "blob_one_step_rmse_held_out_um": rmse(blob_one[ce..].iter().copied().zip(y_all[ce..].iter().copied())),
-        "free_run_from_calibration_end_rmse_held_out_um": rmse(free.iter().copied().zip(y_all[ce..].iter().copied())),
-        "free_run_horizons": horizons,
-        "persistence_rmse_held_out_um": rmse(y_all[ce.max(1) - 1..y_all.len() - 1].iter().copied().zip(y_all[ce.max(1)..].iter().copied())),
-    })
+    let held_out = || y_all[ce..].iter().copied();
+    Forecasts {
+        blob_one_step_rmse_calibration_um: rmse(
+            blob_one[..ce].iter().copied().zip(y.iter().copied()),
+        ),
+        blob_one_step_rmse_held_out_um: rmse(blob_one[ce..].iter().copied().zip(held_out())),
+        free_run_from_calibration_end_rmse_held_out_um: rmse(free.iter().copied().zip(held_out())),
+        free_run_horizons: [1usize, 4, 40, 240, 960]
+            .iter()
+            .map(|h| horizon(*h))
+            .collect(),
+        persistence_rmse_held_out_um: rmse(
+            y_all[ce.max(1) - 1..y_all.len() - 1]
+                .iter()
+                .copied()
+                .zip(y_all[ce.max(1)..].iter().copied()),
+        ),
+        trainer_one_step_rmse_calibration_um: rmse(
+            trainer[..ce].iter().copied().zip(y.iter().copied()),
+        ),
+    }
 }
 
 /// Fits `--model arma`.
@@ -393,30 +417,33 @@ pub fn fit(ds: &Dataset, args: &ArmaOptions, dt_s: Option<f64>) -> Result<Fitted
         anyhow!("arma: fitted ARMA({}, {}) refused: {e} (a root on the unit circle? try smaller --max-p/--max-q)", fitted.est.p, fitted.est.q)
     })?;
     let e = &fitted.est;
-    let details = json!({
-        "series": target,
-        "dt_s": dt,
-        "native_dt_s": native,
-        "calibration_samples": ce,
-        "held_out_samples": y_all.len() - ce,
-        "standardisation": {"mean": mean, "std": std},
-        "adf": s.steps,
-        "d": s.d,
-        "stationary": s.stationary,
-        "acf": acf,
-        "pacf": pacf,
-        "order": {"p": e.p, "q": e.q},
-        "phi": e.phi,
-        "theta": e.theta,
-        "mu": e.mu,
-        "constant": e.constant(),
-        "sigma2": e.sigma2,
-        "innovation_std_um": e.sigma2.sqrt() * std,
-        "llf": e.llf,
-        "aic": e.aic,
-        "yule_walker": yw,
-        "aic_table": table.iter().map(order::Cell::json).collect::<Vec<_>>(),
-        "forecasts": forecasts_json(&fitted, &arma, y_all, ce, dt),
-    });
-    Ok(Fitted { model, details })
+    let details = ArmaDetails {
+        acf,
+        adf: s.steps,
+        aic: e.aic,
+        aic_table: table.iter().map(order::Cell::report).collect(),
+        calibration_samples: ce,
+        constant: e.constant(),
+        d: s.d,
+        dt_s: dt,
+        forecasts: forecasts(&fitted, &arma, y_all, ce, dt),
+        held_out_samples: y_all.len() - ce,
+        innovation_std_um: e.sigma2.sqrt() * std,
+        llf: e.llf,
+        mu: e.mu,
+        native_dt_s: native,
+        order: ArmaOrder { p: e.p, q: e.q },
+        pacf,
+        phi: e.phi.clone(),
+        series: target,
+        sigma2: e.sigma2,
+        standardisation: Standardisation { mean, std },
+        stationary: s.stationary,
+        theta: e.theta.clone(),
+        yule_walker: yw,
+    };
+    Ok(Fitted {
+        model,
+        details: Details::Arma(Box::new(details)),
+    })
 }

@@ -9,7 +9,7 @@
 
 use super::estimate::{self, Estimate};
 use rayon::prelude::*;
-use serde_json::{json, Value};
+use serde::Serialize;
 
 /// One cell of the AIC table.
 #[derive(Clone, Debug)]
@@ -23,17 +23,70 @@ pub struct Cell {
 }
 
 impl Cell {
-    /// The cell as JSON: the fit's figures or `{"refused": reason}`.
-    pub fn json(&self) -> Value {
+    /// The cell as reported: the fit's figures or why it was refused.
+    pub fn report(&self) -> CellReport {
         match &self.fit {
-            Ok(e) => json!({
-                "p": self.p, "q": self.q, "aic": e.aic, "llf": e.llf, "sigma2": e.sigma2,
-                "mu": e.mu, "phi": e.phi, "theta": e.theta,
-                "iterations": e.iterations, "converged": e.converged, "start": e.start,
-            }),
-            Err(why) => json!({"p": self.p, "q": self.q, "refused": why}),
+            Ok(e) => CellReport::Fitted {
+                aic: e.aic,
+                converged: e.converged,
+                iterations: e.iterations,
+                llf: e.llf,
+                mu: e.mu,
+                p: self.p,
+                phi: e.phi.clone(),
+                q: self.q,
+                sigma2: e.sigma2,
+                start: e.start,
+                theta: e.theta.clone(),
+            },
+            Err(why) => CellReport::Refused {
+                p: self.p,
+                q: self.q,
+                refused: why.clone(),
+            },
         }
     }
+}
+
+/// One cell of the AIC table as reported (fields in the JSON's key order;
+/// the model's figures are those of the standardised, differenced series).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum CellReport {
+    /// ARMA(p, q) fitted.
+    Fitted {
+        /// Akaike information criterion, `-2 llf + 2 (p + q + 2)`.
+        aic: f64,
+        /// Whether the optimiser converged.
+        converged: bool,
+        /// Optimiser iterations.
+        iterations: usize,
+        /// Exact Gaussian log-likelihood.
+        llf: f64,
+        /// Mean.
+        mu: f64,
+        /// AR order.
+        p: usize,
+        /// AR coefficients.
+        phi: Vec<f64>,
+        /// MA order.
+        q: usize,
+        /// Innovation variance.
+        sigma2: f64,
+        /// Where the optimiser started.
+        start: &'static str,
+        /// MA coefficients.
+        theta: Vec<f64>,
+    },
+    /// ARMA(p, q) refused.
+    Refused {
+        /// AR order.
+        p: usize,
+        /// MA order.
+        q: usize,
+        /// Why.
+        refused: String,
+    },
 }
 
 /// Fits every `(p, q)` in `0..=max_p x 0..=max_q` to `w` (in parallel, with
@@ -70,4 +123,23 @@ pub fn search(w: &[f64], max_p: usize, max_q: usize, progress: bool) -> (Vec<Cel
         }
     }
     (cells, best.map(|b| b.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refused_cell_reports_its_orders_and_why() {
+        let cell = Cell {
+            p: 2,
+            q: 1,
+            fit: Err("AIC not finite".into()),
+        };
+        let v = serde_json::to_value(cell.report()).unwrap();
+        assert_eq!(
+            v,
+            serde_json::json!({"p": 2, "q": 1, "refused": "AIC not finite"})
+        );
+    }
 }

@@ -31,7 +31,7 @@ use crate::fit::bp::BpOptions;
 use crate::fit::dynamic::options::DynamicOptions;
 use crate::fit::dynamic::orders::OrderRange;
 use crate::fit::pcr::PcrOptions;
-use crate::fit::{arx, bp, pcr, tfbank, Fitted};
+use crate::fit::{arx, bp, pcr, tfbank, Details, Fitted};
 use anyhow::{anyhow, bail, Result};
 use model_core::tf::MAX_TF_ENTRIES;
 use model_core::ValidModel;
@@ -506,7 +506,7 @@ pub struct FamilyChoice {
     pub winner_form: Option<Form>,
     /// The winner's trainer report of its refit on every calibration
     /// sample (null for the ridge).
-    pub winner_details: serde_json::Value,
+    pub winner_details: Option<Box<Details>>,
 }
 
 /// Scores `family` in `form` and weighs it against the ridge's errors.
@@ -604,7 +604,7 @@ pub fn compare(
             ridge_score: ridge_errors.score(&b.variance),
             winner: winner.as_ref().map_or(Family::Ridge, |w| w.family),
             winner_form: winner.as_ref().map(|w| w.form),
-            winner_details: serde_json::Value::Null,
+            winner_details: None,
             candidates: cands,
         },
         rows,
@@ -639,7 +639,7 @@ pub struct Refit {
     /// Per target, the family's CV rmse.
     pub cv_rmse: Vec<f64>,
     /// The trainer's report of the refit.
-    pub details: serde_json::Value,
+    pub details: Details,
 }
 
 /// Refits the winner `w` on every calibration sample of the bench.

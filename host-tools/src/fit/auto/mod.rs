@@ -32,7 +32,7 @@ pub mod ridge;
 pub mod search;
 pub mod table;
 
-use super::{outputs, Fitted};
+use super::{outputs, Details, Fitted};
 use crate::data::dataset::{Dataset, GridRun};
 use anyhow::{anyhow, bail, Result};
 use family::{Bench, Comparison, FamilyChoice, Residuals, Trainers};
@@ -439,8 +439,9 @@ fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&f
     }
 }
 
-/// Trains an auto model on `ds` (inputs in absolute form).
-pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport)> {
+/// Trains an auto model on `ds` (inputs in absolute form); its details
+/// are the [`AutoReport`].
+pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
     let s = &params.settings;
     let grid = super::dynamic::grid::grid_runs(ds, s.dt_s, "auto")?;
     let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
@@ -476,7 +477,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
     merge_families(&mut ridge.choices, &cmp, won.as_ref());
     let model = match won {
         Some(r) => {
-            cmp.choice.winner_details = r.details;
+            cmp.choice.winner_details = Some(Box::new(r.details));
             r.model
         }
         None => assemble(ds, &roles, &grid, &xs, &ridge.winners, s.dt_s)?,
@@ -490,8 +491,10 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<(Fitted, AutoReport
         targets: ridge.choices,
         families: cmp.choice,
     };
-    let details = serde_json::to_value(&report)?;
-    Ok((Fitted { model, details }, report))
+    Ok(Fitted {
+        model,
+        details: Details::Auto(Box::new(report)),
+    })
 }
 
 fn rms(v: &[f64]) -> f64 {

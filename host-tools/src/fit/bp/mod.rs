@@ -23,8 +23,9 @@ pub mod gd;
 pub mod init;
 pub mod lm;
 pub mod net;
+pub mod report;
 
-use super::{channels, outputs, Fitted};
+use super::{channels, outputs, Details, Fitted};
 use crate::data::dataset::Dataset;
 use crate::num::linalg;
 use crate::num::progress::progress;
@@ -33,7 +34,11 @@ use anyhow::{anyhow, bail, Result};
 use model_core::bp::{Activation, BpNet, MAX_HIDDEN, MAX_W1};
 use model_core::{Model, Params};
 use net::{Data, Scaling, Shape};
-use serde_json::{json, Map, Value};
+use report::{
+    BpDetails, Convergence, ConvergenceRow, Division, GaFigures, GdComparison, GdRow,
+    HoldoutFigures, LmComparison, LmFigures, NetHoldouts,
+};
+use std::collections::BTreeMap;
 
 /// Hidden size without `--hidden`: seed 000's GA settled on a 4-10-3 net,
 /// and the FL_THERMAL runs have 16 inputs, where 10 neurons keep the net at
@@ -155,7 +160,7 @@ fn linear_mse(d: &Data) -> Result<f64> {
 }
 
 /// Held-out figures of `net` on `ds`'s held-out rows, with eval's metric code.
-fn holdout_figures(ds: &Dataset, net: &BpNet) -> Result<Value> {
+fn holdout_figures(ds: &Dataset, net: &BpNet) -> Result<HoldoutFigures> {
     let q = ds.targets.len();
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     for run in &ds.runs {
@@ -167,10 +172,10 @@ fn holdout_figures(ds: &Dataset, net: &BpNet) -> Result<Value> {
         }
     }
     if xs.is_empty() {
-        return Ok(Value::Null);
+        return Ok(None);
     }
     let pred = net::predict_rows(net, &xs).ok_or_else(|| anyhow!("bp: net not in trainer form"))?;
-    let mut out = Map::new();
+    let mut out = BTreeMap::new();
     for k in 0..q {
         let (y, yhat): (Vec<f64>, Vec<f64>) = ys
             .iter()
@@ -179,24 +184,9 @@ fn holdout_figures(ds: &Dataset, net: &BpNet) -> Result<Value> {
             .unzip();
         let m = model_core::metrics::metrics(&y, &yhat)
             .map_err(|e| anyhow!("{}: {e}", ds.targets[k]))?;
-        out.insert(ds.targets[k].clone(), crate::eval::metrics_json(&m));
+        out.insert(ds.targets[k].clone(), crate::eval::MetricsReport::from(&m));
     }
-    Ok(Value::Object(out))
-}
-
-/// An LM run's figures for the JSON.
-fn lm_json(r: &lm::LmReport) -> Value {
-    json!({
-        "epochs_run": r.epochs,
-        "best_epoch": r.best_epoch,
-        "stop": r.stop,
-        "train_mse_start": r.train_mse.first(),
-        "train_mse_end": r.train_mse.last(),
-        "val_mse_best": r.val_mse.get(r.best_epoch),
-        "goal_reached_epoch": r.goal_epoch,
-        "goal_reached_s": r.goal_seconds,
-        "seconds": r.seconds,
-    })
+    Ok(Some(out))
 }
 
 /// LM with a progress bar.
@@ -279,8 +269,12 @@ struct Prepared {
     goal: f64,
     act: Activation,
     lm_opts: lm::LmOptions,
-    /// The details every bp/gabp fit reports.
-    common: Value,
+    /// The rows' division, for the report.
+    division: Division,
+    /// Where the goal comes from.
+    goal_rule: String,
+    /// `--seed`.
+    seed: u64,
 }
 
 fn prepare(ds: &Dataset, args: &BpOptions, kind: &str) -> Result<Prepared> {
@@ -308,21 +302,13 @@ fn prepare(ds: &Dataset, args: &BpOptions, kind: &str) -> Result<Prepared> {
         ),
     };
     let act: Activation = args.activation.into();
-    let common = json!({
-        "activation": act.name(),
-        "output_activation": "purelin",
-        "scaling": "mapminmax to [-1, 1] over the calibration rows",
-        "init": "Nguyen-Widrow (initnw)",
-        "training": "Levenberg-Marquardt (trainlm: mu 1e-3, x0.1/x10, mu_max 1e10)",
-        "seed": args.seed,
-        "division": json!({
-            "rule": "contiguous blocks; every K-th validates",
-            "blocks": args.val_blocks, "every": args.val_every,
-            "train_rows": tr_idx.len(), "validation_rows": val_idx.len(),
-        }),
-        "goal_mse": goal,
-        "goal_rule": goal_rule,
-    });
+    let division = Division {
+        blocks: args.val_blocks,
+        every: args.val_every,
+        rule: "contiguous blocks; every K-th validates",
+        train_rows: tr_idx.len(),
+        validation_rows: val_idx.len(),
+    };
     Ok(Prepared {
         scaling,
         tr,
@@ -334,11 +320,41 @@ fn prepare(ds: &Dataset, args: &BpOptions, kind: &str) -> Result<Prepared> {
             max_fail: args.max_fail,
             goal_mse: goal,
         },
-        common,
+        division,
+        goal_rule,
+        seed: args.seed,
     })
 }
 
 impl Prepared {
+    /// The report of a net with `hidden` neurons (chosen by `hidden_rule`),
+    /// `parameters` weights, trained by LM run `lm` (gabp's parts unset).
+    fn details(
+        &self,
+        (hidden, hidden_rule): (usize, String),
+        parameters: usize,
+        lm: &lm::LmReport,
+    ) -> BpDetails {
+        BpDetails {
+            activation: self.act.name(),
+            convergence: None,
+            division: self.division.clone(),
+            ga: None,
+            goal_mse: self.goal,
+            goal_rule: self.goal_rule.clone(),
+            hidden,
+            hidden_rule,
+            holdout: None,
+            init: "Nguyen-Widrow (initnw)",
+            lm: LmFigures::from(lm),
+            output_activation: "purelin",
+            parameters,
+            scaling: "mapminmax to [-1, 1] over the calibration rows",
+            seed: self.seed,
+            training: "Levenberg-Marquardt (trainlm: mu 1e-3, x0.1/x10, mu_max 1e10)",
+        }
+    }
+
     fn lm(&self, shape: Shape, w0: &[f64], what: &str) -> lm::LmReport {
         run_lm(
             shape,
@@ -350,14 +366,6 @@ impl Prepared {
             what,
         )
     }
-}
-
-/// An LM run's convergence figures (`init`: its start).
-fn convergence_json(hidden: usize, init: &str, r: &lm::LmReport, extra_s: f64) -> Value {
-    json!({"hidden": hidden, "init": init, "train_mse_start": r.train_mse.first(),
-           "goal_reached_epoch": r.goal_epoch, "goal_reached_s": r.goal_seconds.map(|s| s + extra_s),
-           "epochs_run": r.epochs, "stop": r.stop, "train_mse_end": r.train_mse.last(),
-           "seconds": r.seconds + extra_s})
 }
 
 /// Fits `--model bp` (`genetic = false`) or `--model gabp`.
@@ -382,15 +390,12 @@ pub fn fit(ds: &Dataset, args: &BpOptions, genetic: bool) -> Result<Fitted> {
         fit_genetic(ds, args, &p, base, ga_hidden, &mut rng)?
     } else {
         let bp = p.lm(bp_shape, &bp_w0, "bp epochs (LM)");
-        let mut d = p.common.clone();
-        d["hidden"] = json!(hidden);
-        d["hidden_rule"] = json!(if args.hidden.is_some() {
+        let rule = if args.hidden.is_some() {
             "--hidden".to_string()
         } else {
             format!("default {DEFAULT_HIDDEN} (seed 000's 4-10-3 net), capped by {MAX_W1} / inputs")
-        });
-        d["parameters"] = json!(bp_shape.params());
-        d["lm"] = lm_json(&bp);
+        };
+        let d = p.details((hidden, rule), bp_shape.params(), &bp);
         (bp_shape, bp.w, d)
     };
     let net = net::to_bpnet(shape, p.act, &w, &p.scaling).map_err(|e| anyhow!("{kind}: {e}"))?;
@@ -404,7 +409,10 @@ pub fn fit(ds: &Dataset, args: &BpOptions, genetic: bool) -> Result<Fitted> {
     }
     .validate()
     .map_err(|e| anyhow!("fitted model refused: {e}"))?;
-    Ok(Fitted { model, details })
+    Ok(Fitted {
+        model,
+        details: Details::Bp(Box::new(details)),
+    })
 }
 
 /// BP at the default size from Nguyen-Widrow weights: what GA-BP is
@@ -425,7 +433,7 @@ fn fit_genetic(
     base: Baseline,
     ga_hidden: (usize, usize),
     rng: &mut SplitMix64,
-) -> Result<(Shape, Vec<f64>, Value)> {
+) -> Result<(Shape, Vec<f64>, BpDetails)> {
     let (m, q) = (ds.inputs.len(), ds.targets.len());
     let ga_opts = ga::GaOptions {
         population: args.ga_population,
@@ -441,44 +449,54 @@ fn fit_genetic(
     let gabp = p.lm(ga_shape, &g.w, "gabp epochs (LM)");
     let ga_net =
         net::to_bpnet(ga_shape, p.act, &gabp.w, &p.scaling).map_err(|e| anyhow!("gabp: {e}"))?;
-    let mut d = p.common.clone();
-    d["hidden"] = json!(g.hidden);
-    d["hidden_rule"] = json!(format!(
-        "chosen by the GA in {}..{}",
-        ga_hidden.0, ga_hidden.1
-    ));
-    d["parameters"] = json!(ga_shape.params());
-    d["lm"] = lm_json(&gabp);
-    d["ga"] = json!({
-        "population": args.ga_population, "generations": args.ga_generations,
-        "crossover": args.ga_crossover, "mutation": args.ga_mutation,
-        "hidden_range": [ga_hidden.0, ga_hidden.1],
-        "fitness": "1 / SSE of the scaled training rows (seed 000, Eq. 17)",
-        "best_train_mse": g.best_sse.iter().map(|s| s / p.tr.errors() as f64).collect::<Vec<_>>(),
-        "seconds": g.seconds,
+    let rule = format!("chosen by the GA in {}..{}", ga_hidden.0, ga_hidden.1);
+    let mut d = p.details((g.hidden, rule), ga_shape.params(), &gabp);
+    d.ga = Some(GaFigures {
+        best_train_mse: g
+            .best_sse
+            .iter()
+            .map(|s| s / p.tr.errors() as f64)
+            .collect(),
+        crossover: args.ga_crossover,
+        fitness: "1 / SSE of the scaled training rows (seed 000, Eq. 17)",
+        generations: args.ga_generations,
+        hidden_range: [ga_hidden.0, ga_hidden.1],
+        mutation: args.ga_mutation,
+        population: args.ga_population,
+        seconds: g.seconds,
     });
-    let mut gabp_conv = convergence_json(g.hidden, "GA best individual", &gabp, g.seconds);
-    gabp_conv["ga_seconds"] = json!(g.seconds);
-    if args.report_convergence {
+    let gabp_conv = ConvergenceRow {
+        ga_seconds: Some(g.seconds),
+        ..ConvergenceRow::new(g.hidden, "GA best individual", &gabp, g.seconds)
+    };
+    let (conv, bp_holdout) = if args.report_convergence {
         let (conv, bp_holdout) = compare(ds, args, p, base, ga_shape, &g.w, gabp_conv)?;
-        d["convergence"] = conv;
-        d["holdout"] = json!({"bp": bp_holdout, "gabp": holdout_figures(ds, &ga_net)?});
+        (conv, Some(bp_holdout))
     } else {
-        d["convergence"] = json!({
-            "goal_mse": p.goal,
-            "lm": {"gabp": gabp_conv},
-            "gd": Value::Null,
-            "compared": "no: --report-convergence also trains BP at the default and the GA's size and the gradient-descent runs",
-        });
-        d["holdout"] = json!({"gabp": holdout_figures(ds, &ga_net)?});
-    }
+        let conv = Convergence {
+            compared: Some("no: --report-convergence also trains BP at the default and the GA's size and the gradient-descent runs"),
+            gd: None,
+            goal_mse: p.goal,
+            lm: LmComparison {
+                bp: None,
+                bp_same_hidden: None,
+                gabp: gabp_conv,
+            },
+        };
+        (conv, None)
+    };
+    d.convergence = Some(conv);
+    d.holdout = Some(NetHoldouts {
+        bp: bp_holdout,
+        gabp: holdout_figures(ds, &ga_net)?,
+    });
     Ok((ga_shape, gabp.w, d))
 }
 
 /// The convergence comparison of `--report-convergence`: BP (default size)
 /// and BP at the GA's size from Nguyen-Widrow weights, trained by LM and,
 /// with `--gd-epochs`, all three starts by gradient descent. Returns the
-/// `convergence` JSON and BP's held-out figures.
+/// convergence report and BP's held-out figures.
 fn compare(
     ds: &Dataset,
     args: &BpOptions,
@@ -486,42 +504,44 @@ fn compare(
     base: Baseline,
     ga_shape: Shape,
     ga_w: &[f64],
-    gabp_conv: Value,
-) -> Result<(Value, Value)> {
+    gabp_conv: ConvergenceRow,
+) -> Result<(Convergence, HoldoutFigures)> {
     let bp = p.lm(base.shape, base.w0, "bp epochs (LM)");
     // BP alone at the GA's hidden size: isolates what the GA's initial
     // weights buy from what its choice of size does.
     let same_w0 = init::nguyen_widrow(ga_shape, p.act, &mut SplitMix64::new(args.seed));
     let same = p.lm(ga_shape, &same_w0, "bp epochs at the GA's size (LM)");
-    let gd_json = if args.gd_epochs > 0 {
+    let gd = (args.gd_epochs > 0).then(|| {
         let run = |shape: Shape, w0: &[f64], what: &str| {
             let pb = progress(args.gd_epochs, what);
             let r = gd::train(shape, p.act, w0, &p.tr, args.gd_epochs, p.goal, Some(&pb));
             pb.finish_and_clear();
-            json!({"goal_reached_epoch": r.goal_epoch, "goal_reached_s": r.goal_seconds,
-                   "epochs_run": r.epochs, "train_mse_end": r.final_mse, "seconds": r.seconds})
+            GdRow::from(&r)
         };
-        json!({
-            "algorithm": "traingdx (lr 0.01, x1.05/x0.7, momentum 0.9), no early stop",
-            "epoch_cap": args.gd_epochs,
-            "bp": run(base.shape, base.w0, "bp epochs (gradient descent)"),
-            "bp_same_hidden": run(ga_shape, &same_w0, "bp epochs at the GA's size (gradient descent)"),
-            "gabp": run(ga_shape, ga_w, "gabp epochs (gradient descent)"),
-        })
-    } else {
-        Value::Null
-    };
+        GdComparison {
+            algorithm: "traingdx (lr 0.01, x1.05/x0.7, momentum 0.9), no early stop",
+            bp: run(base.shape, base.w0, "bp epochs (gradient descent)"),
+            bp_same_hidden: run(
+                ga_shape,
+                &same_w0,
+                "bp epochs at the GA's size (gradient descent)",
+            ),
+            epoch_cap: args.gd_epochs,
+            gabp: run(ga_shape, ga_w, "gabp epochs (gradient descent)"),
+        }
+    });
     let bp_net =
         net::to_bpnet(base.shape, p.act, &bp.w, &p.scaling).map_err(|e| anyhow!("bp: {e}"))?;
-    let conv = json!({
-        "goal_mse": p.goal,
-        "lm": {
-            "bp": convergence_json(base.shape.n, "Nguyen-Widrow", &bp, 0.0),
-            "bp_same_hidden": convergence_json(ga_shape.n, "Nguyen-Widrow", &same, 0.0),
-            "gabp": gabp_conv,
+    let conv = Convergence {
+        compared: None,
+        gd,
+        goal_mse: p.goal,
+        lm: LmComparison {
+            bp: Some(ConvergenceRow::new(base.shape.n, "Nguyen-Widrow", &bp, 0.0)),
+            bp_same_hidden: Some(ConvergenceRow::new(ga_shape.n, "Nguyen-Widrow", &same, 0.0)),
+            gabp: gabp_conv,
         },
-        "gd": gd_json,
-    });
+    };
     Ok((conv, holdout_figures(ds, &bp_net)?))
 }
 

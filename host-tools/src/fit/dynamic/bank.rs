@@ -9,7 +9,7 @@ use anyhow::{anyhow, bail, Result};
 use model_core::tf::{RealisedTf, TfEntry, TfHistory, MAX_ORDER, MAX_TF_ENTRIES};
 use model_core::{Model, Params, ValidModel};
 use nalgebra::DMatrix;
-use serde_json::{json, Value};
+use serde::Serialize;
 
 /// A TF-bank model over `ds`'s inputs and targets, validated by the model core.
 pub fn bank(ds: &Dataset, dt: f64, entries: Vec<TfEntry>) -> Result<ValidModel> {
@@ -44,19 +44,51 @@ pub fn entry(output: usize, input: usize, a: &[f64], b: &[f64]) -> Result<TfEntr
     })
 }
 
+/// Step-response figures of one TF entry, or why the model core refused
+/// to realise it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum StepInfo {
+    /// The realised TF's figures.
+    Figures(StepFigures),
+    /// The model core's refusal.
+    Refused {
+        /// Why (the model core's message).
+        error: String,
+    },
+}
+
+/// A TF's step response (fields in the JSON's key order).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StepFigures {
+    /// Pole-zero pairs the model core cancelled when realising it.
+    pub cancelled_pole_zero_pairs: u8,
+    /// Steady-state (DC) gain, target unit per input unit (um/K for a temperature).
+    pub gain_per_unit: f64,
+    /// Whether any pole-zero pair was cancelled.
+    pub pole_zero_cancellation: bool,
+    /// Poles in z, `[re, im]`.
+    pub poles: Vec<[f64; 2]>,
+    /// 63.2 % rise time of the unit-step response, s ([`time_constant`]).
+    pub tau_s: Option<f64>,
+}
+
 /// Step-response figures of one TF, from its realisation in the model core.
-pub fn step_info(a: &[f64], b: &[f64], dt: f64) -> Value {
+pub fn step_info(a: &[f64], b: &[f64], dt: f64) -> StepInfo {
     let tf = match RealisedTf::new(a, b) {
         Ok(tf) => tf,
-        Err(e) => return json!({"error": e.to_string()}),
+        Err(e) => {
+            return StepInfo::Refused {
+                error: e.to_string(),
+            }
+        }
     };
-    let gain = tf.dc_gain();
-    json!({
-        "gain_per_unit": gain,
-        "tau_s": time_constant(&tf, dt),
-        "cancelled_pole_zero_pairs": tf.cancelled(),
-        "pole_zero_cancellation": tf.cancelled() > 0,
-        "poles": poles(tf.denominator()),
+    StepInfo::Figures(StepFigures {
+        cancelled_pole_zero_pairs: tf.cancelled(),
+        gain_per_unit: tf.dc_gain(),
+        pole_zero_cancellation: tf.cancelled() > 0,
+        poles: poles(tf.denominator()),
+        tau_s: time_constant(&tf, dt),
     })
 }
 
@@ -122,5 +154,13 @@ mod tests {
         let tau = time_constant(&tf, 1.0).unwrap();
         assert!((tau - 300.0).abs() < 1.0, "{tau}");
         assert!((tf.dc_gain() - 4.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_unrealisable_entry_reports_only_the_error() {
+        // A pole at z = 2: the model core refuses it.
+        let v = serde_json::to_value(step_info(&[1.0], &[1.0, -2.0], 1.0)).unwrap();
+        let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
+        assert_eq!(keys, ["error"], "{v}");
     }
 }

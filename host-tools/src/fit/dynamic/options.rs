@@ -5,6 +5,7 @@ use super::orders::OrderRange;
 use super::split::{check_holdout, SearchScheme};
 use crate::fit::FitKind;
 use anyhow::{bail, Result};
+use serde::{Serialize, Serializer};
 use std::path::PathBuf;
 use std::str::FromStr;
 
@@ -114,6 +115,16 @@ impl FromStr for Ridge {
         match s.parse::<f64>() {
             Ok(v) if v.is_finite() && v >= 0.0 => Ok(Self::Fixed(v)),
             _ => Err(format!("--ridge {s}: \"auto\" or a number >= 0")),
+        }
+    }
+}
+
+/// As `--ridge` reads it: `"auto"` or the penalty.
+impl Serialize for Ridge {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Auto => s.serialize_str("auto"),
+            Self::Fixed(v) => s.serialize_f64(*v),
         }
     }
 }

@@ -3,7 +3,7 @@
 //! core's limits (`MAX_ORDER`), shared by `arx` and `tf`.
 
 use model_core::tf::MAX_ORDER;
-use serde_json::{json, Value};
+use serde::Serialize;
 use std::str::FromStr;
 
 /// An inclusive order range given as `MIN..MAX` or a single number.
@@ -47,8 +47,9 @@ impl OrderRange {
     }
 }
 
-/// One candidate structure: denominator order, numerator length, delay.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// One candidate structure: denominator order, numerator length, delay
+/// (serialised as `{"na":..,"nb":..,"nk":..}`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct Orders {
     /// Denominator order (`A` has `na + 1` coefficients).
     pub na: usize,
@@ -66,10 +67,6 @@ impl Orders {
     /// Whether the model core can hold it.
     pub fn fits_core(self) -> bool {
         self.na <= MAX_ORDER && self.nk + self.nb <= MAX_ORDER + 1 && self.nb >= 1
-    }
-    /// `{"na":..,"nb":..,"nk":..}`.
-    pub fn json(self) -> Value {
-        json!({"na": self.na, "nb": self.nb, "nk": self.nk})
     }
 }
 

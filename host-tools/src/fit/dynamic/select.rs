@@ -5,11 +5,13 @@
 //! the input with the best score until the gain falls below a threshold.
 
 use super::options::DynamicOptions;
+use super::orders::Orders;
 use crate::data::dataset::{Dataset, GridRun};
 use crate::num::progress::progress;
 use anyhow::{bail, Result};
 use model_core::tf::MAX_TF_ENTRIES;
-use serde_json::{json, Map, Value};
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// Grid runs with only the inputs `idx`.
 pub fn sub_grid(grid: &[GridRun], idx: &[usize]) -> Vec<GridRun> {
@@ -47,9 +49,77 @@ pub fn max_selected(args: &DynamicOptions, ds: &Dataset) -> Result<usize> {
     Ok(k)
 }
 
+/// What forward selection did (fields in the JSON's key order).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SelectionReport {
+    /// The inputs it chose among.
+    pub candidates: Vec<String>,
+    /// Most inputs it could keep ([`max_selected`]).
+    pub max_inputs: usize,
+    /// `forward`.
+    pub method: &'static str,
+    /// `--min-gain-pct`: smallest gain in search fit, percentage points,
+    /// that adds an input.
+    pub min_gain_pct: f64,
+    /// The orders each trial set was scored with (set by the trainer).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orders_during_selection: Option<TrialOrders>,
+    /// Each step, in order.
+    pub path: Vec<SelectionStep>,
+    /// The ridge penalty during selection (arx).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ridge_during_selection: Option<f64>,
+    /// The inputs chosen, in the order they were added.
+    pub selected: Vec<String>,
+    /// Why it stopped.
+    pub stopped: String,
+}
+
+/// The orders a trainer scores each trial set of inputs with.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum TrialOrders {
+    /// How they are chosen (arx: the full order search at every trial).
+    Searched(&'static str),
+    /// One structure for every input (tf: the smallest of the ranges).
+    Fixed(Orders),
+}
+
+/// One step of forward selection: the best candidate added, or rejected
+/// because it gained too little (fields in the JSON's key order).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum SelectionStep {
+    /// The best candidate, added.
+    Added {
+        /// The input added.
+        added: String,
+        /// Every candidate's search fit, %, with the inputs chosen so far
+        /// (`null`: no stable model).
+        candidates: BTreeMap<String, Option<f64>>,
+        /// Gain over the previous step, percentage points (`null` at the first).
+        gain_pct: Option<f64>,
+        /// The orders of the trial's best model.
+        model: Orders,
+        /// Its search fit, % (mean over the targets).
+        search_fit_pct: f64,
+    },
+    /// The best candidate, rejected: it gains less than `--min-gain-pct`.
+    Rejected {
+        /// Every candidate's search fit, % (`null`: no stable model).
+        candidates: BTreeMap<String, Option<f64>>,
+        /// Gain over the previous step, percentage points.
+        gain_pct: Option<f64>,
+        /// The input rejected.
+        rejected: String,
+        /// Its search fit, % (mean over the targets).
+        search_fit_pct: f64,
+    },
+}
+
 /// Greedy forward selection over `ds.inputs`. `score(idx)` returns the
-/// search fit (mean over targets) of the model on inputs `idx`, with a JSON
-/// note (e.g. the orders), or `None` when no stable model exists. Each step
+/// search fit (mean over targets) of the model on inputs `idx`, with the
+/// orders of that model, or `None` when no stable model exists. Each step
 /// adds the candidate with the best score; it stops at `k_max` inputs or
 /// when the best addition gains less than `min_gain` points (the first
 /// input is always taken). Returns the chosen indices and the path.
@@ -58,8 +128,8 @@ pub fn forward_select(
     k_max: usize,
     min_gain: f64,
     what: &str,
-    mut score: impl FnMut(&[usize]) -> Option<(f64, Value)>,
-) -> Result<(Vec<usize>, Value)> {
+    mut score: impl FnMut(&[usize]) -> Option<(f64, Orders)>,
+) -> Result<(Vec<usize>, SelectionReport)> {
     let n = ds.inputs.len();
     let pb = progress((0..k_max).map(|s| n - s).sum(), what);
     let mut chosen: Vec<usize> = Vec::new();
@@ -67,14 +137,14 @@ pub fn forward_select(
     let mut path = Vec::new();
     let mut stop = format!("reached {k_max} inputs");
     while chosen.len() < k_max {
-        let mut tried = Map::new();
-        let mut best: Option<(usize, f64, Value)> = None;
+        let mut tried = BTreeMap::new();
+        let mut best: Option<(usize, f64, Orders)> = None;
         for c in (0..n).filter(|c| !chosen.contains(c)) {
             pb.inc(1);
             let mut trial = chosen.clone();
             trial.push(c);
             let r = score(&trial);
-            tried.insert(ds.inputs[c].clone(), json!(r.as_ref().map(|r| r.0)));
+            tried.insert(ds.inputs[c].clone(), r.as_ref().map(|r| r.0));
             if let Some((f, note)) = r {
                 if best.as_ref().is_none_or(|b| f > b.1) {
                     best = Some((c, f, note));
@@ -92,27 +162,38 @@ pub fn forward_select(
                 ds.inputs[c],
                 gain.unwrap_or(0.0)
             );
-            path.push(
-                json!({"rejected": ds.inputs[c], "search_fit_pct": f, "gain_pct": gain,
-                             "candidates": tried}),
-            );
+            path.push(SelectionStep::Rejected {
+                candidates: tried,
+                gain_pct: gain,
+                rejected: ds.inputs[c].clone(),
+                search_fit_pct: f,
+            });
             break;
         }
         chosen.push(c);
         current = Some(f);
-        path.push(
-            json!({"added": ds.inputs[c], "search_fit_pct": f, "gain_pct": gain,
-                         "model": note, "candidates": tried}),
-        );
+        path.push(SelectionStep::Added {
+            added: ds.inputs[c].clone(),
+            candidates: tried,
+            gain_pct: gain,
+            model: note,
+            search_fit_pct: f,
+        });
     }
     pb.finish_and_clear();
     if chosen.is_empty() {
         bail!("{what}: no single input gave a stable model");
     }
-    let names: Vec<&String> = chosen.iter().map(|&i| &ds.inputs[i]).collect();
-    Ok((
-        chosen,
-        json!({"method": "forward", "candidates": ds.inputs, "selected": names,
-               "max_inputs": k_max, "min_gain_pct": min_gain, "stopped": stop, "path": path}),
-    ))
+    let report = SelectionReport {
+        candidates: ds.inputs.clone(),
+        max_inputs: k_max,
+        method: "forward",
+        min_gain_pct: min_gain,
+        orders_during_selection: None,
+        path,
+        ridge_during_selection: None,
+        selected: chosen.iter().map(|&i| ds.inputs[i].clone()).collect(),
+        stopped: stop,
+    };
+    Ok((chosen, report))
 }

@@ -4,7 +4,7 @@
 //! rows of a fit (`--holdout-from-s`) are never seen by the search.
 
 use anyhow::{bail, Result};
-use serde_json::{json, Value};
+use serde::Serialize;
 
 /// First sample of the search-validation segment of a run with `calib_end`
 /// calibration samples (the last `h` of them).
@@ -72,15 +72,38 @@ impl SearchScheme {
         })
     }
 
-    /// For the JSON.
-    pub fn json(self) -> Value {
+    /// What the search scored on, for the report.
+    pub fn report(self) -> SchemeReport {
         match self {
-            Self::Folds(k) => json!({"scheme": "blocked cross-validation", "folds": k,
-                "score": "simulation fit % (free run from each run's start) pooled over the held-out folds; each fold's model estimated on the other calibration samples (regression rows whose lags reach into the fold excluded too)"}),
-            Self::Tail(h) => json!({"scheme": "tail", "search_holdout": h,
-                "score": "simulation fit % (free run from each run's start) on the last search_holdout of each run's calibration samples"}),
+            Self::Folds(k) => SchemeReport {
+                folds: Some(k),
+                scheme: "blocked cross-validation",
+                score: "simulation fit % (free run from each run's start) pooled over the held-out folds; each fold's model estimated on the other calibration samples (regression rows whose lags reach into the fold excluded too)",
+                search_holdout: None,
+            },
+            Self::Tail(h) => SchemeReport {
+                folds: None,
+                scheme: "tail",
+                score: "simulation fit % (free run from each run's start) on the last search_holdout of each run's calibration samples",
+                search_holdout: Some(h),
+            },
         }
     }
+}
+
+/// A [`SearchScheme`] as reported (fields in the JSON's key order).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SchemeReport {
+    /// Cross-validation folds per run (blocked cross-validation only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub folds: Option<usize>,
+    /// `blocked cross-validation` or `tail`.
+    pub scheme: &'static str,
+    /// What the search's score is.
+    pub score: &'static str,
+    /// Fraction of each run's calibration samples held out (tail only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub search_holdout: Option<f64>,
 }
 
 /// Checks `--search-holdout`.
@@ -114,5 +137,18 @@ mod tests {
         let tail = SearchScheme::Tail(0.25);
         assert_eq!(tail.count(), 1);
         assert_eq!(tail.segment(100, 0), (75, 100));
+    }
+
+    #[test]
+    fn each_scheme_reports_its_own_keys() {
+        let keys = |s: SearchScheme| {
+            let v = serde_json::to_value(s.report()).unwrap();
+            v.as_object().unwrap().keys().cloned().collect::<Vec<_>>()
+        };
+        assert_eq!(keys(SearchScheme::Folds(4)), ["folds", "scheme", "score"]);
+        assert_eq!(
+            keys(SearchScheme::Tail(0.25)),
+            ["scheme", "score", "search_holdout"]
+        );
     }
 }
