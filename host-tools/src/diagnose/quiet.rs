@@ -188,16 +188,32 @@ pub fn quadratic_residual(t: &[f64], y: &[f64]) -> Vec<f64> {
     left_by(&quadratic_columns(t), y)
 }
 
+/// The rms each window's quadratic leaves of `resid`: what a sinusoid
+/// may take from (the same for every period scanned, so computed once).
+fn quadratic_rests(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> Vec<f64> {
+    windows
+        .iter()
+        .map(|r| lsq::rms(&quadratic_residual(&t[r.clone()], &resid[r.clone()])))
+        .collect()
+}
+
 /// The energy a sinusoid of period `period_s` (free amplitude and phase)
-/// takes from each window's quadratic rest of `resid`, summed.
-fn sinusoid_gain(t: &[f64], resid: &[f64], windows: &[Range<usize>], period_s: f64) -> f64 {
+/// takes from each window's quadratic rest of `resid` (its rms `quad`,
+/// [`quadratic_rests`]), summed.
+fn sinusoid_gain(
+    t: &[f64],
+    resid: &[f64],
+    windows: &[Range<usize>],
+    quad: &[f64],
+    period_s: f64,
+) -> f64 {
     let w = std::f64::consts::TAU / period_s;
     windows
         .iter()
-        .map(|r| {
+        .zip(quad)
+        .map(|(r, quad)| {
             let (tw, yw) = (&t[r.clone()], &resid[r.clone()]);
             let mut cols = quadratic_columns(tw);
-            let quad = lsq::rms(&left_by(&cols, yw));
             cols.push(tw.iter().map(|v| (w * v).sin()).collect());
             cols.push(tw.iter().map(|v| (w * v).cos()).collect());
             let with = lsq::rms(&left_by(&cols, yw));
@@ -211,9 +227,10 @@ fn sinusoid_gain(t: &[f64], resid: &[f64], windows: &[Range<usize>], period_s: f
 pub fn quiet_period_s(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
     let (lo, hi) = PERIOD_GRID_S;
     let step = (hi / lo).ln() / (PERIOD_STEPS - 1) as f64;
+    let quad = quadratic_rests(t, resid, windows);
     (0..PERIOD_STEPS)
         .map(|k| lo * (step * k as f64).exp())
-        .map(|p| (p, sinusoid_gain(t, resid, windows, p)))
+        .map(|p| (p, sinusoid_gain(t, resid, windows, &quad, p)))
         .fold((hi, f64::NEG_INFINITY), |best, (p, g)| {
             if g > best.1 * (1.0 + 1e-9) {
                 (p, g)
