@@ -257,14 +257,26 @@ pub fn quiet_cycle(al: &Aligned) -> Option<QuietCycle> {
     if windows.len() < MIN_WINDOWS {
         return None;
     }
-    let (i, ratio) = (0..al.channels.len())
-        .map(|i| (i, quiet_ratio(&al.t_s, &al.channels.resid(i), &windows)))
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    // Each channel's residual is read once (it may come off the spill
+    // file); only the strongest one so far is kept for its period (the
+    // last of equal ones, as `max_by`).
+    let (i, ratio, resid) = (0..al.channels.len())
+        .map(|i| {
+            let resid = al.channels.resid(i);
+            (i, quiet_ratio(&al.t_s, &resid, &windows), resid)
+        })
+        .reduce(|best, c| {
+            if c.1.total_cmp(&best.1).is_ge() {
+                c
+            } else {
+                best
+            }
+        })?;
     Some(QuietCycle {
         channel: al.channels.name(i).to_string(),
         ratio,
         windows: windows.len(),
-        period_s: quiet_period_s(&al.t_s, &al.channels.resid(i), &windows),
+        period_s: quiet_period_s(&al.t_s, &resid, &windows),
     })
 }
 
