@@ -18,7 +18,10 @@
 //! `ambient` -> `none` and the `rule` text; the verdict and every number
 //! unchanged), and again when the rule text gained the fifth round's
 //! lag-or-heat check, gate 3's two new ways and gate 4's size 0.55 (issue
-//! 13; the `rule` text only, every other byte unchanged).
+//! 13; the `rule` text only, every other byte unchanged), and once more when
+//! the rule text gained the quiet-cycle chiller gate (gate 5, fourth round)
+//! and gate 3's temperature-only way, which it had left out (the `rule`
+//! text only).
 //!
 //! Every command runs in the repository root with the relative paths the
 //! fixtures were captured with (`eval` names each run's file). `fit --model

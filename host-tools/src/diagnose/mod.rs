@@ -369,10 +369,15 @@ fn rule_text() -> String {
          leaves <= {PAIR_MAX_RATIO} x its held-out rms, significantly, the pair's more important member is the \
          verdict and the other is `second`. Physical gates (JSON `gate`): a logged coolant_c that cycles in the \
          chiller band (>= {} x its noise and >= {} K rms) makes coolant the verdict of a `none` if its candidate is \
-         significant somewhere leaving < {} x the baseline (unless the sim's coolant_c cycles too); one that does not cycle vetoes coolant; a `none` \
+         significant somewhere leaving < {} x the baseline, or else if a channel keeps cycling while the machine is \
+         quiet (what hour-long quadratics leave in quiet windows >= {} x its noise, at a period <= {} min); without a \
+         coolant_c log, such a quiet cycle makes coolant the verdict of a `none` if the coolant candidate helps \
+         somewhere as above, or alone at >= {} x its noise (neither gate when the sim's own coolant_c cycles); a logged \
+         coolant_c that does not cycle vetoes coolant; a `none` \
          becomes motor_loss where motor_loss is a look's best significant candidate leaving <= {} x the baseline \
          and is significant on another look leaving <= {} x, one of the two an axis, or is the best candidate of {} \
-         looks leaving <= {} x each; a `none` becomes sensor_lag where \
+         looks leaving <= {} x each, or is a temperature look's best significant candidate leaving <= {} x with a \
+         steady-state rise; a `none` becomes sensor_lag where \
          sensor_lag is a temperature look's best candidate leaving <= {} x the better of baseline and raw residual at \
          p <= {STRONG_ALPHA}",
         FALLBACK_RULE.alpha,
@@ -380,10 +385,14 @@ fn rule_text() -> String {
         chiller::COOLANT_CYCLE_SNR,
         chiller::MIN_COOLANT_CYCLE_K,
         gates::COOLANT_RATIO,
+        quiet::CYCLE_RATIO,
+        quiet::MAX_PERIOD_S / 60.0,
+        gates::STRONG_CYCLE_RATIO,
         gates::MOTOR_RATIO,
         gates::MOTOR_CORROBORATE,
         gates::MOTOR_SPREAD_LOOKS,
         gates::MOTOR_SPREAD_RATIO,
+        gates::MOTOR_SOLO_RATIO,
         gates::LAG_RATIO
     )
 }
