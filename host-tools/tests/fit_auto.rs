@@ -139,6 +139,72 @@ fn across_runs_the_form_follows_the_data_change_here() {
     form_across_runs(&f, 25.0, "change");
 }
 
+#[test]
+fn alike_runs_leave_the_band_growth_unmeasured_and_fit_says_so() {
+    // Three runs with the same speed programme: leave-one-run-out never
+    // takes a fold outside the others' input envelope (in change form every
+    // run warms the same way), so the growth stays at its floor and is said
+    // to be a guess; a single run whose later blocks run faster than any
+    // before them measures it and says nothing.
+    let dir = tempfile::tempdir().unwrap();
+    let f = |t1: &[f64], _: &[f64], _: &[f64]| t1.iter().map(|v| 5.0 * (v - t1[0])).collect();
+    let mut args = vec!["fit", "--model", "auto", "--target", "dz_um"];
+    let runs: Vec<String> = [18.0, 22.0, 20.0]
+        .iter()
+        .enumerate()
+        .map(|(i, room)| {
+            run_file(
+                dir.path(),
+                &format!("r{i}.csv"),
+                8,
+                *room,
+                &[0.0, 3000.0],
+                &f,
+            )
+        })
+        .collect();
+    for r in &runs {
+        args.extend(["--data", r.as_str()]);
+    }
+    let out = dir.path().join("m.bin");
+    args.extend(["--out", p(&out), "--auto-families", "ridge"]);
+    let (_, err) = ok(&args);
+    assert!(
+        err.contains("note: dz_um: no cross-validation fold left the other folds' input envelope"),
+        "{err}"
+    );
+    let mut json = args.clone();
+    json.push("--json");
+    let band = &ok_json(&json)["details"]["targets"][0]["band"];
+    assert_eq!(band["extrapolating_samples"], 0);
+    assert_eq!(band["growth"], 1.0);
+
+    let v = lagged_squared_speed(dir.path(), &["--auto-families", "ridge"]);
+    let band = &v["details"]["targets"][0]["band"];
+    // The floor of measured growth is 20 extrapolating CV samples.
+    assert!(
+        band["extrapolating_samples"].as_u64().unwrap() >= 20,
+        "{band}"
+    );
+    let data = dir.path().join("r.csv");
+    let (_, err) = ok(&[
+        "fit",
+        "--model",
+        "auto",
+        "--target",
+        "dz_um",
+        "--data",
+        p(&data),
+        "--holdout-from-s",
+        "57600",
+        "--out",
+        p(&out),
+        "--auto-families",
+        "ridge",
+    ]);
+    assert!(!err.contains("not measured"), "{err}");
+}
+
 /// One 24 h run whose dz = 2 * lag(n^2 / 1e6, 2700 s): exactly a
 /// heat-source feature of the bank. Calibrate at 2000/4000 rpm (16 h), hold
 /// out 6000 rpm (beyond the calibration range, where a linear-in-speed

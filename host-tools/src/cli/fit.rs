@@ -13,7 +13,7 @@ use crate::fit::bp::{BpOptions, HiddenActivation};
 use crate::fit::dynamic::options::{DynamicOptions, Ridge, Selection};
 use crate::fit::dynamic::orders::OrderRange;
 use crate::fit::pcr::PcrOptions;
-use crate::fit::{auto, fit, FitKind, FitOptions, FitOutcome, FitParams};
+use crate::fit::{auto, fit, Details, FitKind, FitOptions, FitOutcome, FitParams};
 use crate::score::TargetScore;
 use anyhow::{anyhow, Result};
 use clap::Args;
@@ -411,9 +411,27 @@ fn check_paths(a: &FitArgs) -> Result<()> {
     fsio::check_distinct(&reads, &[fsio::named("--out", &a.out)])
 }
 
+/// Says on stderr when an auto model's band is calibrated inside the
+/// calibration envelope only.
+fn warn_unmeasured_band(o: &FitOutcome) {
+    let Details::Auto(report) = &o.report.details else {
+        return;
+    };
+    let targets = report.unmeasured_growth();
+    if !targets.is_empty() {
+        eprintln!(
+            "note: {}: no cross-validation fold left the other folds' input envelope, so how fast \
+             the 95 % band must widen outside it is not measured (growth 1 assumed); outside \
+             the envelope (the hub's \"extrapolating\" flag) the band is a guess",
+            targets.join(", ")
+        );
+    }
+}
+
 /// Runs `thermcomp fit`.
 pub fn run(a: &FitArgs) -> Result<()> {
     let o = fit_files(a)?;
+    warn_unmeasured_band(&o);
     if a.json {
         fsio::print_line(&report_json(&o, &a.out)?.to_string())?;
     } else {

@@ -263,6 +263,26 @@ impl Band {
             cv_coverage_pct: covered(growth, &all),
         }
     }
+
+    /// Whether the growth was measured: enough CV samples lay outside the
+    /// other folds' envelope. Otherwise it is the floor, 1, a guess: the
+    /// band is then calibrated inside the envelope only (calibration runs
+    /// alike, e.g. all at one room temperature, never show how fast the
+    /// error grows outside it).
+    pub fn growth_measured(&self) -> bool {
+        self.extrapolating_samples >= MIN_EXTRAPOLATING
+    }
+}
+
+impl AutoReport {
+    /// Targets whose band growth was not measured ([`Band::growth_measured`]).
+    pub fn unmeasured_growth(&self) -> Vec<&str> {
+        self.targets
+            .iter()
+            .filter(|t| !t.band.growth_measured())
+            .map(|t| t.target.as_str())
+            .collect()
+    }
 }
 
 /// Dataset inputs the members read.
@@ -682,4 +702,45 @@ fn bounds(envelope: &[Span], bands: &[Band]) -> Result<Bounds> {
         half_width: per(|b| b.half_width).map_err(|_| cap())?,
         growth: per(|b| b.growth).map_err(|_| cap())?,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 1000 residuals inside the envelope, |r| = 0.001 .. 1.000: the
+    /// nearest-rank 95 % quantile is exactly 0.950.
+    fn inside() -> (Vec<f64>, Vec<f64>) {
+        let r = (1..=1000).map(|k| f64::from(k) / 1000.0).collect();
+        (r, vec![0.0; 1000])
+    }
+
+    #[test]
+    fn without_extrapolating_folds_the_growth_is_the_unmeasured_floor() {
+        let (r, d) = inside();
+        let b = Band::calibrate(&r, &d);
+        assert!((b.half_width - 0.95).abs() < 1e-12, "{}", b.half_width);
+        assert_eq!(b.growth, 1.0);
+        assert_eq!(b.extrapolating_samples, 0);
+        assert!(!b.growth_measured());
+    }
+
+    #[test]
+    fn extrapolating_folds_measure_the_growth() {
+        // 1000 inside plus 30 one envelope width out with |r| = 2.375: with
+        // them the 95 % quantile h is 0.979, so |r| is 2.43 h; a growth of
+        // 1 covers 2 h there, 2 covers 3 h, so 2 is the smallest.
+        let (mut r, mut d) = inside();
+        r.extend(std::iter::repeat_n(2.5 * 0.95, 30));
+        d.extend(std::iter::repeat_n(1.0, 30));
+        let b = Band::calibrate(&r, &d);
+        assert_eq!(b.extrapolating_samples, 30);
+        assert_eq!(b.growth, 2.0);
+        assert!(b.growth_measured());
+        // One fewer than the minimum: the floor again, said to be unmeasured.
+        let n = 1000 + MIN_EXTRAPOLATING - 1;
+        let b = Band::calibrate(&r[..n], &d[..n]);
+        assert_eq!(b.growth, 1.0);
+        assert!(!b.growth_measured());
+    }
 }

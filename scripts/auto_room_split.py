@@ -1,0 +1,188 @@
+#!/usr/bin/env python3
+"""The "room moves" protocol on the thermal twin: calibrate on runs held at a
+constant room temperature, score on runs where the room temperature moves.
+
+This is the protocol of issue 12's second real machine (calibrated on
+constant-temperature runs, scored on runs with a moving room, displacements
+zeroed at each run start), rebuilt on simulated runs so that the design of
+`fit --model auto` can be judged on it without that machine's data:
+
+  calibration  three runs of `simulate` without effects, each at its own
+               constant room temperature (18, 20, 23 C: the machine file's
+               ambient_c and coolant_c), profiles steps / spectrum / steps
+  scored       two runs with the `ambient` effect (day-night swing, drift,
+               door openings), profiles steps / spectrum
+
+Every run is 8 h at 40 s, and every *_um column is zeroed at its run's first
+row (as the real machine's logger does). Scored figure: rmse um over the two
+scored runs, for `auto` and for a numpy ridge with one fixed feature recipe
+(temperature changes raw and low-pass filtered at 15 and 60 min, penalty by
+leave-one-run-out CV: the "new user with numpy" baseline). Inputs: the
+temperature columns only (`--inputs T1..Tn`), as that machine's criterion.
+
+usage: scripts/auto_room_split.py [path/to/thermcomp] [--seed S] [-- fit options]
+"""
+import csv
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+TARGETS = ["dx_um", "dy_um", "dz_um"]
+DT = 40.0
+# model-core's EXTRAPOLATION_FLAG_AT: the hub's "extrapolating" bit.
+EXTRAPOLATION_FLAG_AT = 0.1
+
+
+def simulate(exe, tmp, name, profile, seed, room_c=None, effects=""):
+    machine = []
+    if room_c is not None:
+        toml = subprocess.run([exe, "simulate", "--print-machine"], check=True,
+                              capture_output=True, text=True).stdout
+        toml = toml.replace("ambient_c = 20.0", f"ambient_c = {room_c}")
+        toml = toml.replace("coolant_c = 20.0", f"coolant_c = {room_c}")
+        path = f"{tmp}/{name}.toml"
+        pathlib.Path(path).write_text(toml)
+        machine = ["--machine", path]
+    out = f"{tmp}/{name}.csv"
+    subprocess.run([exe, "simulate", "--out", out, "--hours", "8", "--dt-s", str(int(DT)),
+                    "--profile", profile, "--seed", str(seed), "--effects", effects, *machine],
+                   check=True, capture_output=True, text=True)
+    zero_displacements(out)
+    return out
+
+
+def zero_displacements(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    head, body = rows[0], rows[1:]
+    for j, name in enumerate(head):
+        if name.endswith("_um"):
+            first = float(body[0][j])
+            for r in body:
+                r[j] = f"{float(r[j]) - first:.4f}"
+    with open(path, "w", newline="") as f:
+        csv.writer(f).writerows([head] + body)
+
+
+def read(path):
+    with open(path, newline="") as f:
+        r = csv.reader(f)
+        head = next(r)
+        data = np.array(list(r), dtype=float)
+    return data, {n: i for i, n in enumerate(head)}
+
+
+def read_predictions(path):
+    with open(path, newline="") as f:
+        r = csv.reader(f)
+        head = next(r)
+        rows = [[float(v) if v else np.nan for v in row[1:]] for row in r]
+    return np.array(rows), {n: i for i, n in enumerate(head[1:])}
+
+
+def low_pass(u, tau):
+    p = np.exp(-DT / tau)
+    out = np.empty_like(u)
+    s = u[0]
+    for k, v in enumerate(u):
+        s = p * s + (1 - p) * v
+        out[k] = s
+    return out
+
+
+def features(data, col, temps):
+    x = data[:, [col[c] for c in temps]]
+    x = x - x[0]
+    cols = [x] + [np.column_stack([low_pass(x[:, j], tau) for j in range(x.shape[1])])
+                  for tau in (900.0, 3600.0)]
+    return np.column_stack(cols)
+
+
+def ridge_loro(xs, ys):
+    """Ridge without intercept on change features, penalty by leave-one-run-out."""
+    lams = 10.0 ** np.arange(-6, 1.01, 0.5)
+
+    def fit(x, y, lam):
+        sd = x.std(0)
+        sd[sd == 0] = 1
+        z = x / sd
+        w = np.linalg.solve(z.T @ z + lam * len(y) * np.eye(z.shape[1]), z.T @ y)
+        return lambda xn: (xn / sd) @ w
+
+    def cv(lam):
+        e = 0.0
+        for i in range(len(xs)):
+            x = np.vstack([a for j, a in enumerate(xs) if j != i])
+            y = np.concatenate([a for j, a in enumerate(ys) if j != i])
+            e += np.sum((fit(x, y, lam)(xs[i]) - ys[i]) ** 2)
+        return e
+    return fit(np.vstack(xs), np.concatenate(ys), min(lams, key=cv))
+
+
+def rmse(e):
+    return float(np.sqrt(np.mean(np.square(e))))
+
+
+def main():
+    args = sys.argv[1:]
+    extra = []
+    if "--" in args:
+        extra = args[args.index("--") + 1:]
+        args = args[:args.index("--")]
+    seed = 1
+    if "--seed" in args:
+        seed = int(args[args.index("--seed") + 1])
+        del args[args.index("--seed"):args.index("--seed") + 2]
+    exe = args[0] if args else str(ROOT / "target/release/thermcomp")
+    with tempfile.TemporaryDirectory() as tmp:
+        s = 10 * seed
+        cal = [simulate(exe, tmp, "cal18", "steps", s + 1, 18.0),
+               simulate(exe, tmp, "cal20", "spectrum", s + 2, 20.0),
+               simulate(exe, tmp, "cal23", "steps", s + 3, 23.0)]
+        test = [simulate(exe, tmp, "room1", "steps", s + 4, effects="ambient"),
+                simulate(exe, tmp, "room2", "spectrum", s + 5, effects="ambient")]
+        _, col = read(cal[0])
+        temps = [c for c in col if c.startswith("T") and c[1:].isdigit()]
+        data_args = [a for p in cal for a in ("--data", p)]
+        fit = subprocess.run([exe, "fit", *data_args, "--target", ",".join(TARGETS),
+                              "--model", "auto", "--inputs", ",".join(temps),
+                              "--out", f"{tmp}/m.bin", "--json", *extra],
+                             check=True, capture_output=True, text=True)
+        fit_json = json.loads(fit.stdout)
+        ev = subprocess.run([exe, "eval", "--model", f"{tmp}/m.bin",
+                             *[a for p in test for a in ("--data", p)], "--json"],
+                            check=True, capture_output=True, text=True)
+        ev_json = json.loads(ev.stdout)
+        subprocess.run([exe, "predict", "--model", f"{tmp}/m.bin", "--interval",
+                        *[a for p in test for a in ("--data", p)], "--out", f"{tmp}/p.csv"],
+                       check=True, capture_output=True, text=True)
+        pred, pcol = read_predictions(f"{tmp}/p.csv")
+        cal_d = [read(p)[0] for p in cal]
+        test_d = [read(p)[0] for p in test]
+        print(f"{'target':8} {'auto':>8} {'ridge':>8} {'sd y':>8} {'cover%':>7} {'half':>7} {'flag%':>6}"
+              "  auto's best candidate")
+        for t in TARGETS:
+            xs = [features(d, col, temps) for d in cal_d]
+            ys = [d[:, col[t]] for d in cal_d]
+            model = ridge_loro(xs, ys)
+            e = np.concatenate([model(features(d, col, temps)) - d[:, col[t]] for d in test_d])
+            y = np.concatenate([d[:, col[t]] for d in test_d])
+            lo, hi = pred[:, pcol[f"{t}_lo95"]], pred[:, pcol[f"{t}_hi95"]]
+            cover = 100.0 * np.mean((y >= lo) & (y <= hi))
+            half = float(np.mean(hi - lo) / 2)
+            band = next(x for x in fit_json["details"]["targets"] if x["target"] == t)["band"]
+            at_flag = band["half_width"] * (1 + band["growth"] * EXTRAPOLATION_FLAG_AT)
+            flagged = 100.0 * np.mean((hi - lo) / 2 >= at_flag * (1 - 1e-9))
+            tj = next(x for x in fit_json["details"]["targets"] if x["target"] == t)
+            w = tj["cv_table"][0]
+            print(f"{t:8} {ev_json[t]['rmse_um']:8.2f} {rmse(e):8.2f} {y.std():8.2f} {cover:7.1f} {half:7.2f} {flagged:6.1f}  "
+                  f"{tj['family']} {w['form']} temps {w['temp_taus_s']} lambda {w['lambda']:g}")
+
+
+if __name__ == "__main__":
+    main()
