@@ -246,11 +246,13 @@ fn a_lagged_squared_speed_is_found_and_extrapolates() {
     // The table lists every candidate, best first, and marks the averaged ones.
     let table = v["details"]["targets"][0]["cv_table"].as_array().unwrap();
     assert!(table.len() >= 20, "{} candidates", table.len());
+    // Best first by the ranking criterion, and the best is averaged.
     let cv: Vec<f64> = table
         .iter()
-        .map(|r| r["cv_rmse"].as_f64().unwrap())
+        .map(|r| r["cv_geo_rmse"].as_f64().unwrap())
         .collect();
     assert!(cv.windows(2).all(|w| w[0] <= w[1]), "sorted best first");
+    assert_eq!(table[0]["chosen"], Value::Bool(true));
     let chosen = table
         .iter()
         .filter(|r| r["chosen"] == Value::Bool(true))

@@ -179,8 +179,8 @@ impl AutoParams {
 pub struct TargetChoice {
     /// Target column.
     pub target: String,
-    /// Every candidate, best CV error first (families that could not be
-    /// scored last).
+    /// Every candidate, lowest `cv_geo_rmse` (the ranking criterion)
+    /// first; families that could not be scored last.
     pub cv_table: Vec<CvRow>,
     /// Forms of the averaged candidates (of the other family's model when
     /// one won).
@@ -440,8 +440,8 @@ fn ridge_targets(
     Ok(out)
 }
 
-/// Step 3: the family rows go into each target's table (best first, the
-/// unscored last); when another family won, the targets report it.
+/// Step 3: the family rows go into each target's table (lowest
+/// `cv_geo_rmse` first, the unscored last); when another family won, the targets report it.
 fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&family::Refit>) {
     for (t, c) in choices.iter_mut().enumerate() {
         if let (Some(w), Some(r)) = (&cmp.winner, won) {
@@ -455,7 +455,10 @@ fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&f
             c.band = r.bands[t].clone();
         }
         c.cv_table.extend(cmp.rows[t].iter().cloned());
-        c.cv_table.sort_by(|a, b| a.cv_rmse.total_cmp(&b.cv_rmse));
+        // By the ranking criterion (the ridge's members were picked by it);
+        // unscored rows (NaN) last.
+        c.cv_table
+            .sort_by(|a, b| a.cv_geo_rmse.total_cmp(&b.cv_geo_rmse));
     }
 }
 
