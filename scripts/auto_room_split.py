@@ -31,7 +31,10 @@ import tempfile
 
 import numpy as np
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import realrun  # noqa: E402
+
+ROOT = realrun.ROOT
 TARGETS = ["dx_um", "dy_um", "dz_um"]
 DT = 40.0
 # model-core's EXTRAPOLATION_FLAG_AT: the hub's "extrapolating" bit.
@@ -86,13 +89,7 @@ def read_predictions(path):
 
 
 def low_pass(u, tau):
-    p = np.exp(-DT / tau)
-    out = np.empty_like(u)
-    s = u[0]
-    for k, v in enumerate(u):
-        s = p * s + (1 - p) * v
-        out[k] = s
-    return out
+    return realrun.low_pass(u, tau, DT)
 
 
 def features(data, col, temps):

@@ -24,6 +24,18 @@ def thermcomp_exe():
     return sys.argv[1] if len(sys.argv) > 1 else str(ROOT / "target" / "release" / "thermcomp")
 
 
+def low_pass(u, tau, dt):
+    """First-order low-pass of `u` (time constant `tau`, sample time `dt`),
+    started in steady state: the recursion model-core's fbank runs."""
+    p = np.exp(-dt / tau)
+    out = np.empty_like(u)
+    s = u[0]
+    for k, v in enumerate(u):
+        s = p * s + (1 - p) * v
+        out[k] = s
+    return out
+
+
 def reduction(y, yhat):
     """CONTRACT.md's reduction_pct."""
     return (1.0 - np.mean(np.abs(y - yhat)) / np.mean(np.abs(y))) * 100.0

@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import realrun  # noqa: E402
 from realrun import RUN, TARGETS, TEMPS, ROOT  # noqa: E402
 
 DT = 15.0
@@ -51,13 +52,7 @@ def read_run():
 
 
 def low_pass(u, tau):
-    p = np.exp(-DT / tau)
-    out = np.empty_like(u)
-    s = u[0]
-    for k, v in enumerate(u):
-        s = p * s + (1 - p) * v
-        out[k] = s
-    return out
+    return realrun.low_pass(u, tau, DT)
 
 
 def features(data, col):

@@ -464,6 +464,13 @@ fn fbank_text(s: &mut String, model: &ValidModel, bank: &FilterBank) {
         };
         if f.tau_s == 0.0 {
             let _ = writeln!(s, "    s{} = {v} ({})", j + 1, tau_text(f.tau_s));
+        } else if *p == 1.0 {
+            // A pole of exactly 1 keeps the first value (fbank.rs, "hold").
+            let _ = writeln!(
+                s,
+                "    s{} = {v} held at the run's first sample (pole 1)",
+                j + 1
+            );
         } else {
             let _ = writeln!(
                 s,

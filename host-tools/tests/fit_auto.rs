@@ -83,6 +83,16 @@ fn holdout_rmse(v: &Value) -> f64 {
         .unwrap()
 }
 
+/// Three 8 h runs (r0..r2.csv) at rooms of 18, 22 and 20 C, the spindle off
+/// then at 3000 rpm.
+fn three_rooms(dir: &Path, f: &Target) -> Vec<String> {
+    [18.0, 22.0, 20.0]
+        .iter()
+        .enumerate()
+        .map(|(i, room)| run_file(dir, &format!("r{i}.csv"), 8, *room, &[0.0, 3000.0], f))
+        .collect()
+}
+
 /// Three calibration runs at rooms of 18, 22 and 20 C and one held-out run
 /// at `held_room_c`, 8 h each; fits auto (leave one run out) and asserts that
 /// every averaged candidate has `form` and the held-out run is predicted
@@ -90,20 +100,7 @@ fn holdout_rmse(v: &Value) -> f64 {
 /// penalty's shrinkage).
 fn form_across_runs(f: &Target, held_room_c: f64, form: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let runs: Vec<String> = [18.0, 22.0, 20.0]
-        .iter()
-        .enumerate()
-        .map(|(i, room)| {
-            run_file(
-                dir.path(),
-                &format!("r{i}.csv"),
-                8,
-                *room,
-                &[0.0, 3000.0],
-                f,
-            )
-        })
-        .collect();
+    let runs = three_rooms(dir.path(), f);
     let held = run_file(dir.path(), "v.csv", 8, held_room_c, &[0.0, 3000.0], f);
     let out = dir.path().join("m.bin");
     let mut args = Vec::new();
@@ -149,20 +146,7 @@ fn alike_runs_leave_the_band_growth_unmeasured_and_fit_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let f = |t1: &[f64], _: &[f64], _: &[f64]| t1.iter().map(|v| 5.0 * (v - t1[0])).collect();
     let mut args = vec!["fit", "--model", "auto", "--target", "dz_um"];
-    let runs: Vec<String> = [18.0, 22.0, 20.0]
-        .iter()
-        .enumerate()
-        .map(|(i, room)| {
-            run_file(
-                dir.path(),
-                &format!("r{i}.csv"),
-                8,
-                *room,
-                &[0.0, 3000.0],
-                &f,
-            )
-        })
-        .collect();
+    let runs = three_rooms(dir.path(), &f);
     for r in &runs {
         args.extend(["--data", r.as_str()]);
     }
@@ -493,4 +477,125 @@ fn an_unknown_family_is_refused_in_one_line() {
     ]);
     assert!(e.contains("unknown family \"lstm\""), "{e}");
     assert!(!out.exists(), "no blob written");
+}
+
+/// One 8 h run at 60 s with 17 temperatures: T1 warms with the spindle
+/// (0 then 3000 rpm), T2 follows the room (starting at `room_c`), T3..T17
+/// mix them with a deterministic wobble of their own. dx_um = 5 (T1 -
+/// T1(0)) starts at zero every run (change form); dz_um = 3 (T2 - 20)
+/// follows the room's level (absolute form).
+fn seventeen_sensors(dir: &Path, name: &str, room_c: f64) -> String {
+    let n = 8 * 60;
+    let speed: Vec<f64> = (0..n)
+        .map(|k| if k < n / 2 { 0.0 } else { 3000.0 })
+        .collect();
+    let heat: Vec<f64> = speed.iter().map(|s| (s / 1000.0).powi(2)).collect();
+    let warm = lag(&heat, 1800.0, 60.0);
+    let mut head = String::from("t_s,speed_rpm");
+    for i in 1..=17 {
+        head.push_str(&format!(",T{i}"));
+    }
+    let mut s = head + ",dx_um,dz_um\n";
+    let t1 = |k: usize| room_c + 0.8 * (k as f64 / 200.0).sin() + 0.4 * warm[k];
+    let t2 = |k: usize| room_c + 0.8 * (k as f64 / 200.0).sin();
+    for (k, rpm) in speed.iter().enumerate() {
+        let (a, b) = (t1(k), t2(k));
+        s.push_str(&format!("{},{rpm}", k * 60));
+        s.push_str(&format!(",{a:.6},{b:.6}"));
+        for i in 3..=17 {
+            let w = i as f64 / 17.0;
+            let wobble = 0.05 * ((k * i) as f64 / 37.0).sin();
+            s.push_str(&format!(",{:.6}", w * a + (1.0 - w) * b + wobble));
+        }
+        s.push_str(&format!(
+            ",{:.6},{:.6}\n",
+            5.0 * (a - t1(0)),
+            3.0 * (b - 20.0)
+        ));
+    }
+    write(dir, name, &s)
+}
+
+#[test]
+fn targets_of_different_forms_share_one_logged_channel_per_sensor_when_both_would_not_fit() {
+    // 17 temperatures read in both forms would take 34 channels, two more
+    // than the hub's 32: auto writes the change-form target on the logged
+    // channels with each sensor's first sample held (layout.rs). It used to
+    // refuse the fit ("the model would read 34 inputs").
+    let dir = tempfile::tempdir().unwrap();
+    let runs: Vec<String> = [18.0, 22.0, 20.0]
+        .iter()
+        .enumerate()
+        .map(|(i, room)| seventeen_sensors(dir.path(), &format!("r{i}.csv"), *room))
+        .collect();
+    let held = seventeen_sensors(dir.path(), "v.csv", 24.0);
+    let fit_to = |targets: &str, out: &Path| -> Value {
+        let mut a = vec!["fit", "--model", "auto", "--target", targets];
+        for r in &runs {
+            a.extend(["--data", r.as_str()]);
+        }
+        a.extend(["--validate", held.as_str(), "--out", p(out)]);
+        a.extend(["--auto-ensemble", "1", "--auto-families", "ridge", "--json"]);
+        ok_json(&a)
+    };
+    let joint = dir.path().join("j.bin");
+    let v = fit_to("dx_um,dz_um", &joint);
+    let forms: Vec<&str> = v["details"]["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["forms"][0].as_str().unwrap())
+        .collect();
+    assert_eq!(forms, ["change", "absolute"]);
+    let (shown, _) = ok(&["model", "show", "--model", p(&joint)]);
+    assert!(shown.contains("T17          absolute"), "{shown}");
+    assert!(
+        !shown.contains("minus its first sample"),
+        "no change-form channel: {shown}"
+    );
+    assert!(
+        shown.contains("T1 held at the run's first sample"),
+        "{shown}"
+    );
+    // The same dx_um as the change-form target fitted alone, to rounding
+    // (1e-9 um: the rewrite is exact algebra on values near 20 C).
+    let alone = dir.path().join("a.bin");
+    fit_to("dx_um", &alone);
+    let predict = |model: &Path, out: &str| -> Vec<f64> {
+        let path = dir.path().join(out);
+        ok(&[
+            "predict",
+            "--model",
+            p(model),
+            "--data",
+            &held,
+            "--out",
+            p(&path),
+        ]);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines = text.lines();
+        let col = lines
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|c| c == "dx_um_pred")
+            .unwrap();
+        lines
+            .map(|l| l.split(',').nth(col).unwrap().parse().unwrap())
+            .collect()
+    };
+    let (a, b) = (predict(&joint, "pj.csv"), predict(&alone, "pa.csv"));
+    assert_eq!(a.len(), 8 * 60);
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-9, "joint and alone differ by {worst} um");
+    // Both targets predict the held-out run, 4 K warmer than any calibration
+    // run, within 0.1 um rms (the 6-digit rounding, the penalty's shrinkage).
+    for t in ["dx_um", "dz_um"] {
+        let r = v["targets"][t]["holdout"]["rmse_um"].as_f64().unwrap();
+        assert!(r < 0.1, "{t}: held-out rmse {r}");
+    }
 }

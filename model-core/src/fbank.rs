@@ -24,6 +24,11 @@
 //!   as the TF path assumes), after that `s_j = p s_j + (1 - p) v`. The
 //!   filter has unit steady-state gain, so a coefficient is the feature's
 //!   gain in output units per input unit (per unit squared for `power` 2).
+//!   A time constant so long that the pole rounds to exactly 1 (`f64::MAX`
+//!   at any sample time) holds the run's first value, `s_j = v(0)`: the
+//!   trainer uses it to write a regression on changes from the run's first
+//!   sample on logged channels (`F(x - x0) = F(x) - x0` for a filter with
+//!   unit gain started in steady state).
 //!
 //! Each [`FbOutput`] is `intercept + sum_j coef[j] s_j`: one coefficient per
 //! feature, each model output listed once.
@@ -184,6 +189,19 @@ mod tests {
         let p = pole(3600.0, 1.0);
         assert!((p - 0.999_722_260_798_897_1).abs() < 1e-15, "{p}");
         assert_eq!(pole(0.0, 1.0), 0.0);
+    }
+
+    #[test]
+    fn a_pole_of_one_holds_the_first_value_exactly() {
+        // exp(-dt / f64::MAX) rounds to 1, and 1 s + 0 v is s to the last bit.
+        for dt in [1e-3, 1.0, 40.0, 86_400.0] {
+            assert_eq!(pole(f64::MAX, dt), 1.0);
+        }
+        let mut s = filter_step(1.0, 0.0, 21.37, true);
+        for v in [25.0, -3.0, 1e6, 21.0] {
+            s = filter_step(1.0, s, v, false);
+        }
+        assert_eq!(s, 21.37);
     }
 
     #[test]

@@ -28,6 +28,7 @@
 pub mod family;
 pub mod features;
 pub mod folds;
+pub mod layout;
 pub mod ridge;
 pub mod search;
 pub mod table;
@@ -38,9 +39,10 @@ use anyhow::{anyhow, bail, Result};
 use family::{Bench, Comparison, FamilyChoice, Residuals, Trainers};
 use features::Role;
 use folds::Folds;
-use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
-use model_core::model::{Bounds, Name, Span, MAX_CHANNELS};
-use model_core::{Channel, Model, Params, Reference};
+use layout::Layout;
+use model_core::fbank::{FbOutput, FilterBank, MAX_FB_FEATURES};
+use model_core::model::{Bounds, Name, Span};
+use model_core::{Channel, Model, Params};
 use search::{FormData, Member, SearchSettings};
 use serde::Serialize;
 use table::{CvRow, Family, Form};
@@ -377,14 +379,6 @@ fn adjusted(grid: &[GridRun], roles: &[Role], form: Form) -> Vec<Vec<Vec<f64>>> 
         .collect()
 }
 
-/// The model input of dataset input `i` in `form`.
-fn reference(role: Role, form: Form) -> Reference {
-    match (role, form) {
-        (Role::Temperature, Form::Change) => Reference::First,
-        _ => Reference::Absolute,
-    }
-}
-
 /// The ridge search's outcome for every target.
 struct RidgeFit {
     /// Per target, for the JSON.
@@ -395,7 +389,9 @@ struct RidgeFit {
     residuals: Residuals,
 }
 
-/// Step 1: the ridge search of every target, each winner with its band.
+/// Step 1: the ridge search of every target, the ensembles shortened
+/// until every target together fits the hub (layout.rs), each winner with
+/// its band.
 fn ridge_targets(
     ds: &Dataset,
     grid: &[GridRun],
@@ -404,40 +400,79 @@ fn ridge_targets(
     s: &SearchSettings,
     progress: &dyn Fn(),
 ) -> Result<RidgeFit> {
+    let ys: Vec<Vec<f64>> = (0..ds.targets.len())
+        .map(|j| grid.iter().flat_map(|g| g.y[j].iter().copied()).collect())
+        .collect();
+    let mut found = Vec::new();
+    for (target, y) in ds.targets.iter().zip(&ys) {
+        found.push(
+            search::search(forms, y, folds, s, progress)
+                .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?,
+        );
+    }
+    let mut members: Vec<Vec<Member>> = found
+        .iter_mut()
+        .map(|f| std::mem::take(&mut f.members))
+        .collect();
+    let roles = forms.first().map_or(&[][..], |f| f.roles);
+    let trimmed = layout::trim(roles, &mut members)?;
     let mut out = RidgeFit {
         choices: Vec::new(),
         winners: Vec::new(),
         residuals: Vec::new(),
     };
-    for (j, target) in ds.targets.iter().enumerate() {
-        let y: Vec<f64> = grid.iter().flat_map(|g| g.y[j].iter().copied()).collect();
-        let found = search::search(forms, &y, folds, s, progress)
-            .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?;
-        let form = found.members[0].form;
-        let x = forms.iter().find(|f| f.form == form).expect("both forms").x;
-        let d = cv_extrapolation(x, folds, &used_inputs(&found.members));
-        let (r, d): (Vec<f64>, Vec<f64>) = found
-            .cv_residuals
-            .iter()
-            .zip(d)
-            .filter_map(|(r, d)| Some(((*r)?, d)))
-            .unzip();
-        let band = Band::calibrate(&r, &d);
-        let cv_rmse = rms(&r);
-        out.choices.push(TargetChoice {
-            target: target.clone(),
-            forms: found.members.iter().map(|m| m.form).collect(),
-            family: Family::Ridge,
-            cv_table: found.table,
-            cv_rmse,
-            ridge_cv_rmse: cv_rmse,
-            half_width_95: band.half_width,
-            band: band.clone(),
-        });
-        out.winners.push((found.members, band));
+    for (j, (mut found, members)) in found.into_iter().zip(members).enumerate() {
+        if trimmed[j] > 0 {
+            for (k, row) in found.table.iter_mut().enumerate() {
+                row.chosen &= members.iter().any(|m| m.table_row == k);
+            }
+            found.cv_residuals = search::cv_residuals(forms, &members, &ys[j], folds, s.dt_s);
+        }
+        let (choice, band) = target_choice(
+            &ds.targets[j],
+            found.table,
+            &found.cv_residuals,
+            &members,
+            forms,
+            folds,
+        );
+        out.choices.push(choice);
+        out.winners.push((members, band));
         out.residuals.push(found.cv_residuals);
     }
     Ok(out)
+}
+
+/// A target's report and band from its averaged winner's CV residuals.
+fn target_choice(
+    target: &str,
+    cv_table: Vec<CvRow>,
+    cv_residuals: &[Option<f64>],
+    members: &[Member],
+    forms: &[FormData],
+    folds: &Folds,
+) -> (TargetChoice, Band) {
+    let form = members[0].form;
+    let x = forms.iter().find(|f| f.form == form).expect("both forms").x;
+    let d = cv_extrapolation(x, folds, &used_inputs(members));
+    let (r, d): (Vec<f64>, Vec<f64>) = cv_residuals
+        .iter()
+        .zip(d)
+        .filter_map(|(r, d)| Some(((*r)?, d)))
+        .unzip();
+    let band = Band::calibrate(&r, &d);
+    let cv_rmse = rms(&r);
+    let choice = TargetChoice {
+        target: target.to_string(),
+        forms: members.iter().map(|m| m.form).collect(),
+        family: Family::Ridge,
+        cv_table,
+        cv_rmse,
+        ridge_cv_rmse: cv_rmse,
+        half_width_95: band.half_width,
+        band: band.clone(),
+    };
+    (choice, band)
 }
 
 /// Step 3: the family rows go into each target's table (lowest
@@ -537,74 +572,6 @@ fn quantile_abs(v: &[f64], q: f64) -> f64 {
     a[i]
 }
 
-/// Model inputs: every (dataset input, reference) pair a member uses, in
-/// dataset order, change-form channels first.
-fn model_inputs(
-    ds: &Dataset,
-    roles: &[Role],
-    winners: &[(Vec<Member>, Band)],
-) -> Vec<(usize, Form, Reference)> {
-    let mut out: Vec<(usize, Form, Reference)> = Vec::new();
-    for form in Form::ALL {
-        for (i, &role) in roles.iter().enumerate() {
-            let used = winners
-                .iter()
-                .flat_map(|(m, _)| m)
-                .any(|m| m.form == form && m.features.iter().any(|f| f.input == i));
-            let r = reference(role, form);
-            if used && !out.iter().any(|&(j, _, rr)| j == i && rr == r) {
-                out.push((i, form, r));
-            }
-        }
-    }
-    let _ = ds;
-    out
-}
-
-/// Features (model channels) and each target's averaged row `(intercept,
-/// coefficients)` of the winners; a row is as long as the features seen up
-/// to its target (shorter rows end in zeros).
-type AveragedRows = (Vec<Feature>, Vec<(f64, Vec<f64>)>);
-
-/// The winners' members averaged per target into rows over one shared
-/// feature list; `channel_of(input, form)` is the model channel.
-fn averaged_rows(
-    winners: &[(Vec<Member>, Band)],
-    channel_of: &dyn Fn(usize, Form) -> Option<usize>,
-) -> Result<AveragedRows> {
-    let mut feats: Vec<Feature> = Vec::new();
-    let mut rows: Vec<(f64, Vec<f64>)> = Vec::new();
-    for (members, _) in winners {
-        let mut intercept = 0.0;
-        let mut coef: Vec<(Feature, f64)> = Vec::new();
-        let w = 1.0 / members.len() as f64;
-        for m in members {
-            intercept += w * m.coefs.intercept;
-            for (d, b) in m.features.iter().zip(&m.coefs.beta) {
-                let ch = channel_of(d.input, m.form).ok_or_else(|| anyhow!("auto: input map"))?;
-                let f = Feature {
-                    input: u8::try_from(ch)?,
-                    power: d.power,
-                    tau_s: d.tau_s,
-                };
-                coef.push((f, w * b));
-            }
-        }
-        let mut dense = vec![0.0; feats.len()];
-        for (f, b) in coef {
-            match feats.iter().position(|g| *g == f) {
-                Some(p) => dense[p] += b,
-                None => {
-                    feats.push(f);
-                    dense.push(b);
-                }
-            }
-        }
-        rows.push((intercept, dense));
-    }
-    Ok((feats, rows))
-}
-
 /// One fbank model of every target's averaged winner, with bounds.
 fn assemble(
     ds: &Dataset,
@@ -614,28 +581,14 @@ fn assemble(
     winners: &[(Vec<Member>, Band)],
     dt_s: f64,
 ) -> Result<model_core::ValidModel> {
-    let inputs = model_inputs(ds, roles, winners);
-    if inputs.len() > MAX_CHANNELS {
-        bail!(
-            "auto: the model would read {} inputs; the hub takes at most {MAX_CHANNELS}",
-            inputs.len()
-        );
-    }
-    let channel_of = |i: usize, form: Form| {
-        let r = reference(roles[i], form);
-        inputs.iter().position(|&(j, _, rr)| j == i && rr == r)
-    };
-    let (feats, rows) = averaged_rows(winners, &channel_of)?;
-    if feats.len() > MAX_FB_FEATURES {
-        bail!(
-            "auto: {} filter features; the hub takes at most {MAX_FB_FEATURES} (give fewer --inputs)",
-            feats.len()
-        );
-    }
+    let members: Vec<&[Member]> = winners.iter().map(|(m, _)| m.as_slice()).collect();
+    let layout = Layout::of(roles, &members)?;
+    layout.check()?;
     let outs = outputs(ds)?;
     let mut fb_outputs = heapless::Vec::new();
-    for (o, (intercept, mut dense)) in rows.into_iter().enumerate() {
-        dense.resize(feats.len(), 0.0);
+    let n_features = layout.features.len();
+    for (o, (intercept, mut dense)) in layout.rows.into_iter().enumerate() {
+        dense.resize(n_features, 0.0);
         fb_outputs
             .push(FbOutput {
                 output: u8::try_from(o)?,
@@ -646,16 +599,16 @@ fn assemble(
     }
     let mut channels = heapless::Vec::new();
     let mut envelope = Vec::new();
-    for &(i, form, r) in &inputs {
-        let name = &ds.inputs[i];
+    for c in &layout.channels {
+        let name = &ds.inputs[c.input];
         channels
             .push(Channel {
                 name: Name::try_from(name.as_str())
                     .map_err(|_| anyhow!("input name \"{name}\" is too long"))?,
-                reference: r,
+                reference: c.reference,
             })
             .map_err(|_| anyhow!("auto: too many inputs"))?;
-        envelope.push(span(grid, form_x(xs, form), i));
+        envelope.push(span(grid, form_x(xs, c.form), c.input));
     }
     let bands: Vec<Band> = winners.iter().map(|(_, b)| b.clone()).collect();
     let model = Model {
@@ -663,7 +616,8 @@ fn assemble(
         outputs: outs,
         dt_s,
         params: Params::Fbank(FilterBank {
-            features: heapless::Vec::from_slice(&feats).map_err(|_| anyhow!("auto: capacity"))?,
+            features: heapless::Vec::from_slice(&layout.features)
+                .map_err(|_| anyhow!("auto: capacity"))?,
             outputs: fb_outputs,
         }),
         bounds: Some(bounds(&envelope, &bands)?),

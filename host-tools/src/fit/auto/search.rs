@@ -60,6 +60,8 @@ pub struct Member {
     pub lambda: f64,
     /// Coefficients fitted without each fold, for the CV residuals.
     pub fold_coefs: Vec<Option<Coefs>>,
+    /// Its row in the target's CV table ([`TargetSearch::table`]).
+    pub table_row: usize,
 }
 
 /// The outcome for one target.
@@ -267,7 +269,7 @@ fn pick_members(
     };
     let mut members: Vec<Member> = Vec::new();
     let mut union: Vec<FeatureDef> = Vec::new();
-    for &i in order {
+    for (table_row, &i) in order.iter().enumerate() {
         if members.len() >= s.ensemble.max(1) {
             break;
         }
@@ -301,6 +303,7 @@ fn pick_members(
             coefs,
             lambda,
             fold_coefs,
+            table_row,
         });
     }
     members
@@ -336,7 +339,7 @@ pub fn search(
 
 /// `y - ŷ` of the averaged winner on each scored calibration sample, `ŷ`
 /// from the members fitted for that sample's fold (never on it).
-fn cv_residuals(
+pub fn cv_residuals(
     forms: &[FormData],
     members: &[Member],
     y: &[f64],

@@ -1,0 +1,379 @@
+//! How the averaged winners of every target sit on the hub: the model's
+//! channels (one per dataset input and reference), one feature list shared
+//! by every output, and each output's row of coefficients, within the
+//! hub's capacity ([`MAX_CHANNELS`] channels, [`MAX_FB_FEATURES`] features).
+//!
+//! Targets may choose different input forms. A temperature read in both
+//! forms takes two channels (its change from the run's first sample and
+//! its logged value). When that would exceed the hub's channels, the
+//! change-form members are rewritten on the logged channels, exactly: a
+//! feature is a first-order filter with unit steady-state gain started in
+//! steady state, so it is linear and passes a constant through unchanged,
+//! `F(x - x0) = F(x) - x0`; and `x0`, the run's first sample, is itself a
+//! feature, a filter whose pole is 1 ([`HOLD_TAU_S`]), which holds the value
+//! it started with. A change-form regression `sum_f b_f F_f(x - x0)` is then
+//! `sum_f b_f F_f(x) - (sum_f b_f) x0` per input.
+//!
+//! When the features of every target together exceed the hub's, [`trim`]
+//! shortens the ensembles: the lowest-ranked member of the largest ensemble
+//! goes first, until they fit. Each target's own search already keeps its
+//! ensemble within the hub's features, so one target never needs it.
+
+use super::features::Role;
+use super::search::Member;
+use super::table::Form;
+use anyhow::{anyhow, bail, Result};
+use model_core::fbank::{Feature, MAX_FB_FEATURES};
+use model_core::model::MAX_CHANNELS;
+use model_core::Reference;
+
+/// Time constant of the hold feature: its pole `exp(-dt / f64::MAX)` rounds
+/// to exactly 1 at every sample time, so `s = 1 s + 0 v` keeps the run's
+/// first value to the last bit (model-core's `fbank`, unchanged: the time
+/// constant is finite and positive as it requires).
+pub const HOLD_TAU_S: f64 = f64::MAX;
+
+/// One model channel: a dataset input, the grid form whose values give
+/// its calibration envelope, and the reference the hub subtracts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Channel {
+    /// Dataset input index.
+    pub input: usize,
+    /// Form of the calibration values (its envelope).
+    pub form: Form,
+    /// What the hub subtracts from the reading.
+    pub reference: Reference,
+}
+
+/// The model input of dataset input `i` with role `role` in `form`.
+pub fn reference(role: Role, form: Form) -> Reference {
+    match (role, form) {
+        (Role::Temperature, Form::Change) => Reference::First,
+        _ => Reference::Absolute,
+    }
+}
+
+/// The winners on the hub.
+#[derive(Clone, Debug)]
+pub struct Layout {
+    /// Model channels, in model input order.
+    pub channels: Vec<Channel>,
+    /// Features, shared by every output (channel indices).
+    pub features: Vec<Feature>,
+    /// Per target: intercept and one coefficient per feature.
+    pub rows: Vec<(f64, Vec<f64>)>,
+    /// Whether change-form members were rewritten on logged channels.
+    pub rewritten: bool,
+}
+
+impl Layout {
+    /// Of every target's members (`winners[t]`, each in its own form),
+    /// rewritten on logged channels when reading both forms would exceed
+    /// the hub's channels.
+    pub fn of(roles: &[Role], winners: &[&[Member]]) -> Result<Self> {
+        let rewrite = channels(roles, winners, false).len() > MAX_CHANNELS;
+        Self::build(roles, winners, rewrite)
+    }
+
+    /// [`Layout::of`] with the rewrite chosen by the caller.
+    fn build(roles: &[Role], winners: &[&[Member]], rewrite: bool) -> Result<Self> {
+        let channels = channels(roles, winners, rewrite);
+        let channel_of = |i: usize, form: Form| {
+            let form = if rewrite { Form::Absolute } else { form };
+            let r = reference(roles[i], form);
+            channels
+                .iter()
+                .position(|c| c.input == i && c.reference == r)
+        };
+        let (features, rows) = averaged_rows(roles, winners, rewrite, &channel_of)?;
+        Ok(Self {
+            channels,
+            features,
+            rows,
+            rewritten: rewrite,
+        })
+    }
+
+    /// Whether the hub takes it.
+    pub fn fits(&self) -> bool {
+        self.channels.len() <= MAX_CHANNELS && self.features.len() <= MAX_FB_FEATURES
+    }
+
+    /// A one-line refusal when the hub does not take it.
+    pub fn check(&self) -> Result<()> {
+        if self.channels.len() > MAX_CHANNELS {
+            bail!(
+                "auto: the model would read {} inputs; the hub takes at most {MAX_CHANNELS}",
+                self.channels.len()
+            );
+        }
+        if self.features.len() > MAX_FB_FEATURES {
+            bail!(
+                "auto: {} filter features; the hub takes at most {MAX_FB_FEATURES} (give fewer --inputs)",
+                self.features.len()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Every (dataset input, reference) pair a member uses, in dataset order,
+/// change-form channels first; with `rewrite`, every input on its logged
+/// channel.
+fn channels(roles: &[Role], winners: &[&[Member]], rewrite: bool) -> Vec<Channel> {
+    let mut out: Vec<Channel> = Vec::new();
+    for form in Form::ALL {
+        for (i, &role) in roles.iter().enumerate() {
+            let used = winners
+                .iter()
+                .flat_map(|m| m.iter())
+                .any(|m| m.form == form && m.features.iter().any(|f| f.input == i));
+            let form = if rewrite { Form::Absolute } else { form };
+            let reference = reference(role, form);
+            if used && !out.iter().any(|c| c.input == i && c.reference == reference) {
+                out.push(Channel {
+                    input: i,
+                    form,
+                    reference,
+                });
+            }
+        }
+    }
+    if rewrite {
+        out.sort_by_key(|c| c.input);
+    }
+    out
+}
+
+/// Features (model channels) and each target's averaged row `(intercept,
+/// coefficients)`; a row is as long as the features seen up to its target
+/// (shorter rows end in zeros).
+type AveragedRows = (Vec<Feature>, Vec<(f64, Vec<f64>)>);
+
+/// The members averaged per target into rows over one shared feature list;
+/// `channel_of(input, form)` is the model channel. With `rewrite`, a
+/// change-form temperature feature goes on the logged channel and its
+/// coefficient, negated, onto that channel's hold feature.
+fn averaged_rows(
+    roles: &[Role],
+    winners: &[&[Member]],
+    rewrite: bool,
+    channel_of: &dyn Fn(usize, Form) -> Option<usize>,
+) -> Result<AveragedRows> {
+    let mut feats: Vec<Feature> = Vec::new();
+    let mut rows: Vec<(f64, Vec<f64>)> = Vec::new();
+    for members in winners {
+        let mut intercept = 0.0;
+        let mut coef: Vec<(Feature, f64)> = Vec::new();
+        let w = 1.0 / members.len() as f64;
+        for m in *members {
+            intercept += w * m.coefs.intercept;
+            for (d, b) in m.features.iter().zip(&m.coefs.beta) {
+                let ch = channel_of(d.input, m.form).ok_or_else(|| anyhow!("auto: input map"))?;
+                let input = u8::try_from(ch)?;
+                coef.push((
+                    Feature {
+                        input,
+                        power: d.power,
+                        tau_s: d.tau_s,
+                    },
+                    w * b,
+                ));
+                if rewrite && m.form == Form::Change && roles[d.input] == Role::Temperature {
+                    let hold = Feature {
+                        input,
+                        power: 1,
+                        tau_s: HOLD_TAU_S,
+                    };
+                    coef.push((hold, -w * b));
+                }
+            }
+        }
+        let mut dense = vec![0.0; feats.len()];
+        for (f, b) in coef {
+            match feats.iter().position(|g| *g == f) {
+                Some(p) => dense[p] += b,
+                None => {
+                    feats.push(f);
+                    dense.push(b);
+                }
+            }
+        }
+        rows.push((intercept, dense));
+    }
+    Ok((feats, rows))
+}
+
+/// Shortens the ensembles (`winners[t]`, best-ranked first) until every
+/// target together fits the hub: the last member of the largest ensemble
+/// goes first (of equal ones, the later target's). Returns how many members
+/// each target lost; refuses in one line when single members do not fit.
+pub fn trim(roles: &[Role], winners: &mut [Vec<Member>]) -> Result<Vec<usize>> {
+    let mut dropped = vec![0; winners.len()];
+    loop {
+        let slices: Vec<&[Member]> = winners.iter().map(Vec::as_slice).collect();
+        let layout = Layout::of(roles, &slices)?;
+        if layout.fits() {
+            return Ok(dropped);
+        }
+        let largest = (0..winners.len())
+            .filter(|&t| winners[t].len() > 1)
+            .max_by_key(|&t| (winners[t].len(), t));
+        let Some(t) = largest else {
+            layout.check()?;
+            return Ok(dropped);
+        };
+        winners[t].pop();
+        dropped[t] += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::auto::features::FeatureDef;
+    use crate::fit::auto::ridge::Coefs;
+
+    fn member(form: Form, defs: &[(usize, f64)], beta: &[f64], intercept: f64) -> Member {
+        Member {
+            form,
+            features: defs
+                .iter()
+                .map(|&(input, tau_s)| FeatureDef {
+                    input,
+                    power: 1,
+                    tau_s,
+                })
+                .collect(),
+            coefs: Coefs {
+                intercept,
+                beta: beta.to_vec(),
+            },
+            lambda: 0.0,
+            fold_coefs: Vec::new(),
+            table_row: 0,
+        }
+    }
+
+    /// `sum_f b_f F_f(x)` over a layout's row for one run of channel values
+    /// `x[channel][k]` (absolute channels: the hub's reading; `First`
+    /// channels: minus the first sample), stepped as the hub does.
+    fn predict(l: &Layout, row: usize, x: &[Vec<f64>], dt: f64) -> Vec<f64> {
+        let (b0, coef) = &l.rows[row];
+        let adj: Vec<Vec<f64>> = l
+            .channels
+            .iter()
+            .zip(x)
+            .map(|(c, v)| match c.reference {
+                Reference::First => v.iter().map(|u| u - v[0]).collect(),
+                _ => v.clone(),
+            })
+            .collect();
+        let cols: Vec<Vec<f64>> = l
+            .features
+            .iter()
+            .map(|f| {
+                let p = model_core::fbank::pole(f.tau_s, dt);
+                let v = &adj[usize::from(f.input)];
+                let mut s = v[0];
+                v.iter()
+                    .enumerate()
+                    .map(|(k, &u)| {
+                        s = model_core::fbank::filter_step(p, s, u, k == 0);
+                        s
+                    })
+                    .collect()
+            })
+            .collect();
+        (0..x[0].len())
+            .map(|k| b0 + coef.iter().zip(&cols).map(|(b, c)| b * c[k]).sum::<f64>())
+            .collect()
+    }
+
+    #[test]
+    fn a_change_form_member_rewritten_on_logged_channels_predicts_the_same() {
+        // Target 0 in change form on T0 (raw and 900 s), target 1 absolute.
+        let roles = [Role::Temperature, Role::Temperature];
+        let change = [member(
+            Form::Change,
+            &[(0, 0.0), (0, 900.0), (1, 2700.0)],
+            &[2.0, -1.5, 0.7],
+            0.0,
+        )];
+        let absolute = [member(
+            Form::Absolute,
+            &[(0, 0.0), (1, 0.0)],
+            &[0.3, 1.1],
+            -4.0,
+        )];
+        let winners: [&[Member]; 2] = [&change, &absolute];
+        let two = Layout::of(&roles, &winners).unwrap();
+        assert!(!two.rewritten, "4 channels fit the hub");
+        assert_eq!(two.channels.len(), 4, "each input read in both forms");
+        let one = Layout::build(&roles, &winners, true).unwrap();
+        assert_eq!(one.channels.len(), 2, "one logged channel per input");
+        assert!(one
+            .channels
+            .iter()
+            .all(|c| c.reference == Reference::Absolute));
+        let holds = one
+            .features
+            .iter()
+            .filter(|f| f.tau_s == HOLD_TAU_S)
+            .count();
+        assert_eq!(holds, 2, "T0 and T1 each hold their first sample");
+        // A run that starts warm (21.3 / 19.8 C) and moves.
+        let n = 500;
+        let t0: Vec<f64> = (0..n)
+            .map(|k| 21.3 + 3.0 * (f64::from(k) / 80.0).sin())
+            .collect();
+        let t1: Vec<f64> = (0..n).map(|k| 19.8 + 0.01 * f64::from(k)).collect();
+        let by_channel = |l: &Layout| -> Vec<Vec<f64>> {
+            l.channels
+                .iter()
+                .map(|c| if c.input == 0 { t0.clone() } else { t1.clone() })
+                .collect()
+        };
+        for row in 0..2 {
+            let a = predict(&two, row, &by_channel(&two), 30.0);
+            let b = predict(&one, row, &by_channel(&one), 30.0);
+            let worst = a
+                .iter()
+                .zip(&b)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            // Rounding only: values near 20 C, coefficients near 1, so
+            // each product is exact to ~1e-14 and a few of them add up.
+            assert!(worst < 1e-12, "target {row}: {worst}");
+        }
+    }
+
+    #[test]
+    fn trimming_drops_the_last_member_of_the_largest_ensemble_first() {
+        // One feature per member, each on its own input (40 + 40 members,
+        // one form): 80 channels must come down to the hub's 32.
+        let roles = vec![Role::HeatSource; 80];
+        let ens = |from: usize| -> Vec<Member> {
+            (from..from + 40)
+                .map(|i| member(Form::Absolute, &[(i, 2700.0)], &[1.0], 0.0))
+                .collect()
+        };
+        let mut winners = vec![ens(0), ens(40)];
+        let dropped = trim(&roles, &mut winners).unwrap();
+        assert_eq!(winners[0].len() + winners[1].len(), MAX_CHANNELS);
+        assert_eq!(dropped, [24, 24]);
+        // The best-ranked (first) members stay.
+        assert_eq!(winners[0][0].features[0].input, 0);
+        assert_eq!(winners[1][0].features[0].input, 40);
+        // Single members that cannot fit are refused in one line.
+        let wide: Vec<Member> = vec![member(
+            Form::Absolute,
+            &(0..40).map(|i| (i, 0.0)).collect::<Vec<_>>(),
+            &[1.0; 40],
+            0.0,
+        )];
+        let mut one = vec![wide];
+        let e = trim(&roles, &mut one).unwrap_err().to_string();
+        assert!(e.contains("the hub takes at most 32"), "{e}");
+    }
+}
