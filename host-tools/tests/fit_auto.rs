@@ -479,6 +479,43 @@ fn an_unknown_family_is_refused_in_one_line() {
     assert!(!out.exists(), "no blob written");
 }
 
+#[test]
+fn more_inputs_than_the_hub_reads_are_refused_before_the_search() {
+    // 33 temperatures: no model could read them all, so auto says so at
+    // once (it used to search first and refuse at the end).
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("t_s");
+    for i in 1..=33 {
+        text.push_str(&format!(",T{i}"));
+    }
+    text.push_str(",dz_um\n");
+    for k in 0..200 {
+        text.push_str(&format!("{}", k * 60));
+        for i in 1..=33 {
+            text.push_str(&format!(",{:.3}", 20.0 + 0.01 * f64::from(k * i % 17)));
+        }
+        text.push_str(&format!(",{}\n", f64::from(k) * 0.01));
+    }
+    let data = write(dir.path(), "r.csv", &text);
+    let out = dir.path().join("m.bin");
+    let e = common::fails_one_line(&[
+        "fit",
+        "--model",
+        "auto",
+        "--target",
+        "dz_um",
+        "--data",
+        &data,
+        "--out",
+        p(&out),
+    ]);
+    assert!(
+        e.contains("auto: 33 inputs, but the hub reads at most 32"),
+        "{e}"
+    );
+    assert!(!out.exists(), "no blob written");
+}
+
 /// One 8 h run at 60 s with 17 temperatures: T1 warms with the spindle
 /// (0 then 3000 rpm), T2 follows the room (starting at `room_c`), T3..T17
 /// mix them with a deterministic wobble of their own. dx_um = 5 (T1 -

@@ -41,7 +41,7 @@ use features::Role;
 use folds::Folds;
 use layout::Layout;
 use model_core::fbank::{FbOutput, FilterBank, MAX_FB_FEATURES};
-use model_core::model::{Bounds, Name, Span};
+use model_core::model::{Bounds, Name, Span, MAX_CHANNELS};
 use model_core::{Channel, Model, Params};
 use search::{FormData, Member, SearchSettings};
 use serde::Serialize;
@@ -156,6 +156,13 @@ impl AutoParams {
         }
         if !(1..=100).contains(&self.ensemble) {
             bail!("auto: --auto-ensemble {} must be 1..100", self.ensemble);
+        }
+        if ds.inputs.len() > MAX_CHANNELS {
+            bail!(
+                "auto: {} inputs, but the hub reads at most {MAX_CHANNELS}: name at most \
+                 {MAX_CHANNELS} with --inputs (`thermcomp select` ranks the temperatures)",
+                ds.inputs.len()
+            );
         }
         let families = Family::parse_list(&self.families)?;
         let dt_s = super::dynamic::grid::sample_time(ds, self.dt_s)?;
