@@ -19,6 +19,10 @@ scored runs, for `auto` and for a numpy ridge with one fixed feature recipe
 (temperature changes raw and low-pass filtered at 15 and 60 min, penalty by
 leave-one-run-out CV: the "new user with numpy" baseline). Inputs: the
 temperature columns only (`--inputs T1..Tn`), as that machine's criterion.
+Also: the band's coverage and mean half-width on the scored runs, the share
+of scored samples the hub flags as extrapolating, and the rmse on the second
+scored run before and after `thermcomp refit` of the auto blob on the first
+(seed 002's self-adaptive update, what a user does after such a day).
 
 usage: scripts/auto_room_split.py [path/to/thermcomp] [--seed S] [-- fit options]
 """
@@ -125,6 +129,34 @@ def rmse(e):
     return float(np.sqrt(np.mean(np.square(e))))
 
 
+def run(exe, *args):
+    return subprocess.run([exe, *args], check=True, capture_output=True, text=True).stdout
+
+
+def data_args(paths):
+    return [a for p in paths for a in ("--data", p)]
+
+
+def make_runs(exe, tmp, seed):
+    s = 10 * seed
+    cal = [simulate(exe, tmp, "cal18", "steps", s + 1, 18.0),
+           simulate(exe, tmp, "cal20", "spectrum", s + 2, 20.0),
+           simulate(exe, tmp, "cal23", "steps", s + 3, 23.0)]
+    test = [simulate(exe, tmp, "room1", "steps", s + 4, effects="ambient"),
+            simulate(exe, tmp, "room2", "spectrum", s + 5, effects="ambient")]
+    return cal, test
+
+
+def refit_on_room1(exe, tmp, test):
+    """rmse on room2 of the auto blob before and after `refit` on room1 (the
+    user's move after a day whose room moved: seed 002's self-adaptive
+    update)."""
+    run(exe, "refit", "--model", f"{tmp}/m.bin", "--data", test[0], "--out", f"{tmp}/r.bin")
+    before = json.loads(run(exe, "eval", "--model", f"{tmp}/m.bin", "--data", test[1], "--json"))
+    after = json.loads(run(exe, "eval", "--model", f"{tmp}/r.bin", "--data", test[1], "--json"))
+    return {t: (before[t]["rmse_um"], after[t]["rmse_um"]) for t in TARGETS}
+
+
 def main():
     args = sys.argv[1:]
     extra = []
@@ -137,32 +169,21 @@ def main():
         del args[args.index("--seed"):args.index("--seed") + 2]
     exe = args[0] if args else str(ROOT / "target/release/thermcomp")
     with tempfile.TemporaryDirectory() as tmp:
-        s = 10 * seed
-        cal = [simulate(exe, tmp, "cal18", "steps", s + 1, 18.0),
-               simulate(exe, tmp, "cal20", "spectrum", s + 2, 20.0),
-               simulate(exe, tmp, "cal23", "steps", s + 3, 23.0)]
-        test = [simulate(exe, tmp, "room1", "steps", s + 4, effects="ambient"),
-                simulate(exe, tmp, "room2", "spectrum", s + 5, effects="ambient")]
+        cal, test = make_runs(exe, tmp, seed)
         _, col = read(cal[0])
         temps = [c for c in col if c.startswith("T") and c[1:].isdigit()]
-        data_args = [a for p in cal for a in ("--data", p)]
-        fit = subprocess.run([exe, "fit", *data_args, "--target", ",".join(TARGETS),
-                              "--model", "auto", "--inputs", ",".join(temps),
-                              "--out", f"{tmp}/m.bin", "--json", *extra],
-                             check=True, capture_output=True, text=True)
-        fit_json = json.loads(fit.stdout)
-        ev = subprocess.run([exe, "eval", "--model", f"{tmp}/m.bin",
-                             *[a for p in test for a in ("--data", p)], "--json"],
-                            check=True, capture_output=True, text=True)
-        ev_json = json.loads(ev.stdout)
-        subprocess.run([exe, "predict", "--model", f"{tmp}/m.bin", "--interval",
-                        *[a for p in test for a in ("--data", p)], "--out", f"{tmp}/p.csv"],
-                       check=True, capture_output=True, text=True)
+        fit_json = json.loads(run(exe, "fit", *data_args(cal), "--target", ",".join(TARGETS),
+                                  "--model", "auto", "--inputs", ",".join(temps),
+                                  "--out", f"{tmp}/m.bin", "--json", *extra))
+        ev_json = json.loads(run(exe, "eval", "--model", f"{tmp}/m.bin", *data_args(test), "--json"))
+        run(exe, "predict", "--model", f"{tmp}/m.bin", "--interval", *data_args(test),
+            "--out", f"{tmp}/p.csv")
         pred, pcol = read_predictions(f"{tmp}/p.csv")
+        refit = refit_on_room1(exe, tmp, test)
         cal_d = [read(p)[0] for p in cal]
         test_d = [read(p)[0] for p in test]
         print(f"{'target':8} {'auto':>8} {'ridge':>8} {'sd y':>8} {'cover%':>7} {'half':>7} {'flag%':>6}"
-              "  auto's best candidate")
+              f" {'room2':>6} {'refit':>6}  auto's best candidate")
         for t in TARGETS:
             xs = [features(d, col, temps) for d in cal_d]
             ys = [d[:, col[t]] for d in cal_d]
@@ -172,12 +193,13 @@ def main():
             lo, hi = pred[:, pcol[f"{t}_lo95"]], pred[:, pcol[f"{t}_hi95"]]
             cover = 100.0 * np.mean((y >= lo) & (y <= hi))
             half = float(np.mean(hi - lo) / 2)
-            band = next(x for x in fit_json["details"]["targets"] if x["target"] == t)["band"]
+            tj = next(x for x in fit_json["details"]["targets"] if x["target"] == t)
+            band = tj["band"]
             at_flag = band["half_width"] * (1 + band["growth"] * EXTRAPOLATION_FLAG_AT)
             flagged = 100.0 * np.mean((hi - lo) / 2 >= at_flag * (1 - 1e-9))
-            tj = next(x for x in fit_json["details"]["targets"] if x["target"] == t)
             w = tj["cv_table"][0]
-            print(f"{t:8} {ev_json[t]['rmse_um']:8.2f} {rmse(e):8.2f} {y.std():8.2f} {cover:7.1f} {half:7.2f} {flagged:6.1f}  "
+            print(f"{t:8} {ev_json[t]['rmse_um']:8.2f} {rmse(e):8.2f} {y.std():8.2f} {cover:7.1f} "
+                  f"{half:7.2f} {flagged:6.1f} {refit[t][0]:6.2f} {refit[t][1]:6.2f}  "
                   f"{tj['family']} {w['form']} temps {w['temp_taus_s']} lambda {w['lambda']:g}")
 
 

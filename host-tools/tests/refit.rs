@@ -1,6 +1,7 @@
 //! `thermcomp refit` end to end: no change -> the same bytes; a changed gain
 //! or a drift -> an update that lowers the held-out error; a TF bank's entry
-//! gain recovered; the real spindle run's later operating range.
+//! gain recovered; a filter bank's (the default auto model's) lagged weight
+//! corrected; the real spindle run's later operating range.
 
 mod common;
 
@@ -180,20 +181,15 @@ fn a_slow_drift_is_found_and_tracked() {
     assert!(after < 0.75 * before, "{before} -> {after}");
 }
 
-const TF_OLD: &str = "kind = \"tf\"\ndt_s = 15.0\n\
-[[tf]]\noutput = \"dz_um\"\ninput = \"T1\"\nreference = \"first\"\na = [0.03]\nb = [1.0, -0.99]\n\
-[[tf]]\noutput = \"dz_um\"\ninput = \"T2\"\nreference = \"first\"\na = [-0.02]\nb = [1.0, -0.99]\n";
-
-#[test]
-fn a_tf_banks_spindle_gain_is_recovered() {
-    let dir = tempfile::tempdir().unwrap();
-    let old = build(dir.path(), "old", TF_OLD);
-    // The truth: the spindle entry's gain is 1.4x (3 -> 4.2 um/K); ambient as before.
-    let truth_spec = dir.path().join("truth.toml");
-    std::fs::write(&truth_spec, TF_OLD.replacen("a = [0.03]", "a = [0.042]", 1)).unwrap();
-    let inputs = dir.path().join("inputs.csv");
+/// The new run `new.csv` in `dir`: the temperatures of [`temps`] and a
+/// dz_um that the model `spec` (TOML, the truth) predicts from them, plus
+/// AR(1) noise (0.3 um sd, `seed`).
+fn run_of_spec(dir: &Path, spec: &str, seed: u64) -> PathBuf {
+    let truth_spec = dir.join("truth.toml");
+    std::fs::write(&truth_spec, spec).unwrap();
+    let inputs = dir.join("inputs.csv");
     write_run(&inputs, |_, _| 0.0);
-    let pred = dir.path().join("pred.csv");
+    let pred = dir.join("pred.csv");
     thermcomp(&[
         "predict",
         "--spec",
@@ -210,9 +206,23 @@ fn a_tf_banks_spindle_gain_is_recovered() {
         .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
         .collect();
     assert_eq!(y.len(), N);
-    let noise = ar1(N, 0.3, 44);
-    let data = dir.path().join("new.csv");
+    let noise = ar1(N, 0.3, seed);
+    let data = dir.join("new.csv");
     write_run(&data, |k, _| y[k] + noise[k]);
+    data
+}
+
+const TF_OLD: &str = "kind = \"tf\"\ndt_s = 15.0\n\
+[[tf]]\noutput = \"dz_um\"\ninput = \"T1\"\nreference = \"first\"\na = [0.03]\nb = [1.0, -0.99]\n\
+[[tf]]\noutput = \"dz_um\"\ninput = \"T2\"\nreference = \"first\"\na = [-0.02]\nb = [1.0, -0.99]\n";
+
+#[test]
+fn a_tf_banks_spindle_gain_is_recovered() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = build(dir.path(), "old", TF_OLD);
+    // The truth: the spindle entry's gain is 1.4x (3 -> 4.2 um/K); ambient as before.
+    let truth = TF_OLD.replacen("a = [0.03]", "a = [0.042]", 1);
+    let data = run_of_spec(dir.path(), &truth, 44);
     let out = dir.path().join("out.bin");
     let r = refit(&old, &data, &out);
     let g: Vec<f64> = r["update"]["dz_um"]["new"]["gains"]
@@ -236,6 +246,49 @@ fn a_tf_banks_spindle_gain_is_recovered() {
     let shown = json(&["model", "show", "--model", p(&out), "--json"]);
     let text = shown.to_string();
     assert!(text.contains("-0.99"), "{text}");
+}
+
+const FBANK_OLD: &str = "kind = \"fbank\"\ndt_s = 15.0\n\
+[fbank]\ninputs = [{ name = \"T1\" }, { name = \"T2\" }]\n\
+features = [{ input = \"T1\" }, { input = \"T1\", tau_s = 3600.0 }, { input = \"T2\", tau_s = 900.0 }]\n\
+[[fbank.output]]\noutput = \"dz_um\"\nintercept = -20.0\ncoef = [1.0, 2.0, -1.5]\n";
+
+#[test]
+fn a_filter_banks_lagged_gain_is_recovered() {
+    // The default `auto` model is a filter bank. The truth: the lagged T1
+    // feature's weight is 3.0 where the model has 2.0 (the structure behind
+    // the sensor grew more than calibrated); the rest as before.
+    let dir = tempfile::tempdir().unwrap();
+    let old = build(dir.path(), "old", FBANK_OLD);
+    let truth = FBANK_OLD.replacen("coef = [1.0, 2.0, -1.5]", "coef = [1.0, 3.0, -1.5]", 1);
+    let data = run_of_spec(dir.path(), &truth, 55);
+    let out = dir.path().join("out.bin");
+    let r = refit(&old, &data, &out);
+    let (before, after) = holdout_rmse(&r, "dz_um");
+    let coef: Vec<f64> = r["update"]["dz_um"]["new"]["coef"]
+        .as_array()
+        .unwrap_or_else(|| panic!("{r}"))
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    eprintln!("fbank lagged T1 x1.5: coef {coef:?}; held-out rmse {before:.3} -> {after:.3} um");
+    assert_eq!(r["changed"], true, "{r}");
+    assert_eq!(r["kept"], "new");
+    // The old model misses 1.0 x lag(T1) (T1 swings +-7 K: several um);
+    // the update leaves the noise (0.3 um sd) and RLS's lag behind it.
+    assert!(after < 0.6 && after < 0.2 * before, "{before} -> {after}");
+    // The weights: 1.0, 3.0, -1.5 to within 0.15 (the raw and the lagged T1
+    // are correlated, so RLS's prior and the noise share between them;
+    // measured 0.02-0.06 off).
+    for (c, t) in coef.iter().zip([1.0, 3.0, -1.5]) {
+        assert!((c - t).abs() < 0.15, "{coef:?}");
+    }
+    // The same three features, in the same order; the written bank scores
+    // what the report says.
+    let shown = json(&["model", "show", "--model", p(&out), "--json"]);
+    assert_eq!(shown["kind"], "fbank", "{shown}");
+    let e = json(&["eval", "--model", p(&out), "--data", p(&data), "--json"]);
+    assert!(e["dz_um"]["rmse_um"].as_f64().unwrap() < 0.6, "{e}");
 }
 
 #[test]

@@ -1,13 +1,15 @@
 //! What an update works on, per model output: the regressors the model
-//! form gives each row of the new runs (linear inputs, PCR components, or a
-//! TF bank's per-entry series) with the old coefficients, and the model
-//! with new coefficients written back into its form.
+//! form gives each row of the new runs (linear inputs, PCR components, a
+//! TF bank's per-entry series, or a filter bank's features) with the old
+//! coefficients, and the model with new coefficients written back into its
+//! form.
 
 use super::rls::Coefs;
 use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
 use anyhow::{anyhow, bail, Result};
+use model_core::fbank::{FbOutput, FilterBank};
 use model_core::linear::LinearOutput;
 use model_core::pcr::{Pcr, PcrOutput};
 use model_core::tf::TfEntry;
@@ -132,46 +134,119 @@ pub(crate) fn static_structures(old: &ValidModel, runs: &[RunFile]) -> Result<Ve
         .collect()
 }
 
-/// Each TF entry simulated alone on each run, through the runner
-/// (resampling and state exactly as the whole model runs):
-/// `[entry][run][row]`.
+/// A one-output model of `params` over the old model's inputs, run alone
+/// on each run through the runner (resampling and state exactly as the
+/// whole model runs): `[run][row]`.
+fn alone(
+    old: &ValidModel,
+    params: Params,
+    output: u8,
+    runs: &[RunFile],
+) -> Result<Vec<Vec<Option<f64>>>> {
+    let model = old.model();
+    let name = old
+        .outputs()
+        .get(usize::from(output))
+        .cloned()
+        .ok_or_else(|| anyhow!("a part names a missing output"))?;
+    let mut outputs = heapless::Vec::new();
+    let _ = outputs.push(name);
+    let m = Model {
+        inputs: model.inputs.clone(),
+        outputs,
+        dt_s: model.dt_s,
+        params,
+        bounds: None,
+        five_point: None,
+    }
+    .validate()
+    .map_err(|e| anyhow!("model part: {e}"))?;
+    let map = ColumnMap::default();
+    runs.iter()
+        .map(|r| Ok(runner::predict(&m, r, &map)?.values.swap_remove(0)))
+        .collect()
+}
+
+/// Each TF entry simulated alone on each run: `[entry][run][row]`.
 pub(crate) fn tf_entry_series(
     old: &ValidModel,
     entries: &[TfEntry],
     runs: &[RunFile],
 ) -> Result<Vec<Vec<Vec<Option<f64>>>>> {
-    let model = old.model();
-    let map = ColumnMap::default();
-    let mut series = Vec::new();
-    for entry in entries {
-        let mut single = entry.clone();
-        single.output = 0;
-        let name = old
-            .outputs()
-            .get(usize::from(entry.output))
-            .cloned()
-            .ok_or_else(|| anyhow!("tf entry names a missing output"))?;
-        let mut ents = heapless::Vec::new();
-        let _ = ents.push(single);
-        let mut outputs = heapless::Vec::new();
-        let _ = outputs.push(name);
-        let m = Model {
-            inputs: model.inputs.clone(),
-            outputs,
-            dt_s: model.dt_s,
-            params: Params::Tf(ents),
-            bounds: None,
-            five_point: None,
-        }
-        .validate()
-        .map_err(|e| anyhow!("tf entry: {e}"))?;
-        series.push(
-            runs.iter()
-                .map(|r| Ok(runner::predict(&m, r, &map)?.values.swap_remove(0)))
-                .collect::<Result<_>>()?,
-        );
-    }
-    Ok(series)
+    entries
+        .iter()
+        .map(|entry| {
+            let mut single = entry.clone();
+            single.output = 0;
+            let mut ents = heapless::Vec::new();
+            let _ = ents.push(single);
+            alone(old, Params::Tf(ents), entry.output, runs)
+        })
+        .collect()
+}
+
+/// Each filter-bank feature alone on each run (a bank of that one feature
+/// with weight 1), the filter state exactly as the whole model runs it:
+/// `[feature][run][row]`.
+fn fbank_feature_series(
+    old: &ValidModel,
+    bank: &FilterBank,
+    runs: &[RunFile],
+) -> Result<Vec<Vec<Vec<Option<f64>>>>> {
+    bank.features
+        .iter()
+        .map(|f| {
+            let mut features = heapless::Vec::new();
+            let _ = features.push(*f);
+            let mut coef = heapless::Vec::new();
+            let _ = coef.push(1.0);
+            let mut outputs = heapless::Vec::new();
+            let _ = outputs.push(FbOutput {
+                output: 0,
+                intercept: 0.0,
+                coef,
+            });
+            alone(
+                old,
+                Params::Fbank(FilterBank { features, outputs }),
+                0,
+                runs,
+            )
+        })
+        .collect()
+}
+
+/// Every output's [`Structure`] of a filter bank: the features (shared by
+/// every output) as regressors, the old intercept and weights.
+fn fbank_structures(
+    old: &ValidModel,
+    bank: &FilterBank,
+    runs: &[RunFile],
+) -> Result<Vec<Structure>> {
+    let series = fbank_feature_series(old, bank, runs)?;
+    (0..old.outputs().len())
+        .map(|k| {
+            let eq = bank
+                .outputs
+                .iter()
+                .find(|e| usize::from(e.output) == k)
+                .ok_or_else(|| anyhow!("output #{k} has no equation"))?;
+            let regs = runs
+                .iter()
+                .enumerate()
+                .map(|(ri, run)| {
+                    (0..run.len())
+                        .map(|row| series.iter().map(|f| f[ri][row]).collect())
+                        .collect()
+                })
+                .collect();
+            Ok(Structure {
+                regs,
+                old: (eq.intercept, eq.coef.to_vec()),
+                tf_entries: None,
+            })
+        })
+        .collect()
 }
 
 /// Every output's [`Structure`] of a TF bank: its entries' simulated
@@ -213,8 +288,9 @@ pub(crate) fn structures(old: &ValidModel, runs: &[RunFile]) -> Result<Vec<Struc
     match &old.model().params {
         Params::Linear(_) | Params::Pcr(_) => static_structures(old, runs),
         Params::Tf(entries) => tf_structures(old, entries, runs),
+        Params::Fbank(bank) => fbank_structures(old, bank, runs),
         _ => bail!(
-            "refit updates linear, pcr and tf models; this is a {} model",
+            "refit updates linear, pcr, tf and fbank models; this is a {} model",
             old.kind().name()
         ),
     }
@@ -245,6 +321,18 @@ pub(crate) fn with_updates(
                 for eq in p.outputs.iter_mut().filter(|e| usize::from(e.output) == *k) {
                     eq.intercept = *b0;
                     for (c, v) in eq.beta.iter_mut().zip(b) {
+                        *c = *v;
+                    }
+                }
+            }
+            Params::Fbank(bank) => {
+                for eq in bank
+                    .outputs
+                    .iter_mut()
+                    .filter(|e| usize::from(e.output) == *k)
+                {
+                    eq.intercept = *b0;
+                    for (c, v) in eq.coef.iter_mut().zip(b) {
                         *c = *v;
                     }
                 }
