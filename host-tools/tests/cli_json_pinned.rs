@@ -24,7 +24,8 @@
 //! text only). fit_auto once more when its `cv_table` was ordered by
 //! `cv_geo_rmse`, the ranking criterion, instead of the pooled `cv_rmse`
 //! (the same 50 rows in another order; every other byte, masked keys
-//! aside, unchanged).
+//! aside, unchanged), and once more when model-core's filter bank grew to
+//! 256 features (`settings.max_features` 128 -> 256, nothing else).
 //!
 //! Every command runs in the repository root with the relative paths the
 //! fixtures were captured with (`eval` names each run's file). `fit --model

@@ -43,8 +43,13 @@ use crate::capacity::MAX_OUTPUTS;
 use crate::error::ModelError;
 use serde::{Deserialize, Serialize};
 
-/// Most features in one filter bank (e.g. 32 inputs x 4 filters).
-pub const MAX_FB_FEATURES: usize = 128;
+/// Most features in one filter bank: 32 inputs x 8 (raw, the five time
+/// constants of the trainer's grid, a hold and one more), so that `fit --model auto`
+/// can average its candidates on a machine with 24 to 32 temperatures and
+/// write targets of both input forms on one channel per sensor
+/// (host-tools `fit/auto/layout.rs`). It was 128 (32 x 4); the cost on the
+/// hub is in docs/firmware-cost.md.
+pub const MAX_FB_FEATURES: usize = 256;
 
 /// One feature: a power of an input, optionally low-pass filtered.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -985,8 +985,11 @@ mod tests {
     /// RAM a hub spends on one loaded model and its state, printed for
     /// docs/benchmarks.md and bounded so that a capacity change is a
     /// decision, not an accident. 32 channels and the 128-feature filter
-    /// bank took the pair from 11,640 B to 15,000 B (docs/benchmarks.md):
-    /// the bound is the measured size and a little, not a budget.
+    /// bank took the pair from 11,640 B to 15,000 B (docs/benchmarks.md);
+    /// 256 features (auto's ensembles on 24-32 temperatures, both input
+    /// forms on one channel per sensor) to 22,264 B: 7 KiB more of the
+    /// STM32F446's 128 KiB. The bound is the measured size and a little, not
+    /// a budget.
     #[test]
     fn model_and_state_fit_the_ram_budget() {
         let model = core::mem::size_of::<ValidModel>();
@@ -1002,7 +1005,7 @@ mod tests {
             core::mem::size_of::<Option<Bounds>>(),
             core::mem::size_of::<Derived>(),
         );
-        assert!(model + state <= 15 * 1024, "{model} + {state} bytes");
+        assert!(model + state <= 22 * 1024, "{model} + {state} bytes");
     }
 
     fn arma(phi: &[f64], theta: &[f64]) -> Model {

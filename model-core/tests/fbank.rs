@@ -182,10 +182,93 @@ fn blob_round_trip_keeps_bounds_and_poles() {
     assert_eq!(back.fbank_poles(), vm.fbank_poles());
     // exp(-30 / 600) = 0.951229424500714 (Python math.exp), to libm's rounding.
     assert!((back.fbank_poles()[1] - 0.951_229_424_500_714).abs() < 1e-15);
-    // The largest bank (32 x 4 features, one output) fits a blob easily.
+    // A bank of 32 x 4 features, one output, fits a blob easily.
     let wide = blob_of(&fbank_wide(32).validate().unwrap());
     assert!(wide.len() < 4096, "{} bytes", wide.len());
     assert_eq!(decode(&wide).unwrap().model(), &fbank_wide(32));
+}
+
+/// The largest bank model-core takes (32 inputs x 8 = `MAX_FB_FEATURES`
+/// features, `MAX_OUTPUTS` outputs, with bounds) fits the largest blob: 4 x
+/// 256 f64 weights are 8 KiB of the 16.
+#[test]
+fn the_largest_bank_fits_a_blob() {
+    use model_core::fbank::MAX_FB_FEATURES;
+    use model_core::model::{Bounds, Span, MAX_CHANNELS, MAX_OUTPUTS};
+    let mut m = fbank_wide(MAX_CHANNELS);
+    let Params::Fbank(bank) = &mut m.params else {
+        unreachable!()
+    };
+    bank.features.clear();
+    for i in 0..MAX_CHANNELS {
+        for tau_s in [
+            0.0,
+            300.0,
+            900.0,
+            2700.0,
+            8100.0,
+            24_300.0,
+            72_900.0,
+            f64::MAX,
+        ] {
+            let input = u8::try_from(i).unwrap();
+            bank.features
+                .push(Feature {
+                    input,
+                    power: 1,
+                    tau_s,
+                })
+                .unwrap();
+        }
+    }
+    assert_eq!(bank.features.len(), MAX_FB_FEATURES);
+    let names = ["dx_um", "dy_um", "dz_um", "e_um"];
+    bank.outputs.clear();
+    for o in 0..MAX_OUTPUTS {
+        let coef: Vec<f64> = (0..MAX_FB_FEATURES)
+            .map(|j| 0.001 * (j as f64 - 128.5))
+            .collect();
+        bank.outputs
+            .push(FbOutput {
+                output: u8::try_from(o).unwrap(),
+                intercept: 0.25,
+                coef: hv(&coef),
+            })
+            .unwrap();
+    }
+    m.outputs = outputs(&names[..MAX_OUTPUTS]);
+    let span = Span {
+        min: -5.0,
+        max: 40.0,
+    };
+    m.bounds = Some(Bounds {
+        envelope: hv(&[span; MAX_CHANNELS]),
+        half_width: hv(&[1.5; MAX_OUTPUTS]),
+        growth: hv(&[2.0; MAX_OUTPUTS]),
+    });
+    let vm = m.clone().validate().unwrap();
+    let bytes = blob_of(&vm);
+    assert!(bytes.len() <= MAX_BLOB_LEN, "{} bytes", bytes.len());
+    assert_eq!(decode(&bytes).unwrap().model(), &m);
+    // It steps; the hold's pole is exactly 1. With every input 3 K up after
+    // a first sample of 20 C (first-sample reference: x = 0, then 3), each
+    // output moves by 3 x its weights on the raw feature (j % 8 == 0) plus
+    // the filters' first step (1 - p) x 3; the holds stay at 0.
+    let mut state = ModelState::new();
+    let mut y = [0.0; MAX_OUTPUTS];
+    vm.step(&mut state, &[20.0; MAX_CHANNELS], &mut y).unwrap();
+    assert_eq!(y, [0.25; MAX_OUTPUTS]);
+    vm.step(&mut state, &[23.0; MAX_CHANNELS], &mut y).unwrap();
+    let poles = vm.fbank_poles();
+    assert_eq!(poles[7], 1.0);
+    let w = |j: usize| 0.001 * (j as f64 - 128.5);
+    let expect: f64 = 0.25
+        + (0..MAX_FB_FEATURES)
+            .map(|j| w(j) * (1.0 - poles[j]) * 3.0)
+            .sum::<f64>();
+    for v in y {
+        assert!((v - expect).abs() < 1e-12, "{v} vs {expect}");
+    }
 }
 
 /// Version-1 and version-2 blobs as the old code wrote them: the same body

@@ -6,8 +6,8 @@
 //! inputs x 3 outputs; PCR 16 inputs, `MAX_COMPONENTS` (8) components, 3
 //! outputs; ARMA(`MAX_ARMA_ORDER`, `MAX_ARMA_ORDER`) = (10, 10), d = 1.
 //! Every model reads the same 16 temperature channels, but the filter bank:
-//! 32 channels (`WIDE_CHANNELS`, two banks of 16 front ends) x 4 features
-//! (`MAX_FB_FEATURES` = 128) into one output, the trainer's largest.
+//! 32 channels (`WIDE_CHANNELS`, two banks of 16 front ends) x 8 features
+//! (`MAX_FB_FEATURES` = 256) into dx, dy and dz.
 
 use heapless::Vec;
 use model_core::arma::{Arma, MAX_ARMA_ORDER};
@@ -29,7 +29,7 @@ pub const BP_HIDDEN: usize = MAX_W1 / CHANNELS;
 
 const _: () = assert!(MAX_TF_ENTRIES == CHANNELS, "one TF entry per channel");
 const _: () = assert!(BP_HIDDEN == 24);
-const _: () = assert!(WIDE_CHANNELS == 2 * CHANNELS && MAX_FB_FEATURES == 4 * WIDE_CHANNELS);
+const _: () = assert!(WIDE_CHANNELS == 2 * CHANNELS && MAX_FB_FEATURES == 8 * WIDE_CHANNELS);
 
 /// The kinds, in the order of the table.
 pub const KINDS: [ModelKind; 6] = [
@@ -49,7 +49,9 @@ pub fn size_label(kind: ModelKind) -> &'static str {
         ModelKind::Linear => "16 in x 3 out",
         ModelKind::Pcr => "16 in, 8 comp, 3 out",
         ModelKind::Arma => "(10,10), d = 1",
-        ModelKind::Fbank => "32 in x 4 features (tau 0, 10 min, 1 h, 4 h) x 1 out",
+        ModelKind::Fbank => {
+            "32 in x 8 features (tau 0, 5, 15, 45 min, 2.25, 6.75, 20.25 h, hold) x 3 out"
+        }
     }
 }
 
@@ -267,12 +269,23 @@ pub fn arma() -> Model {
     }
 }
 
-/// Filter bank: every one of 32 channels (first-sample reference) as is and
-/// low-passed at 10 min, 1 h and 4 h (dt 1 s), into dz.
+/// Filter bank: every one of 32 channels (first-sample reference) as is,
+/// low-passed at the five time constants of the trainer's grid (5 min to
+/// 6.75 h) and at 20.25 h, and held at its first sample (dt 1 s), into dx,
+/// dy and dz.
 pub fn fbank() -> Model {
     let mut features: Vec<Feature, MAX_FB_FEATURES> = Vec::new();
     for input in 0..WIDE_CHANNELS {
-        for tau_s in [0.0, 600.0, 3600.0, 14_400.0] {
+        for tau_s in [
+            0.0,
+            300.0,
+            900.0,
+            2700.0,
+            8100.0,
+            24_300.0,
+            72_900.0,
+            f64::MAX,
+        ] {
             let _ = features.push(Feature {
                 input: u8::try_from(input).unwrap_or(0),
                 power: 1,
@@ -281,11 +294,13 @@ pub fn fbank() -> Model {
         }
     }
     let mut out: Vec<FbOutput, { model_core::model::MAX_OUTPUTS }> = Vec::new();
-    let _ = out.push(FbOutput {
-        output: 0,
-        intercept: 0.5,
-        coef: (0..features.len()).map(coef).collect(),
-    });
+    for o in 0..OUTPUTS {
+        let _ = out.push(FbOutput {
+            output: u8::try_from(o).unwrap_or(0),
+            intercept: 0.5,
+            coef: (0..features.len()).map(|j| coef(j + o)).collect(),
+        });
+    }
     Model {
         inputs: NAMES
             .iter()
@@ -294,7 +309,7 @@ pub fn fbank() -> Model {
                 reference: Reference::First,
             })
             .collect(),
-        outputs: outputs(1),
+        outputs: outputs(OUTPUTS),
         dt_s: 1.0,
         params: Params::Fbank(FilterBank {
             features,

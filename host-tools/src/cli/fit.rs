@@ -317,7 +317,7 @@ pub struct AutoArgs {
     #[arg(long, default_value_t = 6)]
     pub auto_folds: usize,
     /// auto: how many of the best candidates the model averages (as many
-    /// as fit the hub's 128 features; 20 won on the development split,
+    /// as fit the hub's 256 features; 20 won on the development split,
     /// scripts/auto_dev_split.sh).
     #[arg(long, default_value_t = 20)]
     pub auto_ensemble: usize,

@@ -78,7 +78,7 @@ pub struct AutoOptions {
     /// run (several runs: one fold per run).
     pub auto_folds: usize,
     /// auto: how many of the best candidates the model averages (as many
-    /// as fit the hub's 128 features; 20 won on the development split,
+    /// as fit the hub's 256 features; 20 won on the development split,
     /// scripts/auto_dev_split.sh).
     pub auto_ensemble: usize,
     /// auto: how many of the best candidates also try dropping temperature
