@@ -121,6 +121,9 @@ pub struct RowStepper<'m> {
     rows: usize,
     missing: usize,
     overflow: usize,
+    /// Rows the hub would flag "extrapolating" (model-core
+    /// `EXTRAPOLATION_FLAG_AT`).
+    extrapolating: usize,
 }
 
 impl<'m> RowStepper<'m> {
@@ -134,6 +137,7 @@ impl<'m> RowStepper<'m> {
             rows: 0,
             missing: 0,
             overflow: 0,
+            extrapolating: 0,
         }
     }
 
@@ -167,6 +171,9 @@ impl<'m> RowStepper<'m> {
                 }
                 // After the step: a `First` reference is captured by then.
                 let d = self.model.extrapolation(&self.state, &self.x);
+                if d > ValidModel::EXTRAPOLATION_FLAG_AT {
+                    self.extrapolating += 1;
+                }
                 for (k, slot) in bands.iter_mut().enumerate() {
                     *slot = self.model.band_half_width(k, d);
                 }
@@ -189,6 +196,14 @@ impl<'m> RowStepper<'m> {
         if overflow > 0 {
             notes.push(format!(
                 "{overflow} samples gave a non-finite output and were held out"
+            ));
+        }
+        if self.extrapolating > 0 {
+            let pct = 100.0 * self.extrapolating as f64 / len.max(1) as f64;
+            notes.push(format!(
+                "{} of {len} samples ({pct:.1} %) lie outside the model's calibration envelope \
+                 (the hub flags them \"extrapolating\"; the error band widens there)",
+                self.extrapolating
             ));
         }
     }

@@ -278,7 +278,7 @@ fn predict_interval_brackets_the_prediction_and_widens_outside_the_envelope() {
         p(&model),
     ]);
     let pred = dir.path().join("p.csv");
-    ok(&[
+    let (_, err) = ok(&[
         "predict",
         "--model",
         p(&model),
@@ -288,6 +288,21 @@ fn predict_interval_brackets_the_prediction_and_widens_outside_the_envelope() {
         p(&pred),
         "--interval",
     ]);
+    // The 240 rows at 6000 rpm leave the envelope (speed three times the
+    // calibrated), then the cool-down while T1 is still above its
+    // calibrated range (measured 299 in all); predict says how many the hub
+    // would flag.
+    let line = err
+        .lines()
+        .find(|l| l.contains("lie outside the model's calibration envelope"))
+        .unwrap_or_else(|| panic!("no extrapolation note: {err}"));
+    let flagged: usize = line
+        .split(": ")
+        .nth(2)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!((240..=400).contains(&flagged), "{flagged} flagged: {err}");
     let text = std::fs::read_to_string(&pred).unwrap();
     let mut lines = text.lines();
     assert_eq!(
