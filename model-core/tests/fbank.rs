@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{chan, fbank_3x2, fbank_wide, hv, outputs};
+use common::{chan, fbank_3x2, fbank_sized, fbank_wide, hv, outputs};
 use model_core::blob::{self, crc32, HEADER_LEN, MAGIC, MAX_BLOB_LEN};
 use model_core::fbank::{FbOutput, Feature, FilterBank};
 use model_core::model::EXTRAPOLATION_FLAG_AT;
@@ -195,48 +195,25 @@ fn blob_round_trip_keeps_bounds_and_poles() {
 fn the_largest_bank_fits_a_blob() {
     use model_core::fbank::MAX_FB_FEATURES;
     use model_core::model::{Bounds, Span, MAX_CHANNELS, MAX_OUTPUTS};
-    let mut m = fbank_wide(MAX_CHANNELS);
+    let taus = [
+        0.0,
+        300.0,
+        900.0,
+        2700.0,
+        8100.0,
+        24_300.0,
+        72_900.0,
+        f64::MAX,
+    ];
+    let names = ["dx_um", "dy_um", "dz_um", "e_um"];
+    let mut m = fbank_sized(MAX_CHANNELS, &taus, &names[..MAX_OUTPUTS]);
     let Params::Fbank(bank) = &mut m.params else {
         unreachable!()
     };
-    bank.features.clear();
-    for i in 0..MAX_CHANNELS {
-        for tau_s in [
-            0.0,
-            300.0,
-            900.0,
-            2700.0,
-            8100.0,
-            24_300.0,
-            72_900.0,
-            f64::MAX,
-        ] {
-            let input = u8::try_from(i).unwrap();
-            bank.features
-                .push(Feature {
-                    input,
-                    power: 1,
-                    tau_s,
-                })
-                .unwrap();
-        }
-    }
     assert_eq!(bank.features.len(), MAX_FB_FEATURES);
-    let names = ["dx_um", "dy_um", "dz_um", "e_um"];
-    bank.outputs.clear();
-    for o in 0..MAX_OUTPUTS {
-        let coef: Vec<f64> = (0..MAX_FB_FEATURES)
-            .map(|j| 0.001 * (j as f64 - 128.5))
-            .collect();
-        bank.outputs
-            .push(FbOutput {
-                output: u8::try_from(o).unwrap(),
-                intercept: 0.25,
-                coef: hv(&coef),
-            })
-            .unwrap();
+    for out in bank.outputs.iter_mut() {
+        out.intercept = 0.25;
     }
-    m.outputs = outputs(&names[..MAX_OUTPUTS]);
     let span = Span {
         min: -5.0,
         max: 40.0,
@@ -261,12 +238,17 @@ fn the_largest_bank_fits_a_blob() {
     vm.step(&mut state, &[23.0; MAX_CHANNELS], &mut y).unwrap();
     let poles = vm.fbank_poles();
     assert_eq!(poles[7], 1.0);
-    let w = |j: usize| 0.001 * (j as f64 - 128.5);
-    let expect: f64 = 0.25
-        + (0..MAX_FB_FEATURES)
-            .map(|j| w(j) * (1.0 - poles[j]) * 3.0)
-            .sum::<f64>();
-    for v in y {
+    let Params::Fbank(bank) = &m.params else {
+        unreachable!()
+    };
+    for (v, out) in y.iter().zip(&bank.outputs) {
+        let expect: f64 = 0.25
+            + out
+                .coef
+                .iter()
+                .zip(poles)
+                .map(|(w, p)| w * (1.0 - p) * 3.0)
+                .sum::<f64>();
         assert!((v - expect).abs() < 1e-12, "{v} vs {expect}");
     }
 }

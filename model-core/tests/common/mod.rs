@@ -14,7 +14,8 @@
 //! | [`bp_3_4_2`] | 3-4-2 tansig/purelin net, made-up weights | MATLAB `feedforwardnet` form (seeds 000, 003) |
 //! | [`arma_2_1_d1`] | ARMA(2, 1) on the once-differenced series | seed 001's form |
 //! | [`fbank_3x2`] | filter bank: raw, filtered and squared features of three inputs into two outputs, with or without bounds | made up, fbank form |
-//! | [`fbank_wide`] | filter bank of `n_in` inputs x 4 features (taus 0, 10 min, 1 h, 4 h) into one output | made up, the largest of its kind at 32 x 4 |
+//! | [`fbank_wide`] | filter bank of `n_in` inputs x 4 features (taus 0, 10 min, 1 h, 4 h) into one output | made up |
+//! | [`fbank_sized`] | filter bank of `n_in` inputs x the given time constants into the given outputs | made up; 32 x 8 x 4 is the largest model-core takes |
 //!
 //! The tests use the SP2 TF and the 3-4-2 net, the bench the SP1 TF, the
 //! 4/4 bank and the m-n-3 nets; the rest serve both.
@@ -377,35 +378,44 @@ pub fn fbank_3x2(bounds: bool) -> Model {
 }
 
 /// `n_in` temperatures (first-sample reference), each raw and low-pass
-/// filtered at 10 min, 1 h and 4 h, into one output at 1 s: 32 x 4 is the
-/// trainer's largest bank (128 features, `MAX_FB_FEATURES`).
+/// filtered at 10 min, 1 h and 4 h, into one output at 1 s (32 x 4 = 128
+/// features: the largest bank before model-core took 256).
 pub fn fbank_wide(n_in: usize) -> Model {
+    fbank_sized(n_in, &[0.0, 600.0, 3600.0, 14_400.0], &["dz_um"])
+}
+
+/// `n_in` temperatures (first-sample reference), each through every time
+/// constant of `taus` (0: as is), into the outputs `outs` at 1 s; output
+/// `o`'s weights are [`weights`] with salt `0.3 + o`.
+pub fn fbank_sized(n_in: usize, taus: &[f64], outs: &[&str]) -> Model {
     let names: Vec<String> = (1..=n_in).map(|i| format!("T{i}")).collect();
     let refs: Vec<&str> = names.iter().map(String::as_str).collect();
     let mut features = heapless::Vec::new();
     for i in 0..n_in {
-        for tau_s in [0.0, 600.0, 3600.0, 14_400.0] {
+        for &tau_s in taus {
             features
                 .push(Feature {
                     input: u8::try_from(i).expect("few inputs"),
                     power: 1,
                     tau_s,
                 })
-                .expect("at most 128 features");
+                .expect("at most MAX_FB_FEATURES features");
         }
     }
-    let coef = weights(features.len(), 0.3);
+    let bank_outputs: Vec<FbOutput> = (0..outs.len())
+        .map(|o| FbOutput {
+            output: u8::try_from(o).expect("few outputs"),
+            intercept: 0.0,
+            coef: hv(&weights(features.len(), 0.3 + o as f64)),
+        })
+        .collect();
     Model {
         inputs: channels(&refs, Reference::First),
-        outputs: outputs(&["dz_um"]),
+        outputs: outputs(outs),
         dt_s: 1.0,
         params: Params::Fbank(FilterBank {
             features,
-            outputs: hv(&[FbOutput {
-                output: 0,
-                intercept: 0.0,
-                coef: hv(&coef),
-            }]),
+            outputs: hv(&bank_outputs),
         }),
         bounds: None,
         five_point: None,

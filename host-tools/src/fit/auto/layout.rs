@@ -23,7 +23,7 @@ use super::features::Role;
 use super::search::Member;
 use super::table::Form;
 use anyhow::{anyhow, bail, Result};
-use model_core::fbank::{Feature, MAX_FB_FEATURES};
+use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
 use model_core::model::MAX_CHANNELS;
 use model_core::Reference;
 
@@ -62,8 +62,6 @@ pub struct Layout {
     pub features: Vec<Feature>,
     /// Per target: intercept and one coefficient per feature.
     pub rows: Vec<(f64, Vec<f64>)>,
-    /// Whether change-form members were rewritten on logged channels.
-    pub rewritten: bool,
 }
 
 impl Layout {
@@ -79,8 +77,7 @@ impl Layout {
     fn build(roles: &[Role], winners: &[&[Member]], rewrite: bool) -> Result<Self> {
         let channels = channels(roles, winners, rewrite);
         let channel_of = |i: usize, form: Form| {
-            let form = if rewrite { Form::Absolute } else { form };
-            let r = reference(roles[i], form);
+            let r = reference(roles[i], hub_form(form, rewrite));
             channels
                 .iter()
                 .position(|c| c.input == i && c.reference == r)
@@ -90,7 +87,28 @@ impl Layout {
             channels,
             features,
             rows,
-            rewritten: rewrite,
+        })
+    }
+
+    /// The bank model-core runs: the features and one output per target
+    /// (rows padded with zeros to every feature).
+    pub fn bank(&self) -> Result<FilterBank> {
+        let cap = || anyhow!("auto: capacity");
+        let mut outputs = heapless::Vec::new();
+        for (o, (intercept, row)) in self.rows.iter().enumerate() {
+            let mut coef = row.clone();
+            coef.resize(self.features.len(), 0.0);
+            outputs
+                .push(FbOutput {
+                    output: u8::try_from(o)?,
+                    intercept: *intercept,
+                    coef: heapless::Vec::from_slice(&coef).map_err(|_| cap())?,
+                })
+                .map_err(|_| anyhow!("auto: too many outputs"))?;
+        }
+        Ok(FilterBank {
+            features: heapless::Vec::from_slice(&self.features).map_err(|_| cap())?,
+            outputs,
         })
     }
 
@@ -117,6 +135,16 @@ impl Layout {
     }
 }
 
+/// The form a member's channels take on the hub: its own, or with the
+/// rewrite the logged one.
+fn hub_form(form: Form, rewrite: bool) -> Form {
+    if rewrite {
+        Form::Absolute
+    } else {
+        form
+    }
+}
+
 /// Every (dataset input, reference) pair a member uses, in dataset order,
 /// change-form channels first; with `rewrite`, every input on its logged
 /// channel.
@@ -128,7 +156,7 @@ fn channels(roles: &[Role], winners: &[&[Member]], rewrite: bool) -> Vec<Channel
                 .iter()
                 .flat_map(|m| m.iter())
                 .any(|m| m.form == form && m.features.iter().any(|f| f.input == i));
-            let form = if rewrite { Form::Absolute } else { form };
+            let form = hub_form(form, rewrite);
             let reference = reference(role, form);
             if used && !out.iter().any(|c| c.input == i && c.reference == reference) {
                 out.push(Channel {
@@ -207,21 +235,23 @@ fn averaged_rows(
 /// Shortens the ensembles (`winners[t]`, best-ranked first) until every
 /// target together fits the hub: the last member of the largest ensemble
 /// goes first (of equal ones, the later target's). Returns how many members
-/// each target lost; refuses in one line when single members do not fit.
-pub fn trim(roles: &[Role], winners: &mut [Vec<Member>]) -> Result<Vec<usize>> {
+/// each target lost and the layout of what is left; refuses in one line
+/// when single members do not fit.
+pub fn trim(roles: &[Role], winners: &mut [Vec<Member>]) -> Result<(Vec<usize>, Layout)> {
     let mut dropped = vec![0; winners.len()];
     loop {
         let slices: Vec<&[Member]> = winners.iter().map(Vec::as_slice).collect();
         let layout = Layout::of(roles, &slices)?;
         if layout.fits() {
-            return Ok(dropped);
+            return Ok((dropped, layout));
         }
         let largest = (0..winners.len())
             .filter(|&t| winners[t].len() > 1)
             .max_by_key(|&t| (winners[t].len(), t));
         let Some(t) = largest else {
+            // Does not fit: the check says why in one line.
             layout.check()?;
-            return Ok(dropped);
+            return Ok((dropped, layout));
         };
         winners[t].pop();
         dropped[t] += 1;
@@ -255,39 +285,38 @@ mod tests {
         }
     }
 
-    /// `sum_f b_f F_f(x)` over a layout's row for one run of channel values
-    /// `x[channel][k]` (absolute channels: the hub's reading; `First`
-    /// channels: minus the first sample), stepped as the hub does.
-    fn predict(l: &Layout, row: usize, x: &[Vec<f64>], dt: f64) -> Vec<f64> {
-        let (b0, coef) = &l.rows[row];
-        let adj: Vec<Vec<f64>> = l
-            .channels
-            .iter()
-            .zip(x)
-            .map(|(c, v)| match c.reference {
-                Reference::First => v.iter().map(|u| u - v[0]).collect(),
-                _ => v.clone(),
-            })
-            .collect();
-        let cols: Vec<Vec<f64>> = l
-            .features
-            .iter()
-            .map(|f| {
-                let p = model_core::fbank::pole(f.tau_s, dt);
-                let v = &adj[usize::from(f.input)];
-                let mut s = v[0];
-                v.iter()
-                    .enumerate()
-                    .map(|(k, &u)| {
-                        s = model_core::fbank::filter_step(p, s, u, k == 0);
-                        s
-                    })
-                    .collect()
-            })
-            .collect();
-        (0..x[0].len())
-            .map(|k| b0 + coef.iter().zip(&cols).map(|(b, c)| b * c[k]).sum::<f64>())
-            .collect()
+    /// Every output of the layout's bank over one run of `t0` (input 0)
+    /// and `t1` (input 1), stepped by model-core as the hub steps it:
+    /// `[output][sample]`.
+    fn predict(l: &Layout, t0: &[f64], t1: &[f64]) -> Vec<Vec<f64>> {
+        let name = |s: &str| model_core::Name::try_from(s).unwrap();
+        let model = model_core::Model {
+            inputs: l
+                .channels
+                .iter()
+                .map(|c| model_core::Channel {
+                    name: name(["T0", "T1"][c.input]),
+                    reference: c.reference,
+                })
+                .collect(),
+            outputs: ["dx_um", "dz_um"].iter().map(|o| name(o)).collect(),
+            dt_s: 30.0,
+            params: model_core::Params::Fbank(l.bank().unwrap()),
+            bounds: None,
+            five_point: None,
+        }
+        .validate()
+        .unwrap();
+        let mut state = model_core::ModelState::new();
+        let mut out = vec![Vec::new(); 2];
+        for (a, b) in t0.iter().zip(t1) {
+            let x: Vec<f64> = l.channels.iter().map(|c| [*a, *b][c.input]).collect();
+            let mut y = [0.0; 2];
+            model.step(&mut state, &x, &mut y).unwrap();
+            out[0].push(y[0]);
+            out[1].push(y[1]);
+        }
+        out
     }
 
     #[test]
@@ -308,7 +337,10 @@ mod tests {
         )];
         let winners: [&[Member]; 2] = [&change, &absolute];
         let two = Layout::of(&roles, &winners).unwrap();
-        assert!(!two.rewritten, "4 channels fit the hub");
+        assert!(
+            two.features.iter().all(|f| f.tau_s != HOLD_TAU_S),
+            "4 channels fit the hub: no rewrite"
+        );
         assert_eq!(two.channels.len(), 4, "each input read in both forms");
         let one = Layout::build(&roles, &winners, true).unwrap();
         assert_eq!(one.channels.len(), 2, "one logged channel per input");
@@ -328,18 +360,12 @@ mod tests {
             .map(|k| 21.3 + 3.0 * (f64::from(k) / 80.0).sin())
             .collect();
         let t1: Vec<f64> = (0..n).map(|k| 19.8 + 0.01 * f64::from(k)).collect();
-        let by_channel = |l: &Layout| -> Vec<Vec<f64>> {
-            l.channels
-                .iter()
-                .map(|c| if c.input == 0 { t0.clone() } else { t1.clone() })
-                .collect()
-        };
+        let (a, b) = (predict(&two, &t0, &t1), predict(&one, &t0, &t1));
         for row in 0..2 {
-            let a = predict(&two, row, &by_channel(&two), 30.0);
-            let b = predict(&one, row, &by_channel(&one), 30.0);
+            let (a, b) = (&a[row], &b[row]);
             let worst = a
                 .iter()
-                .zip(&b)
+                .zip(b.iter())
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
             // Rounding only: values near 20 C, coefficients near 1, so
@@ -359,7 +385,8 @@ mod tests {
                 .collect()
         };
         let mut winners = vec![ens(0), ens(40)];
-        let dropped = trim(&roles, &mut winners).unwrap();
+        let (dropped, layout) = trim(&roles, &mut winners).unwrap();
+        assert_eq!(layout.channels.len(), MAX_CHANNELS);
         assert_eq!(winners[0].len() + winners[1].len(), MAX_CHANNELS);
         assert_eq!(dropped, [24, 24]);
         // The best-ranked (first) members stay.

@@ -40,7 +40,7 @@ use family::{Bench, Comparison, FamilyChoice, Residuals, Trainers};
 use features::Role;
 use folds::Folds;
 use layout::Layout;
-use model_core::fbank::{FbOutput, FilterBank, MAX_FB_FEATURES};
+use model_core::fbank::MAX_FB_FEATURES;
 use model_core::model::{Bounds, Name, Span, MAX_CHANNELS};
 use model_core::{Channel, Model, Params};
 use search::{FormData, Member, SearchSettings};
@@ -388,12 +388,12 @@ fn adjusted(grid: &[GridRun], roles: &[Role], form: Form) -> Vec<Vec<Vec<f64>>> 
 
 /// The ridge search's outcome for every target.
 struct RidgeFit {
-    /// Per target, for the JSON.
+    /// Per target, for the JSON (with its band).
     choices: Vec<TargetChoice>,
-    /// Per target, the averaged members and their band.
-    winners: Vec<(Vec<Member>, Band)>,
     /// The averaged winners' CV residuals on the scored samples.
     residuals: Residuals,
+    /// The winners on the hub (layout.rs).
+    layout: Layout,
 }
 
 /// Step 1: the ridge search of every target, the ensembles shortened
@@ -404,6 +404,7 @@ fn ridge_targets(
     grid: &[GridRun],
     folds: &Folds,
     forms: &[FormData],
+    roles: &[Role],
     s: &SearchSettings,
     progress: &dyn Fn(),
 ) -> Result<RidgeFit> {
@@ -421,12 +422,11 @@ fn ridge_targets(
         .iter_mut()
         .map(|f| std::mem::take(&mut f.members))
         .collect();
-    let roles = forms.first().map_or(&[][..], |f| f.roles);
-    let trimmed = layout::trim(roles, &mut members)?;
+    let (trimmed, layout) = layout::trim(roles, &mut members)?;
     let mut out = RidgeFit {
         choices: Vec::new(),
-        winners: Vec::new(),
         residuals: Vec::new(),
+        layout,
     };
     for (j, (mut found, members)) in found.into_iter().zip(members).enumerate() {
         if trimmed[j] > 0 {
@@ -435,7 +435,7 @@ fn ridge_targets(
             }
             found.cv_residuals = search::cv_residuals(forms, &members, &ys[j], folds, s.dt_s);
         }
-        let (choice, band) = target_choice(
+        let choice = target_choice(
             &ds.targets[j],
             found.table,
             &found.cv_residuals,
@@ -444,7 +444,6 @@ fn ridge_targets(
             folds,
         );
         out.choices.push(choice);
-        out.winners.push((members, band));
         out.residuals.push(found.cv_residuals);
     }
     Ok(out)
@@ -458,7 +457,7 @@ fn target_choice(
     members: &[Member],
     forms: &[FormData],
     folds: &Folds,
-) -> (TargetChoice, Band) {
+) -> TargetChoice {
     let form = members[0].form;
     let x = forms.iter().find(|f| f.form == form).expect("both forms").x;
     let d = cv_extrapolation(x, folds, &used_inputs(members));
@@ -469,7 +468,7 @@ fn target_choice(
         .unzip();
     let band = Band::calibrate(&r, &d);
     let cv_rmse = rms(&r);
-    let choice = TargetChoice {
+    TargetChoice {
         target: target.to_string(),
         forms: members.iter().map(|m| m.form).collect(),
         family: Family::Ridge,
@@ -477,9 +476,8 @@ fn target_choice(
         cv_rmse,
         ridge_cv_rmse: cv_rmse,
         half_width_95: band.half_width,
-        band: band.clone(),
-    };
-    (choice, band)
+        band,
+    }
 }
 
 /// Step 3: the family rows go into each target's table (lowest
@@ -530,7 +528,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
         per_target * ds.targets.len() + family_jobs,
         "auto: candidates",
     );
-    let mut ridge = ridge_targets(ds, &grid, &folds, &forms, s, &|| pb.inc(1))?;
+    let mut ridge = ridge_targets(ds, &grid, &folds, &forms, &roles, s, &|| pb.inc(1))?;
     pb.set_message("auto: families");
     let mut cmp = family::compare(&bench, &params.families, &ridge.residuals, &|| pb.inc(1));
     pb.finish_and_clear();
@@ -545,7 +543,10 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
             cmp.choice.winner_details = Some(Box::new(r.details));
             r.model
         }
-        None => assemble(ds, &roles, &grid, &xs, &ridge.winners, s.dt_s)?,
+        None => {
+            let bands: Vec<Band> = ridge.choices.iter().map(|c| c.band.clone()).collect();
+            assemble(ds, &grid, &xs, &ridge.layout, &bands, s.dt_s)?
+        }
     };
     let report = AutoReport {
         scheme: folds.description.clone(),
@@ -582,28 +583,13 @@ fn quantile_abs(v: &[f64], q: f64) -> f64 {
 /// One fbank model of every target's averaged winner, with bounds.
 fn assemble(
     ds: &Dataset,
-    roles: &[Role],
     grid: &[GridRun],
     xs: &[(Form, Vec<Vec<Vec<f64>>>)],
-    winners: &[(Vec<Member>, Band)],
+    layout: &Layout,
+    bands: &[Band],
     dt_s: f64,
 ) -> Result<model_core::ValidModel> {
-    let members: Vec<&[Member]> = winners.iter().map(|(m, _)| m.as_slice()).collect();
-    let layout = Layout::of(roles, &members)?;
     layout.check()?;
-    let outs = outputs(ds)?;
-    let mut fb_outputs = heapless::Vec::new();
-    let n_features = layout.features.len();
-    for (o, (intercept, mut dense)) in layout.rows.into_iter().enumerate() {
-        dense.resize(n_features, 0.0);
-        fb_outputs
-            .push(FbOutput {
-                output: u8::try_from(o)?,
-                intercept,
-                coef: heapless::Vec::from_slice(&dense).map_err(|_| anyhow!("auto: capacity"))?,
-            })
-            .map_err(|_| anyhow!("auto: too many outputs"))?;
-    }
     let mut channels = heapless::Vec::new();
     let mut envelope = Vec::new();
     for c in &layout.channels {
@@ -617,17 +603,12 @@ fn assemble(
             .map_err(|_| anyhow!("auto: too many inputs"))?;
         envelope.push(span(grid, form_x(xs, c.form), c.input));
     }
-    let bands: Vec<Band> = winners.iter().map(|(_, b)| b.clone()).collect();
     let model = Model {
         inputs: channels,
-        outputs: outs,
+        outputs: outputs(ds)?,
         dt_s,
-        params: Params::Fbank(FilterBank {
-            features: heapless::Vec::from_slice(&layout.features)
-                .map_err(|_| anyhow!("auto: capacity"))?,
-            outputs: fb_outputs,
-        }),
-        bounds: Some(bounds(&envelope, &bands)?),
+        params: Params::Fbank(layout.bank()?),
+        bounds: Some(bounds(&envelope, bands)?),
         five_point: None,
     };
     model
