@@ -14,7 +14,7 @@
 //! length); the value itself (range, checks across entries, what a write
 //! sets off) is the caller's `write` closure, which may abort.
 
-pub use super::abort::SdoAbort;
+use super::abort::SdoAbort;
 use super::od::{self, Dictionary, OBJECTS};
 
 /// Longest value a download can write: every writable entry is a number

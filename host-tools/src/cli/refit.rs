@@ -4,7 +4,7 @@
 
 use crate::data::fsio::{self, named};
 use crate::data::runfile::{ReadOptions, RunFile};
-use crate::data::{blobfile, dataset, source};
+use crate::data::{blobfile, source};
 use crate::refit::{refit, InService, Method, RefitOutcome, RefitParams, Verdict};
 use crate::runner::ColumnMap;
 use crate::score::TargetScore;
@@ -119,9 +119,6 @@ fn read_inputs(a: &RefitArgs) -> Result<RefitInputs> {
     };
     let runs = source::read_runs(&a.data, &opts)?;
     let baseline = source::read_runs(&a.baseline, &opts)?;
-    for r in runs.iter().chain(&baseline) {
-        dataset::check_scalable_columns(r)?;
-    }
     Ok(RefitInputs {
         old,
         old_bytes,

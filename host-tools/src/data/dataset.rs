@@ -421,17 +421,6 @@ impl<'a> Dataset<'a> {
     }
 }
 
-/// Refuses any column read from `run` that is too large to centre and
-/// scale, naming file and column (see [`crate::num::linalg::check_scalable`]):
-/// for callers that fit or rank on every column they read (refit, select).
-pub fn check_scalable_columns(run: &RunFile) -> Result<()> {
-    for (name, values) in run.iter_columns() {
-        let label = format!("{}: column {name}", run.path.display());
-        crate::num::linalg::check_scalable(&label, values.present())?;
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

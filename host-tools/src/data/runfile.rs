@@ -1036,9 +1036,8 @@ pub const MAX_CELL_MAGNITUDE: f64 = 1e15;
 // Every column of a `RunFile` can be centred and scaled without overflow:
 // at most `MAX_CELLS` cells, each at most `MAX_CELL_MAGNITUDE` from zero and
 // so at most twice that from the column's mean, have a centred sum of
-// squares of at most 4e38, far inside f64. So a fit on run-file columns
-// needs no overflow check (`num::linalg::check_scalable` is for data that
-// comes another way).
+// squares of at most 4e38, far inside f64. So nothing that fits, ranks or
+// aligns run-file columns needs an overflow check.
 const _: () =
     assert!((MAX_CELLS as f64) * (2.0 * MAX_CELL_MAGNITUDE) * (2.0 * MAX_CELL_MAGNITUDE) < 1e300);
 

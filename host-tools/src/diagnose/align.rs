@@ -346,25 +346,6 @@ fn compared_names(sim: &RunFile, real: &RunFile) -> Result<Vec<String>> {
     Ok(sorted)
 }
 
-/// Refuses values that cannot be centred and scaled in f64 in any of the
-/// columns `names` of either run, naming the file and column.
-fn check_values<'n>(
-    sim: &RunFile,
-    real: &RunFile,
-    names: impl Iterator<Item = &'n str>,
-) -> Result<()> {
-    for name in names {
-        for run in [sim, real] {
-            let Some(values) = run.column(name) else {
-                continue;
-            };
-            let label = format!("{}: column {name}", run.path.display());
-            crate::num::linalg::check_scalable(&label, values.present())?;
-        }
-    }
-    Ok(())
-}
-
 /// The aligned runs being built on the real run's time base, a group of
 /// channels at a time; NaN marks a value that cannot be had there.
 struct Builder {
@@ -400,12 +381,6 @@ impl Builder {
     /// speed (the real log's, else the simulation's) and the optional
     /// inputs of the real run.
     fn add(&mut self, sim: &RunFile, real: &RunFile, names: &[String], inputs: bool) -> Result<()> {
-        let used = names.iter().map(String::as_str);
-        if inputs {
-            check_values(sim, real, used.chain(INPUTS))?;
-        } else {
-            check_values(sim, real, used)?;
-        }
         let grid = &self.grid;
         if inputs {
             self.speed = filled(real, "speed_rpm", grid)

@@ -14,7 +14,7 @@ use model_core::ValidModel;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-pub use crate::score::TargetReport;
+use crate::score::TargetReport;
 
 /// Every kind's training options; [`Default`] is `thermcomp fit`'s
 /// defaults (the CLI's flag groups convert into it, `cli::fit`).

@@ -27,7 +27,7 @@ pub(super) fn solve_triangle(
 
 /// Each column's rms over `rows`: the scale a streamed fit divides it by
 /// (so the rank tolerance means the same for um, K and kW). Computed once
-/// for columns that several fits share ([`solve_scaled`]).
+/// for columns that several fits share ([`crate::num::batch::solve_scaled`]).
 pub fn column_scales<C: AsRef<[f64]>>(cols: &[C], rows: &std::ops::Range<usize>) -> Vec<f64> {
     let n = rows.len() as f64;
     cols.iter()

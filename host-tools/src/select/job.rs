@@ -21,7 +21,6 @@ fn check_runs(files: &[RunFile], needed: &[String]) -> Result<()> {
                 );
             }
         }
-        crate::data::dataset::check_scalable_columns(run)?;
     }
     Ok(())
 }

@@ -234,8 +234,8 @@ pub fn theta_of(base: &Machine) -> [f64; N_PARAMS] {
 /// Parameter values (factors, exponent) from `theta`.
 pub fn values(theta: &[f64]) -> [f64; N_PARAMS] {
     let mut v = [0.0; N_PARAMS];
-    for (i, p) in PARAMS.iter().enumerate() {
-        v[i] = if p.log { theta[i].exp() } else { theta[i] };
+    for (slot, x) in v.iter_mut().zip(to_values(&PARAMS, theta)) {
+        *slot = x;
     }
     v
 }
@@ -697,10 +697,8 @@ struct Rounds {
 /// until they settle (at most [`MAX_ROUNDS`]; pinned places never move).
 fn optimise(ctx: &Ctx, theta: Vec<f64>, opts: &CalibrateOptions) -> Result<Rounds> {
     let bound = |b: fn(&ParamDef) -> f64| -> Vec<f64> {
-        ctx.defs
-            .iter()
-            .map(|p| if p.log { b(p).ln() } else { b(p) })
-            .collect()
+        let v: Vec<f64> = ctx.defs.iter().map(b).collect();
+        to_theta(&ctx.defs, &v)
     };
     let (lo, hi) = (bound(|p| p.lo), bound(|p| p.hi));
     let mut out = Rounds {
