@@ -62,7 +62,7 @@ pub const CYCLE_RATIO: f64 = 1.6;
 /// Periods scanned for the quiet cycle's period: a log grid of
 /// [`PERIOD_STEPS`] from 5 min (the chiller band's fast end,
 /// [`super::chiller::CHILLER_BAND_S`]) to 8 h, s.
-pub const PERIOD_GRID_S: (f64, f64) = (300.0, 28_800.0);
+pub const PERIOD_GRID_S: (f64, f64) = (super::chiller::CHILLER_BAND_S.0, 28_800.0);
 /// Points of the period grid (about 10 % apart).
 const PERIOD_STEPS: usize = 49;
 /// Longest quiet period that counts for a chiller, s: minutes to about an
@@ -70,11 +70,13 @@ const PERIOD_STEPS: usize = 49;
 /// the zoo's chillers (plants a-i) cycle in 25-67 min at rest and 10-30 min
 /// at top speed at their nominal band. Development seed 1 (the 21 cases of
 /// plants a-i where gate 5 or the quiet confirmation of gate 1 named the
-/// chiller): quiet periods 13-49 min. On synthetic quiet days (0.01 K
-/// noise, the scan of [`quiet_period_s`]): chiller triangles of 30, 45
-/// and 67 min scan to 30, 44 and 72 min (slower ones to their corners'
-/// shorter periods), room swings of 90 min and 2 h to 105 min and of 3-6 h
-/// to the grid's slow end (unit test `a_slow_room_swing_is_no_chiller`).
+/// chiller): quiet periods 13-49 min. On a synthetic quiet day (0.01 K
+/// noise) a 30 min triangle scans to 27-33 min and a 1 K room swing of 3 h
+/// beyond this limit (unit tests `a_chiller_cycle_has_its_period`,
+/// `a_slow_room_swing_is_no_chiller`). The grid points nearest the limit
+/// are 71.7 and 78.8 min, so in effect it is 71.7 min. Gate 1's chiller
+/// band ([`super::chiller::CHILLER_BAND_S`]) reaches 2 h: a logged supply
+/// cycling that slowly still counts there.
 pub const MAX_PERIOD_S: f64 = 4500.0;
 /// A step of the logged speed larger than this share of the run's top
 /// speed is a change.
@@ -188,32 +190,39 @@ pub fn quadratic_residual(t: &[f64], y: &[f64]) -> Vec<f64> {
     left_by(&quadratic_columns(t), y)
 }
 
-/// The rms each window's quadratic leaves of `resid`: what a sinusoid
-/// may take from (the same for every period scanned, so computed once).
-fn quadratic_rests(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> Vec<f64> {
+/// What each window's quadratic in time leaves of `resid`, window by window.
+fn quadratic_lefts(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> Vec<Vec<f64>> {
     windows
         .iter()
-        .map(|r| lsq::rms(&quadratic_residual(&t[r.clone()], &resid[r.clone()])))
+        .map(|r| quadratic_residual(&t[r.clone()], &resid[r.clone()]))
         .collect()
 }
 
+/// What the windows' quadratics leave (`lefts`, [`quadratic_lefts`]) over
+/// the white noise of `resid`.
+fn ratio_of(resid: &[f64], lefts: &[Vec<f64>]) -> f64 {
+    let left: Vec<f64> = lefts.iter().flatten().copied().collect();
+    lsq::rms(&left) / lsq::white_sigma(resid).max(1e-12)
+}
+
 /// The energy a sinusoid of period `period_s` (free amplitude and phase)
-/// takes from each window's quadratic rest of `resid` (its rms `quad`,
-/// [`quadratic_rests`]), summed.
+/// takes from each window's quadratic rest of `resid` (`quad`, its rms per
+/// window, and `bases`, the window's quadratic columns), summed.
 fn sinusoid_gain(
     t: &[f64],
     resid: &[f64],
     windows: &[Range<usize>],
-    quad: &[f64],
+    (bases, quad): (&[Vec<Vec<f64>>], &[f64]),
     period_s: f64,
 ) -> f64 {
     let w = std::f64::consts::TAU / period_s;
     windows
         .iter()
+        .zip(bases)
         .zip(quad)
-        .map(|(r, quad)| {
+        .map(|((r, base), quad)| {
             let (tw, yw) = (&t[r.clone()], &resid[r.clone()]);
-            let mut cols = quadratic_columns(tw);
+            let mut cols = base.clone();
             cols.push(tw.iter().map(|v| (w * v).sin()).collect());
             cols.push(tw.iter().map(|v| (w * v).cos()).collect());
             let with = lsq::rms(&left_by(&cols, yw));
@@ -223,14 +232,21 @@ fn sinusoid_gain(
 }
 
 /// The period of [`PERIOD_GRID_S`] whose sinusoids take the most of what
-/// the windows' quadratics leave of `resid` (the slowest of equal ones).
-pub fn quiet_period_s(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
+/// the windows' quadratics leave of `resid` (`lefts`, [`quadratic_lefts`]).
+/// The grid runs from fast to slow and a period replaces the best only
+/// when its gain is larger (by 1e-9 relative), so of equal gains the
+/// fastest is kept.
+fn period_of(t: &[f64], resid: &[f64], windows: &[Range<usize>], lefts: &[Vec<f64>]) -> f64 {
     let (lo, hi) = PERIOD_GRID_S;
     let step = (hi / lo).ln() / (PERIOD_STEPS - 1) as f64;
-    let quad = quadratic_rests(t, resid, windows);
+    let quad: Vec<f64> = lefts.iter().map(|l| lsq::rms(l)).collect();
+    let bases: Vec<Vec<Vec<f64>>> = windows
+        .iter()
+        .map(|r| quadratic_columns(&t[r.clone()]))
+        .collect();
     (0..PERIOD_STEPS)
         .map(|k| lo * (step * k as f64).exp())
-        .map(|p| (p, sinusoid_gain(t, resid, windows, &quad, p)))
+        .map(|p| (p, sinusoid_gain(t, resid, windows, (&bases, &quad), p)))
         .fold((hi, f64::NEG_INFINITY), |best, (p, g)| {
             if g > best.1 * (1.0 + 1e-9) {
                 (p, g)
@@ -241,13 +257,14 @@ pub fn quiet_period_s(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64
         .0
 }
 
+/// [`period_of`] from `resid` itself.
+pub fn quiet_period_s(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
+    period_of(t, resid, windows, &quadratic_lefts(t, resid, windows))
+}
+
 /// What the windows' quadratics leave of `resid`, over its white noise.
 pub fn quiet_ratio(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
-    let left: Vec<f64> = windows
-        .iter()
-        .flat_map(|w| quadratic_residual(&t[w.clone()], &resid[w.clone()]))
-        .collect();
-    lsq::rms(&left) / lsq::white_sigma(resid).max(1e-12)
+    ratio_of(resid, &quadratic_lefts(t, resid, windows))
 }
 
 /// The strongest quiet cycle over every channel of `al`, or `None` when
@@ -258,25 +275,20 @@ pub fn quiet_cycle(al: &Aligned) -> Option<QuietCycle> {
         return None;
     }
     // Each channel's residual is read once (it may come off the spill
-    // file); only the strongest one so far is kept for its period (the
-    // last of equal ones, as `max_by`).
-    let (i, ratio, resid) = (0..al.channels.len())
+    // file) and its windows' quadratics fitted once; the strongest channel
+    // (the last of equal ones) keeps them for its period.
+    let (i, ratio, resid, lefts) = (0..al.channels.len())
         .map(|i| {
             let resid = al.channels.resid(i);
-            (i, quiet_ratio(&al.t_s, &resid, &windows), resid)
+            let lefts = quadratic_lefts(&al.t_s, &resid, &windows);
+            (i, ratio_of(&resid, &lefts), resid, lefts)
         })
-        .reduce(|best, c| {
-            if c.1.total_cmp(&best.1).is_ge() {
-                c
-            } else {
-                best
-            }
-        })?;
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
     Some(QuietCycle {
         channel: al.channels.name(i).to_string(),
         ratio,
         windows: windows.len(),
-        period_s: quiet_period_s(&al.t_s, &resid, &windows),
+        period_s: period_of(&al.t_s, &resid, &windows, &lefts),
     })
 }
 
@@ -396,7 +408,7 @@ mod tests {
     fn a_slow_room_swing_is_no_chiller() {
         // A room swinging 1 K every 3 h leaves ~2 x the noise in the
         // windows (a near-cubic rest): the ratio alone would call it a
-        // chiller, its period (the grid's slow end) does not.
+        // chiller, its period (over an hour) does not.
         let (t, w, e) = quiet_day();
         let y: Vec<f64> = t
             .iter()
