@@ -106,9 +106,17 @@ for src, dst in [(real, f"{out}/real_{ch}.csv"), (f"{out}/sim.csv", f"{out}/sim_
         w.writerow([row[i] for i in keep])
 EOF2
   "$BIN" diagnose --sim "$OUT/sim_$ch.csv" --real "$OUT/real_$ch.csv" --holdout-from-s 86400 --json 2>/dev/null \
-    | python3 -c "
+    | tee "$OUT/diagnose_$ch.json" | python3 -c "
 import json, sys
 d = json.load(sys.stdin); b = d['bands'][0]; e = d['effects']
 none = next(x for x in e if x['name'] == 'none')
 print(f\"| $ch | {d['verdict']} | {e[0]['name']} {e[0]['shrink_pct']:.1f} % | {none['shrink_pct']:.1f} % | {e[0]['rms_before']:.2f} | {b['slow_pct']:.0f} / {b['mid_pct']:.0f} / {b['fast_pct']:.1f} | {b['mid_peak_period_s']/60:.0f} min |\")"
+done
+# The gate that decided each channel's verdict, if one did (its reason
+# states the quiet ratio and period of gate 5); the JSONs stay in $OUT.
+for ch in ch3_um ch5_um T1 T4 T5 T9; do
+  python3 -c "
+import json
+d = json.load(open('$OUT/diagnose_$ch.json'))
+print('$ch:', d.get('gate') or 'no gate')"
 done
