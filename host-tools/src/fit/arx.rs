@@ -48,7 +48,7 @@ use super::dynamic::grid::{grid_runs, sample_time};
 use super::dynamic::options::{DynamicOptions, Ridge, Selection};
 use super::dynamic::orders::{candidates, OrderRange, Orders};
 use super::dynamic::select::{
-    forward_select, max_selected, names_only, sub_grid, SelectionReport, TrialOrders,
+    forward_select, max_selected, names_only, sub_grid, Forward, SelectionReport, TrialOrders,
 };
 use super::dynamic::sim_fit::fit_pct;
 use super::dynamic::split::{SchemeReport, SearchScheme};
@@ -486,21 +486,23 @@ pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
     let k_max = max_selected(args, ds)?;
     let grid = grid_runs(ds, dt, "arx")?;
     let n_t = ds.targets.len();
-    let (idx, mut selection) =
-        forward_select(ds, k_max, args.min_gain_pct, "arx input selection", |idx| {
-            let g = sub_grid(&grid, idx);
-            let names = names_only(ds, idx);
-            let check = |p: &[ArxPoly]| bank(&names, dt, export(p)?).map(|_| ());
-            let table: Vec<SearchRow> = cands
-                .iter()
-                .flat_map(|&o| eval_orders(&g, n_t, o, scheme, &[0.0], &check))
-                .collect();
-            best_row(&table).map(|(r, m)| (m, r.orders))
-        })?;
-    selection.orders_during_selection = Some(TrialOrders::Searched(
-        "the full order search at every trial",
-    ));
-    selection.ridge_during_selection = Some(0.0);
+    let sel = Forward {
+        k_max,
+        min_gain: args.min_gain_pct,
+        what: "arx input selection",
+        orders: TrialOrders::Searched("the full order search at every trial"),
+        ridge: Some(0.0),
+    };
+    let (idx, selection) = forward_select(ds, sel, |idx| {
+        let g = sub_grid(&grid, idx);
+        let names = names_only(ds, idx);
+        let check = |p: &[ArxPoly]| bank(&names, dt, export(p)?).map(|_| ());
+        let table: Vec<SearchRow> = cands
+            .iter()
+            .flat_map(|&o| eval_orders(&g, n_t, o, scheme, &[0.0], &check))
+            .collect();
+        best_row(&table).map(|(r, m)| (m, r.orders))
+    })?;
     fit_inputs(
         &ds.with_inputs(&idx),
         args,

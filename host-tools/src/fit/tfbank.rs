@@ -34,7 +34,7 @@ use super::dynamic::grid::{grid_runs, sample_time};
 use super::dynamic::options::{DynamicOptions, Selection};
 use super::dynamic::orders::{candidates, OrderRange, Orders};
 use super::dynamic::select::{
-    forward_select, max_selected, sub_grid, SelectionReport, TrialOrders,
+    forward_select, max_selected, sub_grid, Forward, SelectionReport, TrialOrders,
 };
 use super::dynamic::sim_fit::fit_pct;
 use super::dynamic::split::search_split;
@@ -533,18 +533,23 @@ pub fn fit(ds: &Dataset, args: &DynamicOptions) -> Result<Fitted> {
     let (_, start) = order_candidates(args)?;
     let h = args.search_holdout;
     let est_end = |g: &GridRun| search_split(g.calib_end, h);
-    let (idx, mut selection) =
-        forward_select(ds, k_max, args.min_gain_pct, "tf input selection", |idx| {
-            let g = sub_grid(&grid, idx);
-            let orders = vec![start; idx.len()];
-            let mut sum = 0.0;
-            for t in 0..ds.targets.len() {
-                let (models, _) = fit_target(&g, t, &orders, est_end, args).ok()?;
-                sum += validation_fit(&g, t, &models, h)?;
-            }
-            Some((sum / ds.targets.len() as f64, start))
-        })?;
-    selection.orders_during_selection = Some(TrialOrders::Fixed(start));
+    let sel = Forward {
+        k_max,
+        min_gain: args.min_gain_pct,
+        what: "tf input selection",
+        orders: TrialOrders::Fixed(start),
+        ridge: None,
+    };
+    let (idx, selection) = forward_select(ds, sel, |idx| {
+        let g = sub_grid(&grid, idx);
+        let orders = vec![start; idx.len()];
+        let mut sum = 0.0;
+        for t in 0..ds.targets.len() {
+            let (models, _) = fit_target(&g, t, &orders, est_end, args).ok()?;
+            sum += validation_fit(&g, t, &models, h)?;
+        }
+        Some((sum / ds.targets.len() as f64, start))
+    })?;
     fit_inputs(&ds.with_inputs(&idx), args, Some(selection))
 }
 

@@ -61,9 +61,8 @@ pub struct SelectionReport {
     /// `--min-gain-pct`: smallest gain in search fit, percentage points,
     /// that adds an input.
     pub min_gain_pct: f64,
-    /// The orders each trial set was scored with (set by the trainer).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orders_during_selection: Option<TrialOrders>,
+    /// The orders each trial set was scored with.
+    pub orders_during_selection: TrialOrders,
     /// Each step, in order.
     pub path: Vec<SelectionStep>,
     /// The ridge penalty during selection (arx).
@@ -117,6 +116,20 @@ pub enum SelectionStep {
     },
 }
 
+/// How a trainer runs [`forward_select`] (what the report says of it).
+pub struct Forward<'a> {
+    /// Most inputs kept.
+    pub k_max: usize,
+    /// `--min-gain-pct`.
+    pub min_gain: f64,
+    /// The progress bar's and the errors' name.
+    pub what: &'a str,
+    /// The orders each trial set is scored with.
+    pub orders: TrialOrders,
+    /// The ridge penalty during selection (arx), if any.
+    pub ridge: Option<f64>,
+}
+
 /// Greedy forward selection over `ds.inputs`. `score(idx)` returns the
 /// search fit (mean over targets) of the model on inputs `idx`, with the
 /// orders of that model, or `None` when no stable model exists. Each step
@@ -125,11 +138,16 @@ pub enum SelectionStep {
 /// input is always taken). Returns the chosen indices and the path.
 pub fn forward_select(
     ds: &Dataset,
-    k_max: usize,
-    min_gain: f64,
-    what: &str,
+    sel: Forward,
     mut score: impl FnMut(&[usize]) -> Option<(f64, Orders)>,
 ) -> Result<(Vec<usize>, SelectionReport)> {
+    let Forward {
+        k_max,
+        min_gain,
+        what,
+        orders,
+        ridge,
+    } = sel;
     let n = ds.inputs.len();
     let pb = progress((0..k_max).map(|s| n - s).sum(), what);
     let mut chosen: Vec<usize> = Vec::new();
@@ -189,9 +207,9 @@ pub fn forward_select(
         max_inputs: k_max,
         method: "forward",
         min_gain_pct: min_gain,
-        orders_during_selection: None,
+        orders_during_selection: orders,
         path,
-        ridge_during_selection: None,
+        ridge_during_selection: ridge,
         selected: chosen.iter().map(|&i| ds.inputs[i].clone()).collect(),
         stopped: stop,
     };
