@@ -22,7 +22,8 @@ temperature columns only (`--inputs T1..Tn`), as that machine's criterion.
 Also: the band's coverage and mean half-width on the scored runs, the share
 of scored samples the hub flags as extrapolating, and the rmse on the second
 scored run before and after `thermcomp refit` of the auto blob on the first
-(seed 002's self-adaptive update, what a user does after such a day).
+(seed 002's self-adaptive update, what a user does after such a day), and
+the refitted blob's band coverage there (`rcover`: refit carries the band).
 
 usage: scripts/auto_room_split.py [path/to/thermcomp] [--seed S] [-- fit options]
 """
@@ -150,11 +151,22 @@ def make_runs(exe, tmp, seed):
 def refit_on_room1(exe, tmp, test):
     """rmse on room2 of the auto blob before and after `refit` on room1 (the
     user's move after a day whose room moved: seed 002's self-adaptive
-    update)."""
+    update), and the refitted blob's band coverage on room2, %."""
     run(exe, "refit", "--model", f"{tmp}/m.bin", "--data", test[0], "--out", f"{tmp}/r.bin")
     before = json.loads(run(exe, "eval", "--model", f"{tmp}/m.bin", "--data", test[1], "--json"))
     after = json.loads(run(exe, "eval", "--model", f"{tmp}/r.bin", "--data", test[1], "--json"))
-    return {t: (before[t]["rmse_um"], after[t]["rmse_um"]) for t in TARGETS}
+    run(exe, "predict", "--model", f"{tmp}/r.bin", "--interval", "--data", test[1],
+        "--out", f"{tmp}/rp.csv")
+    pred, pcol = read_predictions(f"{tmp}/rp.csv")
+    y, col = read(test[1])
+    cover = {}
+    for t in TARGETS:
+        if f"{t}_lo95" not in pcol:
+            cover[t] = float("nan")
+            continue
+        lo, hi = pred[:, pcol[f"{t}_lo95"]], pred[:, pcol[f"{t}_hi95"]]
+        cover[t] = 100.0 * np.mean((y[:, col[t]] >= lo) & (y[:, col[t]] <= hi))
+    return {t: (before[t]["rmse_um"], after[t]["rmse_um"], cover[t]) for t in TARGETS}
 
 
 def main():
@@ -183,7 +195,7 @@ def main():
         cal_d = [read(p)[0] for p in cal]
         test_d = [read(p)[0] for p in test]
         print(f"{'target':8} {'auto':>8} {'ridge':>8} {'sd y':>8} {'cover%':>7} {'half':>7} {'flag%':>6}"
-              f" {'room2':>6} {'refit':>6}  auto's best candidate")
+              f" {'room2':>6} {'refit':>6} {'rcover':>6}  auto's best candidate")
         for t in TARGETS:
             xs = [features(d, col, temps) for d in cal_d]
             ys = [d[:, col[t]] for d in cal_d]
@@ -199,7 +211,7 @@ def main():
             flagged = 100.0 * np.mean((hi - lo) / 2 >= at_flag * (1 - 1e-9))
             w = tj["cv_table"][0]
             print(f"{t:8} {ev_json[t]['rmse_um']:8.2f} {rmse(e):8.2f} {y.std():8.2f} {cover:7.1f} "
-                  f"{half:7.2f} {flagged:6.1f} {refit[t][0]:6.2f} {refit[t][1]:6.2f}  "
+                  f"{half:7.2f} {flagged:6.1f} {refit[t][0]:6.2f} {refit[t][1]:6.2f} {refit[t][2]:6.1f}  "
                   f"{tj['family']} {w['form']} temps {w['temp_taus_s']} lambda {w['lambda']:g}")
 
 

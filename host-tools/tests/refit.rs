@@ -291,6 +291,82 @@ fn a_filter_banks_lagged_gain_is_recovered() {
     assert!(e["dz_um"]["rmse_um"].as_f64().unwrap() < 0.6, "{e}");
 }
 
+/// Every row of a CSV file of numbers, the header skipped.
+fn numbers(path: &Path) -> Vec<Vec<f64>> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect()
+}
+
+/// `FBANK_OLD` with calibration bounds: an envelope far narrower than the
+/// new run's swings (T1 moves +-7 K from its first sample) and a band too
+/// narrow for its noise.
+fn fbank_old_with_bounds() -> String {
+    format!(
+        "{FBANK_OLD}[bounds]\nenvelope = {{ T1 = [-1.0, 1.0], T2 = [-0.5, 0.5] }}\n\
+         half_width = {{ dz_um = 0.1 }}\ngrowth = {{ dz_um = 2.0 }}\n"
+    )
+}
+
+#[test]
+fn a_refitted_blob_keeps_its_envelope_and_widens_its_band_to_the_new_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = build(dir.path(), "old", &fbank_old_with_bounds());
+    let truth = FBANK_OLD.replacen("coef = [1.0, 2.0, -1.5]", "coef = [1.0, 3.0, -1.5]", 1);
+    let data = run_of_spec(dir.path(), &truth, 55);
+    let out = dir.path().join("out.bin");
+    let r = refit(&old, &data, &out);
+    assert_eq!(r["kept"], "new", "{r}");
+    let shown = json(&["model", "show", "--model", p(&out), "--json"]);
+    let b = &shown["bounds"];
+    // The envelope: the old one, as it was (where cross-validation
+    // measured the error; the new run's hours do not).
+    for (i, (name, w)) in [("T1", 1.0), ("T2", 0.5)].iter().enumerate() {
+        let span = &b["envelope"][i];
+        assert_eq!(span["input"], *name, "{b}");
+        assert_eq!(span["min"].as_f64(), Some(-w), "{b}");
+        assert_eq!(span["max"].as_f64(), Some(*w), "{b}");
+    }
+    let rows = numbers(&data);
+    // refit's held-out tail starts at the first row at or after 70 % of the span.
+    let split = (0.7 * (N - 1) as f64).ceil() as usize;
+    // The band: widened from 0.1 so that `h (1 + growth d)` covers 95 % of
+    // the held-out tail's errors (AR(1) noise of 0.3 um sd, |e| 95 % about
+    // 0.5-0.6 um; the tail lies up to 3 envelope widths out, so the band
+    // there is up to 7 h and h itself lies below 0.6), the growth kept;
+    // `predict --interval` then covers 95 % of the tail (the nearest-rank
+    // quantile: 95.0 % up to one sample in ~1730).
+    let h = b["half_width"][0]["half_width"].as_f64().unwrap();
+    assert!(h > 0.1 && h < 0.6, "{b}");
+    let said = r["notes"].to_string();
+    assert!(
+        said.contains(&format!("from +-0.100 to +-{h:.3}")),
+        "{said}"
+    );
+    assert_eq!(b["half_width"][0]["growth"].as_f64(), Some(2.0), "{b}");
+    let pred = dir.path().join("p.csv");
+    thermcomp(&[
+        "predict",
+        "--model",
+        p(&out),
+        "--interval",
+        "--data",
+        p(&data),
+        "--out",
+        p(&pred),
+    ]);
+    let pr = numbers(&pred);
+    let tail: Vec<bool> = (split..N)
+        .map(|k| (pr[k][2]..=pr[k][3]).contains(&rows[k][4]))
+        .collect();
+    let cover = 100.0 * tail.iter().filter(|c| **c).count() as f64 / tail.len() as f64;
+    eprintln!("refit bounds: half-width 0.1 -> {h:.3} um, tail coverage {cover:.2} %");
+    assert!((95.0..95.2).contains(&cover), "tail coverage {cover} %");
+}
+
 #[test]
 fn the_real_runs_later_operating_range_is_a_change() {
     let dir = tempfile::tempdir().unwrap();

@@ -29,6 +29,7 @@
 //! [`RefitReport`] serialises to `refit --json`'s object (less `out`). The
 //! command line (`cli::refit`) reads the files, writes the blob, prints.
 
+mod bounds;
 mod change;
 pub mod outcome;
 mod rls;

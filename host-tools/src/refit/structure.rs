@@ -304,8 +304,8 @@ pub(crate) fn with_updates(
 ) -> Result<ValidModel> {
     let mut model = old.model().clone();
     // The calibration bounds (input envelope, error band) describe the old
-    // coefficients on the old data; a refit model drops them rather than
-    // claim a band it was not scored on.
+    // coefficients on the old data; they are dropped here and carried over
+    // the new runs by `bounds::carried` once the updates to keep are known.
     model.bounds = None;
     for (k, (b0, b)) in new {
         match &mut model.params {

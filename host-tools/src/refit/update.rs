@@ -266,6 +266,7 @@ pub(crate) fn update_changed(
     }
     if !keep.is_empty() {
         let m = with_updates(old, &sts, &keep)?;
+        let m = super::bounds::carried(old, m, data, &mut u.notes)?;
         u.after = score(&m, &pairs)?;
         u.model = Some(m);
     }

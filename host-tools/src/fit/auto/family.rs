@@ -678,7 +678,7 @@ pub fn refit(b: &Bench, w: &Candidate) -> Result<Refit> {
     Ok(Refit {
         model,
         bands,
-        cv_rmse: residuals.iter().map(|r| super::rms(r)).collect(),
+        cv_rmse: residuals.iter().map(|r| crate::num::lsq::rms(r)).collect(),
         details: fitted.details,
     })
 }

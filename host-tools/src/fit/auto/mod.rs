@@ -240,7 +240,7 @@ impl Band {
     /// inputs lay beyond the flag threshold outside the other folds'
     /// envelope (the floor, 1, with fewer than [`MIN_EXTRAPOLATING`] such).
     pub fn calibrate(r: &[f64], d: &[f64]) -> Self {
-        let half_width = quantile_abs(r, 0.95);
+        let half_width = crate::num::stats::quantile_abs(r, 0.95);
         let flag = model_core::model::EXTRAPOLATION_FLAG_AT;
         let out: Vec<(f64, f64)> = r
             .iter()
@@ -467,7 +467,7 @@ fn target_choice(
         .filter_map(|(r, d)| Some(((*r)?, d)))
         .unzip();
     let band = Band::calibrate(&r, &d);
-    let cv_rmse = rms(&r);
+    let cv_rmse = crate::num::lsq::rms(&r);
     TargetChoice {
         target: target.to_string(),
         forms: members.iter().map(|m| m.form).collect(),
@@ -561,23 +561,6 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
         model,
         details: Details::Auto(Box::new(report)),
     })
-}
-
-fn rms(v: &[f64]) -> f64 {
-    (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt()
-}
-
-/// The `q` quantile of `|v|` (nearest rank).
-fn quantile_abs(v: &[f64], q: f64) -> f64 {
-    let mut a: Vec<f64> = v.iter().map(|e| e.abs()).collect();
-    a.sort_by(f64::total_cmp);
-    if a.is_empty() {
-        return 0.0;
-    }
-    // Nearest rank: ceil(q n) - 1.
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let i = ((q * a.len() as f64).ceil() as usize).clamp(1, a.len()) - 1;
-    a[i]
 }
 
 /// One fbank model of every target's averaged winner, with bounds.
