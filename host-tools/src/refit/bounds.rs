@@ -19,7 +19,7 @@
 //!   over the whole calibration.
 //! - **Growth**: the old one (the tails are too short to measure it).
 
-use super::update::UpdateData;
+use super::UpdateData;
 use crate::num::stats::quantile_abs;
 use crate::runner::{self, ColumnMap};
 use anyhow::{anyhow, Result};

@@ -40,12 +40,13 @@ mod update;
 pub use change::Verdict;
 pub use outcome::RefitReport;
 
+use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
 use crate::score::{score, TargetScore};
 use anyhow::{bail, Result};
 use model_core::ValidModel;
 use outcome::SettingsReport;
-use update::{Update, UpdateData, UpdateSettings};
+use update::{Update, UpdateSettings};
 
 /// How a changed model is updated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,6 +67,14 @@ impl Method {
             Self::Window => "window",
         }
     }
+}
+
+/// The data an update works on: the new runs, their measured outputs and
+/// where each run's held-out tail starts.
+pub(crate) struct UpdateData<'r> {
+    pub(crate) runs: &'r [RunFile],
+    pub(crate) ys: &'r [Vec<Cells<'r>>],
+    pub(crate) split: &'r [usize],
 }
 
 /// What `refit` tests and how it updates; [`Default`] is the CLI's defaults.

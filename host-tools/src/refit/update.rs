@@ -7,7 +7,7 @@ use super::change::Verdict;
 use super::outcome::{Equation, UpdateEntry};
 use super::rls::{self, Coefs};
 use super::structure::{structures, with_updates, Structure};
-use super::{Method, ValidRefitParams};
+use super::{Method, UpdateData, ValidRefitParams};
 use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
 use crate::score::{score, TargetScore};
@@ -131,14 +131,6 @@ pub(crate) fn update_settings(
         window_s: a.window_h * 3600.0,
     };
     Ok((dt_s, settings))
-}
-
-/// The data an update works on: the new runs, their measured outputs and
-/// where each run's held-out tail starts.
-pub(crate) struct UpdateData<'r> {
-    pub(crate) runs: &'r [RunFile],
-    pub(crate) ys: &'r [Vec<Cells<'r>>],
-    pub(crate) split: &'r [usize],
 }
 
 /// Steps 2 and 3: what the update did.
