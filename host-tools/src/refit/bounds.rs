@@ -44,12 +44,12 @@ pub(crate) fn carried(
         growth: b.growth.clone(),
     };
     let probe = with_bounds(model, unit)?;
-    let half_width = b
+    let half_width: heapless::Vec<f64, { model_core::model::MAX_OUTPUTS }> = b
         .half_width
         .iter()
-        .enumerate()
-        .map(|(k, &h)| Ok(h.max(tail_quantile(&probe, data, k)?)))
-        .collect::<Result<heapless::Vec<f64, { model_core::model::MAX_OUTPUTS }>>>()?;
+        .zip(tail_quantiles(&probe, data)?)
+        .map(|(&h, q)| h.max(q))
+        .collect();
     for ((o, was), now) in old.outputs().iter().zip(&b.half_width).zip(&half_width) {
         if now > was {
             notes.push(format!(
@@ -76,23 +76,26 @@ fn with_bounds(model: ValidModel, bounds: Bounds) -> Result<ValidModel> {
         .map_err(|e| anyhow!("the updated model's bounds are invalid ({e})"))
 }
 
-/// The 95 % quantile of `|y - ŷ| / band` of output `k` on the held-out
+/// Per output, the 95 % quantile of `|y - ŷ| / band` on the held-out
 /// tails (0 without a held-out sample): `probe` carries unit half-widths,
 /// so its band is `1 + growth d`.
-fn tail_quantile(probe: &ValidModel, data: &UpdateData, k: usize) -> Result<f64> {
-    let mut ratios = Vec::new();
+fn tail_quantiles(probe: &ValidModel, data: &UpdateData) -> Result<Vec<f64>> {
+    let mut ratios = vec![Vec::new(); probe.outputs().len()];
     for ((run, ys), &start) in data.runs.iter().zip(data.ys).zip(data.split) {
         let p = runner::predict(probe, run, &ColumnMap::default())?;
-        let (Some(values), Some(bands)) = (p.values.get(k), p.bands.get(k)) else {
-            continue;
-        };
-        for row in start..run.len() {
-            if let (Some(y), Some(yhat), Some(band)) = (ys[k].get(row), values[row], bands[row]) {
-                if band > 0.0 {
-                    ratios.push((y - yhat) / band);
+        for (k, r) in ratios.iter_mut().enumerate() {
+            let (Some(values), Some(bands)) = (p.values.get(k), p.bands.get(k)) else {
+                continue;
+            };
+            for row in start..run.len() {
+                if let (Some(y), Some(yhat), Some(band)) = (ys[k].get(row), values[row], bands[row])
+                {
+                    if band > 0.0 {
+                        r.push((y - yhat) / band);
+                    }
                 }
             }
         }
     }
-    Ok(quantile_abs(&ratios, 0.95))
+    Ok(ratios.iter().map(|r| quantile_abs(r, 0.95)).collect())
 }
