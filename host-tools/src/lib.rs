@@ -15,6 +15,7 @@ pub mod fivepoint;
 pub mod fivepoint_demo;
 pub mod hub;
 pub mod num;
+pub mod plot;
 pub mod predict;
 pub mod refit;
 pub mod replay;

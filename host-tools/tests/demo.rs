@@ -197,6 +197,7 @@ fn demo_runs_every_stage_and_writes_its_files() {
         "diagnose/sim.csv",
         "diagnose/real.csv",
         "diagnose/report/index.html",
+        "fit/index.html",
     ] {
         non_empty_file(&dir, rel);
         assert!(files.contains(&rel), "{rel} not listed in files");

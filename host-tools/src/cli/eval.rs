@@ -4,6 +4,7 @@
 
 use super::source::{ModelSource, RunSource};
 use crate::eval::evaluate_files;
+use crate::plot::model::{page_html, PageRun, PageText};
 use anyhow::{bail, Result};
 use clap::Args;
 use serde_json::{Map, Value};
@@ -21,11 +22,22 @@ pub struct EvalArgs {
     /// Print one JSON object keyed by target column.
     #[arg(long)]
     pub json: bool,
+    /// Write DIR/index.html: measured, predicted and the 95 % band of every
+    /// output on every run, and the residuals (reads the runs into memory).
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<std::path::PathBuf>,
 }
 
 /// Runs `thermcomp eval`: reads the model and the runs, [`evaluate`]s,
 /// prints the table or the JSON object.
 pub fn run(a: &EvalArgs) -> Result<()> {
+    let page = a.report.as_ref().map(|d| d.join("index.html"));
+    if let Some(p) = &page {
+        crate::data::fsio::check_distinct(
+            &a.runs.paths(),
+            &[crate::data::fsio::named("--report", p)],
+        )?;
+    }
     let model = a.model.load()?;
     let map = a.runs.column_map()?;
     let opts = a.runs.read_options(map.model_columns(&model, true));
@@ -33,6 +45,24 @@ pub fn run(a: &EvalArgs) -> Result<()> {
     let Value::Object(out) = serde_json::to_value(&out)? else {
         bail!("eval: the outcome is not a JSON object");
     };
+    if let Some(dir) = &a.report {
+        let runs = crate::data::source::read_runs(&a.runs.data, &opts)?;
+        let page_runs: Vec<PageRun> = runs
+            .iter()
+            .map(|run| PageRun {
+                run,
+                holdout_from_s: None,
+                role: "evaluated",
+            })
+            .collect();
+        let json = serde_json::to_string_pretty(&out)?;
+        let text = PageText {
+            title: "thermcomp eval",
+            auto: None,
+            json: &json,
+        };
+        super::write_page(dir, &page_html(&model, &page_runs, &map, &text)?)?;
+    }
     if a.json {
         crate::data::fsio::print_line(&Value::Object(out).to_string())?;
     } else {

@@ -7,6 +7,7 @@
 use crate::data::dataset::InputForm;
 use crate::data::fsio;
 use crate::data::runfile::ReadOptions;
+use crate::data::runfile::RunFile;
 use crate::fit::arma::{yule_walker, ArmaOptions};
 use crate::fit::auto::AutoOptions;
 use crate::fit::bp::{BpOptions, HiddenActivation};
@@ -14,6 +15,8 @@ use crate::fit::dynamic::options::{DynamicOptions, Ridge, Selection};
 use crate::fit::dynamic::orders::OrderRange;
 use crate::fit::pcr::PcrOptions;
 use crate::fit::{auto, fit, Details, FitKind, FitOptions, FitOutcome, FitParams};
+use crate::plot::model::{page_html, PageRun, PageText};
+use crate::runner::ColumnMap;
 use crate::score::TargetScore;
 use anyhow::{anyhow, Result};
 use clap::Args;
@@ -55,6 +58,10 @@ pub struct FitArgs {
     /// Print one JSON object with the fit and held-out figures.
     #[arg(long)]
     pub json: bool,
+    /// Write DIR/index.html: measured, predicted and the 95 % band of every
+    /// output on every run, the residuals, and (auto) the CV table as bars.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
     /// Five-point targets (e_um,theta_x_urad,theta_y_urad): the spindle's
     /// deflection centre above the nose, mm, recorded in the blob so that the
     /// hub turns the outputs into tool-tip offsets (default 300, the twin's
@@ -383,6 +390,11 @@ impl FitArgs {
 /// Reads the runs, [`fit`]s, writes the blob: everything `thermcomp fit`
 /// does but print.
 pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
+    Ok(read_and_fit(a)?.0)
+}
+
+/// [`fit_files`], also returning the runs read (calibration, validation).
+fn read_and_fit(a: &FitArgs) -> Result<(FitOutcome, Vec<RunFile>, Vec<RunFile>)> {
     let first = a.data.first().ok_or_else(|| anyhow!("no --data"))?;
     check_paths(a)?;
     let params = a.params().check()?;
@@ -395,7 +407,7 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
     let validate = crate::data::source::read_runs(&a.validate, &opts)?;
     let outcome = fit(&params, &runs, &validate)?;
     fsio::write_bytes_atomic(&a.out, &outcome.bytes)?;
-    Ok(outcome)
+    Ok((outcome, runs, validate))
 }
 
 /// `fit --json`'s object: the report and the path written.
@@ -403,12 +415,53 @@ pub fn report_json(o: &FitOutcome, out: &std::path::Path) -> Result<Value> {
     super::with_out(&o.report, out)
 }
 
-/// Refuses an `--out` that is the same file as a `--data` or `--validate` run.
+/// Refuses an `--out` (or the report page) that is the same file as a
+/// `--data` or `--validate` run.
 fn check_paths(a: &FitArgs) -> Result<()> {
     let data = a.data.iter().map(|p| fsio::named("--data", p));
     let validate = a.validate.iter().map(|p| fsio::named("--validate", p));
     let reads: Vec<_> = data.chain(validate).collect();
-    fsio::check_distinct(&reads, &[fsio::named("--out", &a.out)])
+    let page = a.report.as_ref().map(|d| d.join("index.html"));
+    let mut writes = vec![fsio::named("--out", &a.out)];
+    writes.extend(page.as_deref().map(|p| fsio::named("--report", p)));
+    fsio::check_distinct(&reads, &writes)
+}
+
+/// `fit --report DIR`: the model on its calibration and validation runs.
+fn write_report(a: &FitArgs, o: &FitOutcome, runs: &[RunFile], validate: &[RunFile]) -> Result<()> {
+    let Some(dir) = &a.report else {
+        return Ok(());
+    };
+    let role = if a.holdout_from_s.is_some() {
+        "calibration; rows after the dashed line held out"
+    } else {
+        "calibration"
+    };
+    let page_runs: Vec<PageRun> = runs
+        .iter()
+        .map(|run| PageRun {
+            run,
+            holdout_from_s: a.holdout_from_s,
+            role,
+        })
+        .chain(validate.iter().map(|run| PageRun {
+            run,
+            holdout_from_s: None,
+            role: "validation, held out whole",
+        }))
+        .collect();
+    let auto = match &o.report.details {
+        Details::Auto(r) => Some(&**r),
+        _ => None,
+    };
+    let json = serde_json::to_string_pretty(&report_json(o, &a.out)?)?;
+    let text = PageText {
+        title: "thermcomp fit",
+        auto,
+        json: &json,
+    };
+    let html = page_html(&o.model, &page_runs, &ColumnMap::default(), &text)?;
+    super::write_page(dir, &html)
 }
 
 /// Says on stderr when an auto model's band is calibrated inside the
@@ -430,8 +483,9 @@ fn warn_unmeasured_band(o: &FitOutcome) {
 
 /// Runs `thermcomp fit`.
 pub fn run(a: &FitArgs) -> Result<()> {
-    let o = fit_files(a)?;
+    let (o, runs, validate) = read_and_fit(a)?;
     warn_unmeasured_band(&o);
+    write_report(a, &o, &runs, &validate)?;
     if a.json {
         fsio::print_line(&report_json(&o, &a.out)?.to_string())?;
     } else {

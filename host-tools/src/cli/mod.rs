@@ -265,3 +265,13 @@ fn with_out(
     }
     Ok(v)
 }
+
+/// Writes `dir/index.html` (creating `dir`) and says so on stderr.
+pub fn write_page(dir: &std::path::Path, html: &str) -> anyhow::Result<()> {
+    use anyhow::Context as _;
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let path = dir.join("index.html");
+    crate::data::fsio::write_bytes_atomic(&path, html.as_bytes())?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}

@@ -300,6 +300,7 @@ pub fn demo(a: &DemoParams) -> Result<DemoOutcome> {
         dir.join("model.txt"),
     ]
     .into_iter()
+    .chain(std::iter::once(PathBuf::from(&fit.report)))
     .chain(replay_files)
     .chain(diagnose_files)
     .chain(fitted.iter().map(|(_, _, b)| b.clone()))
@@ -438,6 +439,7 @@ impl Demo<'_> {
         let (cal_run, val_run) = (read(cal)?, read(val)?);
         let mut models = Vec::new();
         let mut fitted: Vec<FittedKind> = Vec::new();
+        let mut auto_outcome = None;
         for kind in KINDS {
             let name = kind_name(kind);
             bar.set_message(format!("fit {name}"));
@@ -454,16 +456,21 @@ impl Demo<'_> {
             let elapsed = started.elapsed().as_secs_f64();
             let command = fit_command(budget, kind, selected, [cal, val, &blob]);
             models.push(fit_entry(kind, &o, &blob, elapsed, command)?);
-            fitted.push((kind, o.model, blob));
+            fitted.push((kind, o.model.clone(), blob));
+            if kind == FitKind::Auto {
+                auto_outcome = Some(o);
+            }
             bar.inc(1);
         }
         bar.finish_and_clear();
+        let auto_outcome = auto_outcome.ok_or_else(|| anyhow!("demo: no auto model fitted"))?;
         // The model is chosen on the calibration run only (auto's cross-
         // validation); the validation run scores it beside the other kinds.
         let best = models
             .iter()
             .find(|m| m.kind == kind_name(FitKind::Auto))
             .ok_or_else(|| anyhow!("demo: no auto model fitted"))?;
+        let report = fit_report(dir, &auto_outcome, [&cal_run, &val_run])?;
         let t = p.end(&format!(
         "exported: auto (chosen by cross-validation on the calibration run), validation reduction {:.1} %, rmse {:.2} um",
         best.validation.reduction_pct, best.validation.rmse_um
@@ -473,6 +480,7 @@ impl Demo<'_> {
             inputs: selected.to_vec(),
             best: best.kind.clone(),
             models,
+            report: path_arg(&report),
             elapsed_s: t,
         };
         Ok((stage, fitted))
@@ -720,6 +728,41 @@ impl Demo<'_> {
         files.sort();
         Ok(files)
     }
+}
+
+/// The auto fit's page (`fit --report`'s): its CV table, and measured,
+/// predicted and the band on the calibration and the validation run.
+/// Returns the page's path.
+fn fit_report(dir: &Path, o: &fit::FitOutcome, [cal, val]: [&RunFile; 2]) -> Result<PathBuf> {
+    use crate::plot::model::{page_html, PageRun, PageText};
+    let runs = [
+        PageRun {
+            run: cal,
+            holdout_from_s: None,
+            role: "calibration",
+        },
+        PageRun {
+            run: val,
+            holdout_from_s: None,
+            role: "validation, held out whole",
+        },
+    ];
+    let auto = match &o.report.details {
+        fit::Details::Auto(r) => Some(&**r),
+        _ => None,
+    };
+    let json = serde_json::to_string_pretty(&o.report)?;
+    let text = PageText {
+        title: "thermcomp fit --model auto (demo)",
+        auto,
+        json: &json,
+    };
+    let html = page_html(&o.model, &runs, &crate::runner::ColumnMap::default(), &text)?;
+    let page = dir.join("fit").join("index.html");
+    std::fs::create_dir_all(dir.join("fit"))
+        .with_context(|| format!("cannot create {}", dir.join("fit").display()))?;
+    crate::data::fsio::write_bytes_atomic(&page, html.as_bytes())?;
+    Ok(page)
 }
 
 /// Stage 3's parameters for `kind`: the selected sensors (auto and arma

@@ -104,6 +104,8 @@ pub struct FitStage {
     pub models: Vec<FitEntry>,
     /// The kind exported (auto: chosen on the calibration run only).
     pub best: String,
+    /// The auto fit's page (CV table; measured, predicted and the band).
+    pub report: String,
     /// Wall time, s.
     pub elapsed_s: f64,
 }

@@ -92,6 +92,11 @@ fn fit_lines(s: &mut String, fit: &FitStage) {
             m.kind, v.rmse_um, v.fit_pct, v.max_abs_um, v.reduction_pct
         );
     }
+    let _ = writeln!(
+        s,
+        "  plots of the auto fit (CV table, measured/predicted/band): {}",
+        fit.report
+    );
 }
 
 /// Stage 6's lines of the summary: the verdict on the withheld effect and,

@@ -22,7 +22,7 @@ pub mod effects;
 use super::align::Aligned;
 use super::candidates::round;
 use super::outcome::{self, json_number, Params, PhysicalEffect, TwinFit};
-use super::{regime, report, spectrum};
+use super::{regime, spectrum};
 use crate::data::runfile::{resample_linear, ReadOptions, RunFile};
 use crate::num::lsq;
 use crate::twin::calibrate::{self, CalibrateOptions, Calibration, Measured, Setup};
@@ -512,7 +512,7 @@ fn report_html(
     let best = best(outcomes, channel);
     let mut html = format!(
         "<h2>With the machine file: the twin recalibrated, then each effect added to it</h2><p>The machine's factors are refitted on the rows before the hold-out (main channel {}); each effect is then switched on in the twin with its parameters fitted on the same rows. Held-out part only.</p>",
-        report::esc(main)
+        crate::plot::esc(main)
     );
     let mut focus = vec![channel];
     if let Some(dz) = recal.channels.iter().position(|c| c.name == "dz_um") {
@@ -560,7 +560,7 @@ fn held_out_plot(run: &Run, recal: &Calibration, best: Option<&Outcome>, c: usiz
             .iter()
             .map(|(n, v)| (n.as_str(), v.as_slice()))
             .collect();
-        report::line_chart(&title, &t_h, &refs, None, h)
+        crate::plot::line_chart(&title, &t_h, &refs, None, h)
     };
     let name = &series.name;
     chart(

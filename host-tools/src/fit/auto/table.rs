@@ -152,6 +152,31 @@ pub struct CvRow {
 }
 
 impl CvRow {
+    /// A short name of the candidate: family, form and, for the filter
+    /// bank, its filters (minutes), penalty and dropped sensors.
+    pub fn label(&self) -> String {
+        let form = match self.form {
+            Form::Change => "change",
+            Form::Absolute => "absolute",
+        };
+        if self.family != Family::Ridge {
+            return format!("{} {form}", self.family.name());
+        }
+        let minutes = |v: &[f64]| {
+            let m: Vec<String> = v.iter().map(|t| format!("{}", t / 60.0)).collect();
+            format!("[{}]", m.join(" "))
+        };
+        let mut s = format!("{form} T{}", minutes(&self.temp_taus_s));
+        if !self.heat_taus_s.is_empty() {
+            s.push_str(&format!(" heat{}", minutes(&self.heat_taus_s)));
+        }
+        s.push_str(&format!(" l={:.0e}", self.lambda));
+        if !self.dropped_inputs.is_empty() {
+            s.push_str(&format!(" -{} sensors", self.dropped_inputs.len()));
+        }
+        s
+    }
+
     /// A row of `family` in `form` with no settings and no score yet.
     pub fn new(family: Family, form: Form) -> Self {
         Self {

@@ -1,0 +1,213 @@
+//! `fit --report DIR` and `eval --report DIR`: one page that shows a model
+//! on its runs, so that a fit is judged by eye as well as by its figures.
+//!
+//! Per run and output: the measured column beside the prediction and its
+//! 95 % band (`predict --interval`'s, where the model carries bounds), and
+//! the residual inside the band's half-width around zero, with the
+//! hold-out start marked and the band's coverage counted. For `auto` fits,
+//! each target's cross-validation table as bars (the error every candidate
+//! left, the chosen ones marked) and how its band was calibrated.
+
+use super::{band_chart, bar_chart, esc, line_chart, page};
+use crate::data::runfile::RunFile;
+use crate::fit::auto::AutoReport;
+use crate::runner::{self, ColumnMap};
+use anyhow::Result;
+use model_core::ValidModel;
+use std::fmt::Write as _;
+
+/// Chart height, px.
+const H: f64 = 260.0;
+
+/// Candidates shown per target in an `auto` fit's CV chart.
+const CV_ROWS: usize = 15;
+
+/// One run on the page and how it was used.
+pub struct PageRun<'a> {
+    /// The run.
+    pub run: &'a RunFile,
+    /// Rows at or after this time were held out (`None`: none).
+    pub holdout_from_s: Option<f64>,
+    /// How the run was used ("calibration", "validation, held out whole", ...).
+    pub role: &'a str,
+}
+
+/// What the page says beyond the runs.
+pub struct PageText<'a> {
+    /// The page title (the command).
+    pub title: &'a str,
+    /// An `auto` fit's report (its CV tables and bands).
+    pub auto: Option<&'a AutoReport>,
+    /// The command's JSON outcome, pretty-printed, shown at the end.
+    pub json: &'a str,
+}
+
+/// The page of `model` on `runs` (columns read through `map`).
+pub fn page_html(
+    model: &ValidModel,
+    runs: &[PageRun],
+    map: &ColumnMap,
+    text: &PageText,
+) -> Result<String> {
+    let mut body = String::new();
+    let _ = write!(
+        body,
+        "<h1>{}</h1><p>{} model, outputs {}, inputs {}; {}.</p>",
+        esc(text.title),
+        model.kind().name(),
+        esc(&names(model.outputs().iter().map(|o| o.as_str()))),
+        esc(&names(model.inputs().iter().map(|c| c.name.as_str()))),
+        if model.bounds().is_some() {
+            "the grey band is the model's 95 % band (widened where the inputs leave the calibration envelope)"
+        } else {
+            "the model carries no band"
+        }
+    );
+    if let Some(auto) = text.auto {
+        body.push_str(&cv_html(auto));
+    }
+    for r in runs {
+        body.push_str(&run_html(model, r, map)?);
+    }
+    Ok(page(text.title, &body, text.json))
+}
+
+fn names<'a>(v: impl Iterator<Item = &'a str>) -> String {
+    v.collect::<Vec<_>>().join(", ")
+}
+
+/// Each target's CV table as bars, best first, and its band's calibration.
+fn cv_html(auto: &AutoReport) -> String {
+    let mut html = String::from("<h2>Cross-validation (calibration rows only)</h2>");
+    for t in &auto.targets {
+        let bars: Vec<(String, f64)> = t
+            .cv_table
+            .iter()
+            .filter(|row| row.cv_geo_rmse.is_finite())
+            .map(|row| {
+                let chosen = if row.chosen { " *" } else { "" };
+                (format!("{}{chosen}", row.label()), row.cv_geo_rmse)
+            })
+            .take(CV_ROWS)
+            .collect();
+        html.push_str(&bar_chart(
+            &format!(
+                "{}: CV error of the best {} candidates (geometric-mean rmse; * in the model)",
+                t.target,
+                bars.len()
+            ),
+            &bars,
+            "um",
+        ));
+        let b = &t.band;
+        let _ = write!(
+            html,
+            "<p>{}: 95 % band +-{:.3} um inside the calibration envelope, widening {} per envelope \
+             width outside it ({}); it covers {:.1} % of the CV residuals.</p>",
+            esc(&t.target),
+            b.half_width,
+            b.growth,
+            if b.growth_measured() {
+                "measured on the CV folds that left the others' envelope"
+            } else {
+                "not measured: no CV fold left the others' envelope, so outside it the band is a guess"
+            },
+            b.cv_coverage_pct
+        );
+    }
+    html
+}
+
+/// The charts of one run: per output, measured and predicted with the
+/// band, and the residual with the band's half-width.
+fn run_html(model: &ValidModel, r: &PageRun, map: &ColumnMap) -> Result<String> {
+    let run = r.run;
+    let file = run.path.display().to_string();
+    let p = runner::predict(model, run, map)?;
+    let t0 = run.t_s.first().copied().unwrap_or(0.0);
+    let t_h: Vec<f64> = run.t_s.iter().map(|t| (t - t0) / 3600.0).collect();
+    let hold = r
+        .holdout_from_s
+        .filter(|&h| h > t0 && run.t_s.last().is_some_and(|&l| h <= l));
+    let hold_h = hold.map(|h| (h - t0) / 3600.0);
+    let mut html = format!("<h2>{} ({})</h2>", esc(&file), esc(r.role));
+    for (k, name) in model.outputs().iter().enumerate() {
+        let col = map.column(name.as_str());
+        let Some(y) = run.column(col) else {
+            let _ = write!(
+                html,
+                "<p>{}: no measured column {}.</p>",
+                esc(name.as_str()),
+                esc(col)
+            );
+            continue;
+        };
+        let y: Vec<f64> = y.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+        let yhat: Vec<f64> = p.values[k].iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+        let half: Option<Vec<f64>> = p
+            .bands
+            .get(k)
+            .map(|b| b.iter().map(|v| v.unwrap_or(f64::NAN)).collect());
+        let resid: Vec<f64> = y.iter().zip(&yhat).map(|(a, b)| a - b).collect();
+        let edges = half.as_ref().map(|h| {
+            let lo: Vec<f64> = yhat.iter().zip(h).map(|(p, h)| p - h).collect();
+            let hi: Vec<f64> = yhat.iter().zip(h).map(|(p, h)| p + h).collect();
+            let neg: Vec<f64> = h.iter().map(|h| -h).collect();
+            (lo, hi, neg)
+        });
+        let title = format!("{name}: measured and predicted, um");
+        let series = [("measured", &y[..]), ("predicted", &yhat[..])];
+        html.push_str(&match &edges {
+            Some((lo, hi, _)) => band_chart(&title, &t_h, &series, Some((lo, hi)), hold_h, H),
+            None => line_chart(&title, &t_h, &series, hold_h, H),
+        });
+        let title = format!("{name}: residual (measured - predicted), um");
+        let series = [("residual", &resid[..])];
+        html.push_str(&match (&edges, &half) {
+            (Some((_, _, neg)), Some(h)) => {
+                band_chart(&title, &t_h, &series, Some((neg, h)), hold_h, H)
+            }
+            _ => line_chart(&title, &t_h, &series, hold_h, H),
+        });
+        if let Some(h) = &half {
+            html.push_str(&coverage_html(name.as_str(), &run.t_s, &resid, h, hold));
+        }
+    }
+    Ok(html)
+}
+
+/// The band's coverage of the residuals on the run, and on its held-out
+/// rows when it has some.
+fn coverage_html(
+    name: &str,
+    t_s: &[f64],
+    resid: &[f64],
+    half: &[f64],
+    hold: Option<f64>,
+) -> String {
+    let cover = |from: f64| {
+        let (n, inside) = t_s
+            .iter()
+            .zip(resid.iter().zip(half))
+            .filter(|(t, (r, h))| **t >= from && r.is_finite() && h.is_finite())
+            .fold((0usize, 0usize), |(n, i), (_, (r, h))| {
+                (n + 1, i + usize::from(r.abs() <= *h))
+            });
+        (n > 0).then(|| (100.0 * inside as f64 / n as f64, n))
+    };
+    let mut s = format!("<p>{}: ", esc(name));
+    match cover(f64::NEG_INFINITY) {
+        Some((c, n)) => {
+            let _ = write!(
+                s,
+                "the band covers {c:.1} % of the {n} rows with both values"
+            );
+        }
+        None => s.push_str("no row has both a measured value and a band"),
+    }
+    if let Some((c, n)) = hold.and_then(cover) {
+        let _ = write!(s, "; {c:.1} % of the {n} held-out rows");
+    }
+    s.push_str(".</p>");
+    s
+}
