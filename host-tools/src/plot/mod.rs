@@ -221,8 +221,15 @@ pub fn bar_chart(title: &str, items: &[(String, f64)], unit: &str) -> String {
     let longest = items.iter().map(|i| i.0.chars().count()).max().unwrap_or(0);
     let (l, r) = ((7.0 * longest as f64).clamp(260.0, 600.0), 80.0);
     let lo = items.iter().fold(0.0f64, |a, i| a.min(i.1));
-    let hi = items.iter().fold(0.0f64, |a, i| a.max(i.1)).max(1.0);
+    let hi = items.iter().fold(0.0f64, |a, i| a.max(i.1));
+    let hi = if hi > lo { hi } else { lo + 1.0 };
     let px = |v: f64| l + (v - lo) / (hi - lo) * (W - l - r);
+    // Three significant figures for the largest bar.
+    let decimals = match lo.abs().max(hi.abs()) {
+        m if m < 1.0 => 3,
+        m if m < 10.0 => 2,
+        _ => 1,
+    };
     let mut s = format!(
         r##"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{h}" font-family="sans-serif" font-size="12">"##
     );
@@ -237,7 +244,7 @@ pub fn bar_chart(title: &str, items: &[(String, f64)], unit: &str) -> String {
         let c = if *v >= 0.0 { COLORS[0] } else { COLORS[1] };
         let _ = write!(
             s,
-            r##"<text x="{}" y="{}" text-anchor="end">{}</text><rect x="{a}" y="{y}" width="{}" height="{}" fill="{c}"/><text x="{}" y="{}">{v:.1} {unit}</text>"##,
+            r##"<text x="{}" y="{}" text-anchor="end">{}</text><rect x="{a}" y="{y}" width="{}" height="{}" fill="{c}"/><text x="{}" y="{}">{v:.decimals$} {unit}</text>"##,
             l - 6.0,
             y + 14.0,
             esc(label),
