@@ -318,7 +318,19 @@ fn a_refitted_blob_keeps_its_envelope_and_widens_its_band_to_the_new_runs() {
     let truth = FBANK_OLD.replacen("coef = [1.0, 2.0, -1.5]", "coef = [1.0, 3.0, -1.5]", 1);
     let data = run_of_spec(dir.path(), &truth, 55);
     let out = dir.path().join("out.bin");
-    let r = refit(&old, &data, &out);
+    let rep = dir.path().join("rep");
+    let r = json(&[
+        "refit",
+        "--model",
+        p(&old),
+        "--data",
+        p(&data),
+        "--out",
+        p(&out),
+        "--json",
+        "--report",
+        p(&rep),
+    ]);
     assert_eq!(r["kept"], "new", "{r}");
     let shown = json(&["model", "show", "--model", p(&out), "--json"]);
     let b = &shown["bounds"];
@@ -365,6 +377,14 @@ fn a_refitted_blob_keeps_its_envelope_and_widens_its_band_to_the_new_runs() {
     let cover = 100.0 * tail.iter().filter(|c| **c).count() as f64 / tail.len() as f64;
     eprintln!("refit bounds: half-width 0.1 -> {h:.3} um, tail coverage {cover:.2} %");
     assert!((95.0..95.2).contains(&cover), "tail coverage {cover} %");
+    // `--report` draws the written model on the run and counts the same
+    // coverage on the held-out tail.
+    let page = std::fs::read_to_string(rep.join("index.html")).unwrap();
+    assert!(page.contains("the updated model"), "title");
+    assert!(
+        page.contains(&format!("{cover:.1} % of the {} held-out rows", N - split)),
+        "coverage"
+    );
 }
 
 #[test]

@@ -68,6 +68,10 @@ pub struct RefitArgs {
     /// Print one JSON object instead of the text report.
     #[arg(long)]
     pub json: bool,
+    /// Write DIR/index.html: the written model on every new run (measured,
+    /// predicted, the 95 % band, the residual; the held-out tail marked).
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
 }
 
 impl RefitArgs {
@@ -94,7 +98,45 @@ fn check_paths(a: &RefitArgs) -> Result<()> {
         .chain(a.data.iter().map(|p| named("--data", p)))
         .chain(a.baseline.iter().map(|p| named("--baseline", p)))
         .collect();
-    fsio::check_distinct(&reads, &[named("--out", &a.out)])
+    let page = a.report.as_ref().map(|d| d.join("index.html"));
+    let mut writes = vec![named("--out", &a.out)];
+    writes.extend(page.as_deref().map(|p| named("--report", p)));
+    fsio::check_distinct(&reads, &writes)
+}
+
+/// `refit --report DIR`: the written model on the new runs, each run's
+/// held-out tail (the last `--holdout-fraction` of its span) marked.
+fn write_report(a: &RefitArgs, o: &RefitOutcome, old: &ValidModel, runs: &[RunFile]) -> Result<()> {
+    use crate::plot::model::{page_html, PageRun, PageText};
+    let Some(dir) = &a.report else {
+        return Ok(());
+    };
+    let page_runs: Vec<PageRun> = runs
+        .iter()
+        .map(|run| PageRun {
+            run,
+            holdout_from_s: match (run.t_s.first(), run.t_s.last()) {
+                (Some(t0), Some(t1)) => Some(t0 + (1.0 - a.holdout_fraction) * (t1 - t0)),
+                _ => None,
+            },
+            role: "new run; rows after the dashed line held out",
+        })
+        .collect();
+    let json = serde_json::to_string_pretty(&report_json(o, &a.out)?)?;
+    let text = PageText {
+        title: if o.model.is_some() {
+            "thermcomp refit: the updated model"
+        } else {
+            "thermcomp refit: the model unchanged"
+        },
+        auto: None,
+        json: &json,
+    };
+    let model = o.model.as_ref().unwrap_or(old);
+    super::write_page(
+        dir,
+        &page_html(model, &page_runs, &ColumnMap::default(), &text)?,
+    )
 }
 
 /// What `refit` reads.
@@ -148,6 +190,7 @@ pub fn run(a: &RefitArgs) -> Result<()> {
     };
     let o = refit(&params, in_service, &runs, &baseline)?;
     fsio::write_bytes_atomic(&a.out, &o.bytes)?;
+    write_report(a, &o, &old, &runs)?;
     for n in &o.report.notes {
         eprintln!("note: {n}");
     }
