@@ -443,6 +443,24 @@ fn bad_options_fail_with_one_line() {
         se.contains("--holdout-fraction") && se.trim_end().lines().count() == 1,
         "{se}"
     );
+    // A report page that is the model in service is refused, the blob kept.
+    let dir = tempfile::tempdir().unwrap();
+    let old = dir.path().join("index.html");
+    std::fs::copy(build(dir.path(), "old", FBANK_OLD), &old).unwrap();
+    let kept = std::fs::read(&old).unwrap();
+    let e = common::fails_one_line(&[
+        "refit",
+        "--model",
+        p(&old),
+        "--data",
+        "x.csv",
+        "--out",
+        "y.bin",
+        "--report",
+        p(dir.path()),
+    ]);
+    assert!(e.contains("--report"), "{e}");
+    assert_eq!(std::fs::read(&old).unwrap(), kept);
 }
 
 // The drift test itself (host_tools::refit::stats) on AR(1) residuals.

@@ -111,15 +111,19 @@ fn an_auto_fit_report_charts_every_output_and_says_its_own_figures() {
     ]);
     let text = std::fs::read_to_string(&pred).unwrap();
     let measured = std::fs::read_to_string(&data).unwrap();
-    let head: Vec<&str> = measured.lines().next().unwrap().split(',').collect();
-    let col = head.iter().position(|c| *c == "dz_um").unwrap();
+    let index = |csv: &str, name: &str| {
+        let head = csv.lines().next().unwrap();
+        head.split(',').position(|c| c == name).unwrap()
+    };
+    let col = index(&measured, "dz_um");
+    let (lo_col, hi_col) = (index(&text, "dz_um_lo95"), index(&text, "dz_um_hi95"));
     let (mut n, mut inside) = (0, 0);
     for (pl, ml) in text.lines().skip(1).zip(measured.lines().skip(1)) {
         let pv: Vec<f64> = pl.split(',').map(|c| c.parse().unwrap()).collect();
         let y: f64 = ml.split(',').nth(col).unwrap().parse().unwrap();
         if pv[0] >= 21600.0 {
             n += 1;
-            let (lo, hi) = (pv[5], pv[6]);
+            let (lo, hi) = (pv[lo_col], pv[hi_col]);
             inside += usize::from(lo <= y && y <= hi);
         }
     }
@@ -163,30 +167,78 @@ fn an_eval_report_charts_each_run_and_never_overwrites_an_input() {
     std::fs::create_dir(&clash).unwrap();
     let run_there = clash.join("index.html");
     std::fs::copy(&cal, &run_there).unwrap();
-    let before = std::fs::read(&run_there).unwrap();
+    // The model itself as the page: eval reads it too.
+    let clash_model = dir.path().join("clash_model");
+    std::fs::create_dir(&clash_model).unwrap();
+    let model_there = clash_model.join("index.html");
+    std::fs::copy(&model, &model_there).unwrap();
     let x_bin = dir.path().join("x.bin");
-    let commands: [Vec<&str>; 2] = [
-        vec!["eval", "--model", p(&model), "--data", p(&run_there)],
-        vec![
-            "fit",
-            "--model",
-            "mlr",
-            "--data",
-            p(&run_there),
-            "--target",
-            "dz_um",
-            "--out",
-            p(&x_bin),
-        ],
+    let cases: [(Vec<&str>, &Path); 3] = [
+        (
+            vec![
+                "eval",
+                "--model",
+                p(&model),
+                "--data",
+                p(&run_there),
+                "--report",
+                p(&clash),
+            ],
+            &run_there,
+        ),
+        (
+            vec![
+                "eval",
+                "--model",
+                p(&model_there),
+                "--data",
+                &cal,
+                "--report",
+                p(&clash_model),
+            ],
+            &model_there,
+        ),
+        (
+            vec![
+                "fit",
+                "--model",
+                "mlr",
+                "--data",
+                p(&run_there),
+                "--target",
+                "dz_um",
+                "--out",
+                p(&x_bin),
+                "--report",
+                p(&clash),
+            ],
+            &run_there,
+        ),
     ];
-    for mut argv in commands {
-        argv.extend(["--report", p(&clash)]);
+    for (argv, input) in cases {
+        let kept = std::fs::read(input).unwrap();
         let e = fails_one_line(&argv);
         assert!(e.contains("--report"), "{argv:?}: {e}");
         assert_eq!(
-            std::fs::read(&run_there).unwrap(),
-            before,
-            "input untouched"
+            std::fs::read(input).unwrap(),
+            kept,
+            "{argv:?}: input untouched"
         );
     }
+    // A --report that is a file, not a folder, is refused before the fit.
+    let e = fails_one_line(&[
+        "fit",
+        "--model",
+        "mlr",
+        "--data",
+        &cal,
+        "--target",
+        "dz_um",
+        "--out",
+        p(&x_bin),
+        "--report",
+        &other,
+    ]);
+    assert!(e.contains("not a folder"), "{e}");
+    assert!(!x_bin.exists(), "nothing written");
 }

@@ -3,7 +3,8 @@
 //! one JSON object.
 
 use super::source::{ModelSource, RunSource};
-use crate::eval::evaluate_files;
+use crate::data::fsio::{check_distinct, named};
+use crate::eval::{evaluate, evaluate_files};
 use crate::plot::model::{page_html, PageRun, PageText};
 use anyhow::{bail, Result};
 use clap::Args;
@@ -31,37 +32,30 @@ pub struct EvalArgs {
 /// Runs `thermcomp eval`: reads the model and the runs, [`evaluate`]s,
 /// prints the table or the JSON object.
 pub fn run(a: &EvalArgs) -> Result<()> {
-    let page = a.report.as_ref().map(|d| d.join("index.html"));
+    let page = super::report_page(a.report.as_deref())?;
     if let Some(p) = &page {
-        crate::data::fsio::check_distinct(
-            &a.runs.paths(),
-            &[crate::data::fsio::named("--report", p)],
-        )?;
+        let reads: Vec<_> = a.model.paths().into_iter().chain(a.runs.paths()).collect();
+        check_distinct(&reads, &[named("--report", p)])?;
     }
     let model = a.model.load()?;
     let map = a.runs.column_map()?;
     let opts = a.runs.read_options(map.model_columns(&model, true));
-    let out = evaluate_files(&model, &a.runs.data, &opts, &map)?;
+    // Streamed, unless the page needs the runs in memory anyway.
+    let (out, runs) = match &a.report {
+        None => (
+            evaluate_files(&model, &a.runs.data, &opts, &map)?,
+            Vec::new(),
+        ),
+        Some(_) => {
+            let runs = crate::data::source::read_runs(&a.runs.data, &opts)?;
+            (evaluate(&model, &runs, &map)?, runs)
+        }
+    };
     let Value::Object(out) = serde_json::to_value(&out)? else {
         bail!("eval: the outcome is not a JSON object");
     };
     if let Some(dir) = &a.report {
-        let runs = crate::data::source::read_runs(&a.runs.data, &opts)?;
-        let page_runs: Vec<PageRun> = runs
-            .iter()
-            .map(|run| PageRun {
-                run,
-                holdout_from_s: None,
-                role: "evaluated",
-            })
-            .collect();
-        let json = serde_json::to_string_pretty(&out)?;
-        let text = PageText {
-            title: "thermcomp eval",
-            auto: None,
-            json: &json,
-        };
-        super::write_page(dir, &page_html(&model, &page_runs, &map, &text)?)?;
+        write_report(dir, &model, &runs, &map, &out)?;
     }
     if a.json {
         crate::data::fsio::print_line(&Value::Object(out).to_string())?;
@@ -69,6 +63,31 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         crate::data::fsio::print(&table_text(&out))?;
     }
     Ok(())
+}
+
+/// `eval --report DIR`: the model on every run.
+fn write_report(
+    dir: &std::path::Path,
+    model: &model_core::ValidModel,
+    runs: &[crate::data::runfile::RunFile],
+    map: &crate::runner::ColumnMap,
+    out: &Map<String, Value>,
+) -> Result<()> {
+    let page_runs: Vec<PageRun> = runs
+        .iter()
+        .map(|run| PageRun {
+            run,
+            holdout_from_s: None,
+            role: "evaluated",
+        })
+        .collect();
+    let json = serde_json::to_string_pretty(out)?;
+    let text = PageText {
+        title: "thermcomp eval",
+        auto: None,
+        json: &json,
+    };
+    super::publish_page(dir, &page_html(model, &page_runs, map, &text)?)
 }
 
 /// The text table of `eval`: one row per target, then per run.

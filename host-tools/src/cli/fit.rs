@@ -14,7 +14,7 @@ use crate::fit::bp::{BpOptions, HiddenActivation};
 use crate::fit::dynamic::options::{DynamicOptions, Ridge, Selection};
 use crate::fit::dynamic::orders::OrderRange;
 use crate::fit::pcr::PcrOptions;
-use crate::fit::{auto, fit, Details, FitKind, FitOptions, FitOutcome, FitParams};
+use crate::fit::{auto, fit, FitKind, FitOptions, FitOutcome, FitParams};
 use crate::plot::model::{page_html, PageRun, PageText};
 use crate::runner::ColumnMap;
 use crate::score::TargetScore;
@@ -421,7 +421,7 @@ fn check_paths(a: &FitArgs) -> Result<()> {
     let data = a.data.iter().map(|p| fsio::named("--data", p));
     let validate = a.validate.iter().map(|p| fsio::named("--validate", p));
     let reads: Vec<_> = data.chain(validate).collect();
-    let page = a.report.as_ref().map(|d| d.join("index.html"));
+    let page = super::report_page(a.report.as_deref())?;
     let mut writes = vec![fsio::named("--out", &a.out)];
     writes.extend(page.as_deref().map(|p| fsio::named("--report", p)));
     fsio::check_distinct(&reads, &writes)
@@ -433,7 +433,7 @@ fn write_report(a: &FitArgs, o: &FitOutcome, runs: &[RunFile], validate: &[RunFi
         return Ok(());
     };
     let role = if a.holdout_from_s.is_some() {
-        "calibration; rows after the dashed line held out"
+        "calibration; rows at or after --holdout-from-s held out"
     } else {
         "calibration"
     };
@@ -450,24 +450,20 @@ fn write_report(a: &FitArgs, o: &FitOutcome, runs: &[RunFile], validate: &[RunFi
             role: "validation, held out whole",
         }))
         .collect();
-    let auto = match &o.report.details {
-        Details::Auto(r) => Some(&**r),
-        _ => None,
-    };
     let json = serde_json::to_string_pretty(&report_json(o, &a.out)?)?;
     let text = PageText {
         title: "thermcomp fit",
-        auto,
+        auto: o.auto_report(),
         json: &json,
     };
     let html = page_html(&o.model, &page_runs, &ColumnMap::default(), &text)?;
-    super::write_page(dir, &html)
+    super::publish_page(dir, &html)
 }
 
 /// Says on stderr when an auto model's band is calibrated inside the
 /// calibration envelope only.
 fn warn_unmeasured_band(o: &FitOutcome) {
-    let Details::Auto(report) = &o.report.details else {
+    let Some(report) = o.auto_report() else {
         return;
     };
     let targets = report.unmeasured_growth();

@@ -266,12 +266,21 @@ fn with_out(
     Ok(v)
 }
 
-/// Writes `dir/index.html` (creating `dir`) and says so on stderr.
-pub fn write_page(dir: &std::path::Path, html: &str) -> anyhow::Result<()> {
-    use anyhow::Context as _;
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let path = dir.join("index.html");
-    crate::data::fsio::write_bytes_atomic(&path, html.as_bytes())?;
+/// The page `--report DIR` writes, `DIR/index.html`, for the paths check;
+/// a `DIR` that exists and is not a folder is refused before any work.
+pub fn report_page(dir: Option<&std::path::Path>) -> anyhow::Result<Option<std::path::PathBuf>> {
+    let Some(dir) = dir else {
+        return Ok(None);
+    };
+    if dir.exists() && !dir.is_dir() {
+        anyhow::bail!("--report {}: exists and is not a folder", dir.display());
+    }
+    Ok(Some(dir.join("index.html")))
+}
+
+/// Writes the page `--report DIR` asked for and says where on stderr.
+pub fn publish_page(dir: &std::path::Path, html: &str) -> anyhow::Result<()> {
+    let path = crate::plot::write_page(dir, html)?;
     eprintln!("wrote {}", path.display());
     Ok(())
 }

@@ -5,7 +5,7 @@
 use crate::data::fsio::{self, named};
 use crate::data::runfile::{ReadOptions, RunFile};
 use crate::data::{blobfile, source};
-use crate::refit::{refit, InService, Method, RefitOutcome, RefitParams, Verdict};
+use crate::refit::{holdout_from_s, refit, InService, Method, RefitOutcome, RefitParams, Verdict};
 use crate::runner::ColumnMap;
 use crate::score::TargetScore;
 use anyhow::Result;
@@ -98,7 +98,7 @@ fn check_paths(a: &RefitArgs) -> Result<()> {
         .chain(a.data.iter().map(|p| named("--data", p)))
         .chain(a.baseline.iter().map(|p| named("--baseline", p)))
         .collect();
-    let page = a.report.as_ref().map(|d| d.join("index.html"));
+    let page = super::report_page(a.report.as_deref())?;
     let mut writes = vec![named("--out", &a.out)];
     writes.extend(page.as_deref().map(|p| named("--report", p)));
     fsio::check_distinct(&reads, &writes)
@@ -115,11 +115,8 @@ fn write_report(a: &RefitArgs, o: &RefitOutcome, old: &ValidModel, runs: &[RunFi
         .iter()
         .map(|run| PageRun {
             run,
-            holdout_from_s: match (run.t_s.first(), run.t_s.last()) {
-                (Some(t0), Some(t1)) => Some(t0 + (1.0 - a.holdout_fraction) * (t1 - t0)),
-                _ => None,
-            },
-            role: "new run; rows after the dashed line held out",
+            holdout_from_s: holdout_from_s(run, a.holdout_fraction),
+            role: "new run; its last --holdout-fraction held out",
         })
         .collect();
     let json = serde_json::to_string_pretty(&report_json(o, &a.out)?)?;
@@ -133,7 +130,7 @@ fn write_report(a: &RefitArgs, o: &RefitOutcome, old: &ValidModel, runs: &[RunFi
         json: &json,
     };
     let model = o.model.as_ref().unwrap_or(old);
-    super::write_page(
+    super::publish_page(
         dir,
         &page_html(model, &page_runs, &ColumnMap::default(), &text)?,
     )
@@ -190,10 +187,10 @@ pub fn run(a: &RefitArgs) -> Result<()> {
     };
     let o = refit(&params, in_service, &runs, &baseline)?;
     fsio::write_bytes_atomic(&a.out, &o.bytes)?;
-    write_report(a, &o, &old, &runs)?;
     for n in &o.report.notes {
         eprintln!("note: {n}");
     }
+    write_report(a, &o, &old, &runs)?;
     if a.json {
         return fsio::print_line(&report_json(&o, &a.out)?.to_string());
     }

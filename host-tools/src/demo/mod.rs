@@ -747,22 +747,14 @@ fn fit_report(dir: &Path, o: &fit::FitOutcome, [cal, val]: [&RunFile; 2]) -> Res
             role: "validation, held out whole",
         },
     ];
-    let auto = match &o.report.details {
-        fit::Details::Auto(r) => Some(&**r),
-        _ => None,
-    };
     let json = serde_json::to_string_pretty(&o.report)?;
     let text = PageText {
         title: "thermcomp fit --model auto (demo)",
-        auto,
+        auto: o.auto_report(),
         json: &json,
     };
     let html = page_html(&o.model, &runs, &crate::runner::ColumnMap::default(), &text)?;
-    let page = dir.join("fit").join("index.html");
-    std::fs::create_dir_all(dir.join("fit"))
-        .with_context(|| format!("cannot create {}", dir.join("fit").display()))?;
-    crate::data::fsio::write_bytes_atomic(&page, html.as_bytes())?;
-    Ok(page)
+    crate::plot::write_page(&dir.join("fit"), &html)
 }
 
 /// Stage 3's parameters for `kind`: the selected sensors (auto and arma

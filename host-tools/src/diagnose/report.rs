@@ -5,7 +5,7 @@
 use super::align::Aligned;
 use super::candidates::Scored;
 use super::outcome::{finite, json_number, Band, Deployment, Diagnosis, Segment, Trained};
-use crate::plot::{bar_chart, esc, line_chart, page};
+use crate::plot::{bar_chart, esc, line_chart, page, write_page};
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -107,9 +107,7 @@ pub fn write(
     html.push_str(&channels_html(al, &ax));
     html.push_str(extra);
     let pretty = serde_json::to_string_pretty(d).unwrap_or_default();
-    let path = dir.join("index.html");
-    let html = page("thermcomp diagnose", &html, &pretty);
-    crate::data::fsio::write_bytes_atomic(&path, html.as_bytes())?;
+    write_page(dir, &page("thermcomp diagnose", &html, &pretty))?;
     Ok(())
 }
 

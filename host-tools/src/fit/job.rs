@@ -200,6 +200,17 @@ pub struct FitOutcome {
     pub report: FitReport,
 }
 
+impl FitOutcome {
+    /// The report of an `auto` fit (its CV tables and bands); `None` for
+    /// the other kinds.
+    pub fn auto_report(&self) -> Option<&super::auto::AutoReport> {
+        match &self.report.details {
+            super::Details::Auto(r) => Some(r),
+            _ => None,
+        }
+    }
+}
+
 /// Trains on `runs` (calibration, with a held-out tail from
 /// `holdout_from_s`) and scores on them and on `validate` (held out whole),
 /// all in memory. The figures are those of the encoded blob, decoded back.

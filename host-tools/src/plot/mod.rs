@@ -4,7 +4,9 @@
 
 pub mod model;
 
+use anyhow::{Context, Result};
 use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 const W: f64 = 1100.0;
 const COLORS: [&str; 4] = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd"];
@@ -155,38 +157,15 @@ pub fn band_chart(
         ranged.extend([("", lo), ("", hi)]);
     }
     let f = Frame::new(t_h, &ranged, h);
+    // At most MAX_POINTS points a line.
+    let stride = t_h.len().div_ceil(MAX_POINTS).max(1);
     let mut s = chart_axes(title, &f, vline_h);
-    let stride = (t_h.len() / 1500).max(1);
-    let n = |ys: &[f64]| t_h.len().min(ys.len());
-    if let Some((lo, hi)) = band {
-        let m = n(lo).min(n(hi));
-        for run in finite_runs(m, stride, |k| lo[k].is_finite() && hi[k].is_finite()) {
-            let upper = run
-                .iter()
-                .map(|&k| format!("{:.1},{:.1} ", f.px(t_h[k]), f.py(hi[k])));
-            let lower = run
-                .iter()
-                .rev()
-                .map(|&k| format!("{:.1},{:.1} ", f.px(t_h[k]), f.py(lo[k])));
-            let pts: String = upper.chain(lower).collect();
-            let _ = write!(
-                s,
-                r##"<polygon fill="#ddd" stroke="none" points="{pts}"/>"##
-            );
-        }
+    if let Some(band) = band {
+        s.push_str(&band_polygons(&f, t_h, band, stride));
     }
     for (i, (name, ys)) in series.iter().enumerate() {
         let c = COLORS[i % COLORS.len()];
-        for run in finite_runs(n(ys), stride, |k| ys[k].is_finite()) {
-            let pts: String = run
-                .iter()
-                .map(|&k| format!("{:.1},{:.1} ", f.px(t_h[k]), f.py(ys[k])))
-                .collect();
-            let _ = write!(
-                s,
-                r##"<polyline fill="none" stroke="{c}" stroke-width="1.2" points="{pts}"/>"##
-            );
-        }
+        s.push_str(&polylines(&f, t_h, ys, stride, c));
         let _ = write!(
             s,
             r##"<text x="{}" y="18" fill="{c}">{}</text>"##,
@@ -196,6 +175,40 @@ pub fn band_chart(
     }
     s.push_str("</svg>");
     s
+}
+
+/// Most points drawn per line (a longer series is thinned evenly).
+const MAX_POINTS: usize = 1500;
+
+/// The band `(lo, hi)` as grey polygons, one per stretch where both edges
+/// are finite.
+fn band_polygons(f: &Frame, t_h: &[f64], (lo, hi): (&[f64], &[f64]), stride: usize) -> String {
+    let n = t_h.len().min(lo.len()).min(hi.len());
+    let point = |k: usize, v: f64| format!("{:.1},{:.1} ", f.px(t_h[k]), f.py(v));
+    finite_runs(n, stride, |k| lo[k].is_finite() && hi[k].is_finite())
+        .iter()
+        .map(|run| {
+            let upper = run.iter().map(|&k| point(k, hi[k]));
+            let lower = run.iter().rev().map(|&k| point(k, lo[k]));
+            let pts: String = upper.chain(lower).collect();
+            format!(r##"<polygon fill="#ddd" stroke="none" points="{pts}"/>"##)
+        })
+        .collect()
+}
+
+/// Series `ys` as polylines of colour `c`, one per stretch of finite values.
+fn polylines(f: &Frame, t_h: &[f64], ys: &[f64], stride: usize, c: &str) -> String {
+    let n = t_h.len().min(ys.len());
+    finite_runs(n, stride, |k| ys[k].is_finite())
+        .iter()
+        .map(|run| {
+            let pts: String = run
+                .iter()
+                .map(|&k| format!("{:.1},{:.1} ", f.px(t_h[k]), f.py(ys[k])))
+                .collect();
+            format!(r##"<polyline fill="none" stroke="{c}" stroke-width="1.2" points="{pts}"/>"##)
+        })
+        .collect()
 }
 
 /// The samples `0, stride, 2 stride, ... < n` where `ok`, in runs of
@@ -256,6 +269,15 @@ pub fn bar_chart(title: &str, items: &[(String, f64)], unit: &str) -> String {
     }
     s.push_str("</svg>");
     s
+}
+
+/// Writes `html` to `dir/index.html` (creating `dir`, the file replaced
+/// atomically); returns the page's path.
+pub fn write_page(dir: &Path, html: &str) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let path = dir.join("index.html");
+    crate::data::fsio::write_bytes_atomic(&path, html.as_bytes())?;
+    Ok(path)
 }
 
 /// A whole HTML page: `body` (HTML) and, at its end, `json` shown as text.

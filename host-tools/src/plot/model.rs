@@ -1,5 +1,6 @@
-//! `fit --report DIR` and `eval --report DIR`: one page that shows a model
-//! on its runs, so that a fit is judged by eye as well as by its figures.
+//! `fit --report DIR`, `eval --report DIR`, `refit --report DIR` and the
+//! demo's fit page: one page that shows a model on its runs, so that a fit
+//! is judged by eye as well as by its figures.
 //!
 //! Per run and output: the measured column beside the prediction and its
 //! 95 % band (`predict --interval`'s, where the model carries bounds), and
@@ -38,7 +39,8 @@ pub struct PageText<'a> {
     pub title: &'a str,
     /// An `auto` fit's report (its CV tables and bands).
     pub auto: Option<&'a AutoReport>,
-    /// The command's JSON outcome, pretty-printed, shown at the end.
+    /// JSON shown at the end, pretty-printed: the command's `--json` object
+    /// (the demo: the fit's report).
     pub json: &'a str,
 }
 
@@ -122,58 +124,105 @@ fn cv_html(auto: &AutoReport) -> String {
 /// band, and the residual with the band's half-width.
 fn run_html(model: &ValidModel, r: &PageRun, map: &ColumnMap) -> Result<String> {
     let run = r.run;
-    let file = run.path.display().to_string();
     let p = runner::predict(model, run, map)?;
     let t0 = run.t_s.first().copied().unwrap_or(0.0);
-    let t_h: Vec<f64> = run.t_s.iter().map(|t| (t - t0) / 3600.0).collect();
-    let hold = r
-        .holdout_from_s
-        .filter(|&h| h > t0 && run.t_s.last().is_some_and(|&l| h <= l));
-    let hold_h = hold.map(|h| (h - t0) / 3600.0);
-    let mut html = format!("<h2>{} ({})</h2>", esc(&file), esc(r.role));
+    let axis = Axis {
+        t_h: run.t_s.iter().map(|t| (t - t0) / 3600.0).collect(),
+        hold: r
+            .holdout_from_s
+            .filter(|&h| h > t0 && run.t_s.last().is_some_and(|&l| h <= l)),
+        t0,
+    };
+    let mut html = format!(
+        "<h2>{} ({})</h2>",
+        esc(&run.path.display().to_string()),
+        esc(r.role)
+    );
     for (k, name) in model.outputs().iter().enumerate() {
         let col = map.column(name.as_str());
-        let Some(y) = run.column(col) else {
-            let _ = write!(
-                html,
-                "<p>{}: no measured column {}.</p>",
-                esc(name.as_str()),
-                esc(col)
-            );
-            continue;
-        };
-        let y: Vec<f64> = y.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
-        let yhat: Vec<f64> = p.values[k].iter().map(|v| v.unwrap_or(f64::NAN)).collect();
-        let half: Option<Vec<f64>> = p
-            .bands
-            .get(k)
-            .map(|b| b.iter().map(|v| v.unwrap_or(f64::NAN)).collect());
-        let resid: Vec<f64> = y.iter().zip(&yhat).map(|(a, b)| a - b).collect();
-        let edges = half.as_ref().map(|h| {
-            let lo: Vec<f64> = yhat.iter().zip(h).map(|(p, h)| p - h).collect();
-            let hi: Vec<f64> = yhat.iter().zip(h).map(|(p, h)| p + h).collect();
-            let neg: Vec<f64> = h.iter().map(|h| -h).collect();
-            (lo, hi, neg)
-        });
-        let title = format!("{name}: measured and predicted, um");
-        let series = [("measured", &y[..]), ("predicted", &yhat[..])];
-        html.push_str(&match &edges {
-            Some((lo, hi, _)) => band_chart(&title, &t_h, &series, Some((lo, hi)), hold_h, H),
-            None => line_chart(&title, &t_h, &series, hold_h, H),
-        });
-        let title = format!("{name}: residual (measured - predicted), um");
-        let series = [("residual", &resid[..])];
-        html.push_str(&match (&edges, &half) {
-            (Some((_, _, neg)), Some(h)) => {
-                band_chart(&title, &t_h, &series, Some((neg, h)), hold_h, H)
+        match Series::of(run, &p, k, col) {
+            Some(s) => html.push_str(&output_html(name.as_str(), &s, &axis, &run.t_s)),
+            None => {
+                let _ = write!(
+                    html,
+                    "<p>{}: no measured column {}.</p>",
+                    esc(name.as_str()),
+                    esc(col)
+                );
             }
-            _ => line_chart(&title, &t_h, &series, hold_h, H),
-        });
-        if let Some(h) = &half {
-            html.push_str(&coverage_html(name.as_str(), &run.t_s, &resid, h, hold));
         }
     }
     Ok(html)
+}
+
+/// A run's time axis: hours from its first row, and the hold-out start.
+struct Axis {
+    t_h: Vec<f64>,
+    /// Rows at or after this time (s) are held out.
+    hold: Option<f64>,
+    t0: f64,
+}
+
+impl Axis {
+    fn hold_h(&self) -> Option<f64> {
+        self.hold.map(|h| (h - self.t0) / 3600.0)
+    }
+}
+
+/// One output on one run, row for row (`NaN` where there is no value).
+struct Series {
+    y: Vec<f64>,
+    yhat: Vec<f64>,
+    resid: Vec<f64>,
+    /// The band's half-width (`None`: the model has no band).
+    half: Option<Vec<f64>>,
+}
+
+impl Series {
+    /// Output `k` of prediction `p` beside the run's column `col` (`None`
+    /// without that column).
+    fn of(run: &RunFile, p: &runner::Prediction, k: usize, col: &str) -> Option<Self> {
+        let nan = |v: &Option<f64>| v.unwrap_or(f64::NAN);
+        let y: Vec<f64> = run.column(col)?.iter().map(|v| nan(&v)).collect();
+        let yhat: Vec<f64> = p.values.get(k)?.iter().map(nan).collect();
+        let resid = y.iter().zip(&yhat).map(|(a, b)| a - b).collect();
+        let half = p.bands.get(k).map(|b| b.iter().map(nan).collect());
+        Some(Self {
+            y,
+            yhat,
+            resid,
+            half,
+        })
+    }
+}
+
+/// An output's two charts (measured and predicted over the band; the
+/// residual inside the band's half-width) and the band's coverage.
+fn output_html(name: &str, s: &Series, axis: &Axis, t_s: &[f64]) -> String {
+    let (t_h, hold_h) = (&axis.t_h, axis.hold_h());
+    let title = format!("{name}: measured and predicted, um");
+    let series = [("measured", &s.y[..]), ("predicted", &s.yhat[..])];
+    let Some(half) = &s.half else {
+        let title2 = format!("{name}: residual (measured - predicted), um");
+        return line_chart(&title, t_h, &series, hold_h, H)
+            + &line_chart(&title2, t_h, &[("residual", &s.resid[..])], hold_h, H);
+    };
+    let lo: Vec<f64> = s.yhat.iter().zip(half).map(|(p, h)| p - h).collect();
+    let hi: Vec<f64> = s.yhat.iter().zip(half).map(|(p, h)| p + h).collect();
+    let neg: Vec<f64> = half.iter().map(|h| -h).collect();
+    let mut html = band_chart(&title, t_h, &series, Some((&lo, &hi)), hold_h, H);
+    let title = format!("{name}: residual (measured - predicted) inside the band, um");
+    let series = [("residual", &s.resid[..])];
+    html.push_str(&band_chart(
+        &title,
+        t_h,
+        &series,
+        Some((&neg, half)),
+        hold_h,
+        H,
+    ));
+    html.push_str(&coverage_html(name, t_s, &s.resid, half, axis.hold));
+    html
 }
 
 /// The band's coverage of the residuals on the run, and on its held-out

@@ -10,28 +10,33 @@
 //!   room-moving run, scored on the next) the band then covered 6 to 97 %
 //!   of the next run's errors (seeds 1-3, nine targets); kept as it is,
 //!   73 to 100 %.
-//! - **Half-width** of each output's band: the larger of the old one and
-//!   the 95 % quantile of the updated model's `|error| / (1 + growth d)` on
-//!   the held-out tails of the new runs (never fitted on; `d` the
-//!   extrapolation against the envelope): the smallest band of the old
+//! - **Half-width** of each updated output's band: the larger of the old
+//!   one and the 95 % quantile of the updated model's `|error| / (1 +
+//!   growth d)` on the held-out tails of the new runs (never fitted on; `d`
+//!   the extrapolation against the envelope): the smallest band of the old
 //!   shape that covers 95 % of those errors. A refit never narrows a band:
 //!   the tails are short, and the old band was measured by cross-validation
-//!   over the whole calibration.
+//!   over the whole calibration. The same tails decided that the update is
+//!   kept (its held-out rmse is lower), so they flatter the updated
+//!   equation a little. An output whose equation is not updated keeps its
+//!   band, as it does when nothing is updated (the old blob, byte for byte).
 //! - **Growth**: the old one (the tails are too short to measure it).
 
 use super::UpdateData;
+use crate::data::cells::Cells;
 use crate::num::stats::quantile_abs;
-use crate::runner::{self, ColumnMap};
+use crate::runner::{self, ColumnMap, Prediction};
 use anyhow::{anyhow, Result};
 use model_core::model::Bounds;
 use model_core::ValidModel;
 
-/// `model` (the updated one) with `old`'s bounds, the band widened to the
-/// new runs' held-out tails as the module says (a note per widened band);
-/// `model` unchanged when `old` had none.
+/// `model` (the updated one) with `old`'s bounds, the bands of the
+/// `updated` outputs widened to the new runs' held-out tails as the module
+/// says (a note per widened band); `model` unchanged when `old` had none.
 pub(crate) fn carried(
     old: &ValidModel,
     model: ValidModel,
+    updated: &[usize],
     data: &UpdateData,
     notes: &mut Vec<String>,
 ) -> Result<ValidModel> {
@@ -48,7 +53,8 @@ pub(crate) fn carried(
         .half_width
         .iter()
         .zip(tail_quantiles(&probe, data)?)
-        .map(|(&h, q)| h.max(q))
+        .enumerate()
+        .map(|(k, (&h, q))| if updated.contains(&k) { h.max(q) } else { h })
         .collect();
     for ((o, was), now) in old.outputs().iter().zip(&b.half_width).zip(&half_width) {
         if now > was {
@@ -83,19 +89,29 @@ fn tail_quantiles(probe: &ValidModel, data: &UpdateData) -> Result<Vec<f64>> {
     let mut ratios = vec![Vec::new(); probe.outputs().len()];
     for ((run, ys), &start) in data.runs.iter().zip(data.ys).zip(data.split) {
         let p = runner::predict(probe, run, &ColumnMap::default())?;
-        for (k, r) in ratios.iter_mut().enumerate() {
-            let (Some(values), Some(bands)) = (p.values.get(k), p.bands.get(k)) else {
-                continue;
-            };
-            for row in start..run.len() {
-                if let (Some(y), Some(yhat), Some(band)) = (ys[k].get(row), values[row], bands[row])
-                {
-                    if band > 0.0 {
-                        r.push((y - yhat) / band);
-                    }
-                }
-            }
+        for (k, (r, y)) in ratios.iter_mut().zip(ys).enumerate() {
+            r.extend(tail_ratios(&p, k, *y, start..run.len()));
         }
     }
-    Ok(ratios.iter().map(|r| quantile_abs(r, 0.95)).collect())
+    // A few ulps up: the band is rebuilt as `h (1 + growth d)`, which may
+    // round below the very error the quantile was taken at.
+    Ok(ratios
+        .iter()
+        .map(|r| quantile_abs(r, 0.95) * (1.0 + 4.0 * f64::EPSILON))
+        .collect())
+}
+
+/// `(y - ŷ) / band` of output `k` at the `rows` that have all three.
+fn tail_ratios<'a>(
+    p: &'a Prediction,
+    k: usize,
+    y: Cells<'a>,
+    rows: std::ops::Range<usize>,
+) -> impl Iterator<Item = f64> + 'a {
+    let (values, bands) = (p.values.get(k), p.bands.get(k));
+    rows.filter_map(move |row| {
+        let (yhat, band) = (values?.get(row).copied()??, bands?.get(row).copied()??);
+        let y = y.get(row)?;
+        (band > 0.0).then(|| (y - yhat) / band)
+    })
 }

@@ -70,14 +70,20 @@ pub(crate) fn measured_outputs<'r>(
 /// Where each run's held-out tail starts: the last `fraction` of its time.
 pub(crate) fn holdout_starts(runs: &[RunFile], fraction: f64) -> Vec<usize> {
     runs.iter()
-        .map(|r| match (r.t_s.first(), r.t_s.last()) {
-            (Some(t0), Some(t1)) => {
-                let ts = t0 + (1.0 - fraction) * (t1 - t0);
-                r.t_s.partition_point(|t| *t < ts)
-            }
-            _ => 0,
+        .map(|r| match holdout_from_s(r, fraction) {
+            Some(ts) => r.t_s.partition_point(|t| *t < ts),
+            None => 0,
         })
         .collect()
+}
+
+/// The time from which a run's last `fraction` of its span is held out
+/// (`None` for a run without rows): rows at or after it are the tail.
+pub fn holdout_from_s(run: &RunFile, fraction: f64) -> Option<f64> {
+    match (run.t_s.first(), run.t_s.last()) {
+        (Some(t0), Some(t1)) => Some(t0 + (1.0 - fraction) * (t1 - t0)),
+        _ => None,
+    }
 }
 
 /// The old model's predictions on each run (the runner's notes on stderr).

@@ -31,6 +31,7 @@
 
 mod bounds;
 mod change;
+pub use change::holdout_from_s;
 pub mod outcome;
 mod rls;
 pub mod stats;

@@ -258,7 +258,8 @@ pub(crate) fn update_changed(
     }
     if !keep.is_empty() {
         let m = with_updates(old, &sts, &keep)?;
-        let m = super::bounds::carried(old, m, data, &mut u.notes)?;
+        let updated: Vec<usize> = keep.iter().map(|(k, _)| *k).collect();
+        let m = super::bounds::carried(old, m, &updated, data, &mut u.notes)?;
         u.after = score(&m, &pairs)?;
         u.model = Some(m);
     }
