@@ -95,6 +95,16 @@ fn an_auto_fit_report_charts_every_output_and_says_its_own_figures() {
     assert_eq!(charts, 2 + 2 * 2, "charts");
     assert_eq!(page_json(&html), json, "the page's JSON is fit --json's");
     assert!(html.contains("dz_um: CV error of the best"), "CV chart");
+    // The fit's table as it prints: dz_um's held-out rmse to 3 decimals.
+    let rmse = json["targets"]["dz_um"]["holdout"]["rmse_um"]
+        .as_f64()
+        .unwrap();
+    let row = html
+        .lines()
+        .flat_map(|l| l.split('\n'))
+        .find(|l| l.starts_with("dz_um") && l.contains("held-out"))
+        .unwrap_or_else(|| panic!("no held-out row for dz_um"));
+    assert!(row.contains(&format!("{rmse:.3}")), "{row} vs {rmse}");
     // The held-out coverage the page states is the one predict --interval's
     // band gives on the rows at or after 21600 s (the same runner, so to the
     // printed 0.1 %).

@@ -85,6 +85,7 @@ fn write_report(
     let text = PageText {
         title: "thermcomp eval",
         auto: None,
+        summary: &table_text(out),
         json: &json,
     };
     super::publish_page(dir, &page_html(model, &page_runs, map, &text)?)

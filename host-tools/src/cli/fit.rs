@@ -454,6 +454,7 @@ fn write_report(a: &FitArgs, o: &FitOutcome, runs: &[RunFile], validate: &[RunFi
     let text = PageText {
         title: "thermcomp fit",
         auto: o.auto_report(),
+        summary: &scores_text(&o.scores),
         json: &json,
     };
     let html = page_html(&o.model, &page_runs, &ColumnMap::default(), &text)?;

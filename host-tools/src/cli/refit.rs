@@ -120,6 +120,7 @@ fn write_report(a: &RefitArgs, o: &RefitOutcome, old: &ValidModel, runs: &[RunFi
         })
         .collect();
     let json = serde_json::to_string_pretty(&report_json(o, &a.out)?)?;
+    let summary = outcome_text(o);
     let text = PageText {
         title: if o.model.is_some() {
             "thermcomp refit: the updated model"
@@ -127,6 +128,7 @@ fn write_report(a: &RefitArgs, o: &RefitOutcome, old: &ValidModel, runs: &[RunFi
             "thermcomp refit: the model unchanged"
         },
         auto: None,
+        summary: &summary,
         json: &json,
     };
     let model = o.model.as_ref().unwrap_or(old);
@@ -194,16 +196,7 @@ pub fn run(a: &RefitArgs) -> Result<()> {
     if a.json {
         return fsio::print_line(&report_json(&o, &a.out)?.to_string());
     }
-    let r = &o.report;
-    fsio::print(&text_report(
-        &o.outputs,
-        &o.verdicts,
-        r.test.decision,
-        &o.before,
-        &o.after,
-        r.kept,
-        &r.targets_updated,
-    ))?;
+    fsio::print(&outcome_text(&o))?;
     let what = if o.model.is_some() {
         "updated"
     } else {
@@ -215,6 +208,20 @@ pub fn run(a: &RefitArgs) -> Result<()> {
         o.bytes.len()
     );
     Ok(())
+}
+
+/// The text report of an outcome (what `refit` prints without `--json`).
+fn outcome_text(o: &RefitOutcome) -> String {
+    let r = &o.report;
+    text_report(
+        &o.outputs,
+        &o.verdicts,
+        r.test.decision,
+        &o.before,
+        &o.after,
+        r.kept,
+        &r.targets_updated,
+    )
 }
 
 /// The text report: the test per output, old and new rmse per part, what

@@ -751,6 +751,7 @@ fn fit_report(dir: &Path, o: &fit::FitOutcome, [cal, val]: [&RunFile; 2]) -> Res
     let text = PageText {
         title: "thermcomp fit --model auto (demo)",
         auto: o.auto_report(),
+        summary: "",
         json: &json,
     };
     let html = page_html(&o.model, &runs, &crate::runner::ColumnMap::default(), &text)?;

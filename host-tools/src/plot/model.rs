@@ -39,6 +39,9 @@ pub struct PageText<'a> {
     pub title: &'a str,
     /// An `auto` fit's report (its CV tables and bands).
     pub auto: Option<&'a AutoReport>,
+    /// The command's text figures (its table without `--json`), shown
+    /// under the heading as they print; empty: none.
+    pub summary: &'a str,
     /// JSON shown at the end, pretty-printed: the command's `--json` object
     /// (the demo: the fit's report).
     pub json: &'a str,
@@ -65,6 +68,9 @@ pub fn page_html(
             "the model carries no band"
         }
     );
+    if !text.summary.is_empty() {
+        let _ = write!(body, "<pre>{}</pre>", esc(text.summary));
+    }
     if let Some(auto) = text.auto {
         body.push_str(&cv_html(auto));
     }
