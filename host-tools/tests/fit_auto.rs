@@ -68,6 +68,19 @@ fn fit(args: &[&str]) -> Value {
     ok_json(&a)
 }
 
+/// `fit --model auto --target dz_um --data DATA --out OUT` plus `extra`,
+/// which must fail in one line and write no blob; returns the line.
+fn fit_fails(data: &str, out: &Path, extra: &[&str]) -> String {
+    let mut a = vec![
+        "fit", "--model", "auto", "--target", "dz_um", "--data", data,
+    ];
+    a.extend(["--out", p(out)]);
+    a.extend_from_slice(extra);
+    let e = common::fails_one_line(&a);
+    assert!(!out.exists(), "no blob written: {e}");
+    e
+}
+
 fn chosen_forms(v: &Value) -> Vec<String> {
     v["details"]["targets"][0]["forms"]
         .as_array()
@@ -477,19 +490,7 @@ fn an_unknown_family_is_refused_in_one_line() {
     let f = |t1: &[f64], _: &[f64], _: &[f64]| t1.iter().map(|v| v - t1[0]).collect();
     let data = run_file(dir.path(), "r.csv", 4, 20.0, &[0.0, 3000.0], &f);
     let out = dir.path().join("m.bin");
-    let e = common::fails_one_line(&[
-        "fit",
-        "--model",
-        "auto",
-        "--target",
-        "dz_um",
-        "--data",
-        &data,
-        "--out",
-        p(&out),
-        "--auto-families",
-        "ridge,arx,lstm",
-    ]);
+    let e = fit_fails(&data, &out, &["--auto-families", "ridge,arx,lstm"]);
     assert!(e.contains("unknown family \"lstm\""), "{e}");
     assert!(!out.exists(), "no blob written");
 }
@@ -513,17 +514,7 @@ fn more_inputs_than_the_hub_reads_are_refused_before_the_search() {
     }
     let data = write(dir.path(), "r.csv", &text);
     let out = dir.path().join("m.bin");
-    let e = common::fails_one_line(&[
-        "fit",
-        "--model",
-        "auto",
-        "--target",
-        "dz_um",
-        "--data",
-        &data,
-        "--out",
-        p(&out),
-    ]);
+    let e = fit_fails(&data, &out, &[]);
     assert!(
         e.contains("auto: 33 inputs, but the hub reads at most 32"),
         "{e}"

@@ -32,9 +32,15 @@ fn linear_truth(t: &[f64; 3], gain_t1: f64) -> f64 {
 }
 
 fn write_run(path: &Path, y: impl Fn(usize, &[f64; 3]) -> f64) {
+    write_run_warmer(path, 0.0, y);
+}
+
+/// [`write_run`] with T1 `t1_shift` K warmer all along.
+fn write_run_warmer(path: &Path, t1_shift: f64, y: impl Fn(usize, &[f64; 3]) -> f64) {
     let mut s = String::from("t_s,T1,T2,T3,dz_um\n");
     for k in 0..N {
-        let t = temps(k);
+        let mut t = temps(k);
+        t[0] += t1_shift;
         s.push_str(&format!(
             "{},{:.4},{:.4},{:.4},{:.4}\n",
             k as f64 * DT_S,
@@ -185,10 +191,15 @@ fn a_slow_drift_is_found_and_tracked() {
 /// dz_um that the model `spec` (TOML, the truth) predicts from them, plus
 /// AR(1) noise (0.3 um sd, `seed`).
 fn run_of_spec(dir: &Path, spec: &str, seed: u64) -> PathBuf {
+    run_of_spec_warmer(dir, spec, seed, 0.0, "new.csv")
+}
+
+/// [`run_of_spec`] with T1 `t1_shift` K warmer, written to `dir/name`.
+fn run_of_spec_warmer(dir: &Path, spec: &str, seed: u64, t1_shift: f64, name: &str) -> PathBuf {
     let truth_spec = dir.join("truth.toml");
     std::fs::write(&truth_spec, spec).unwrap();
     let inputs = dir.join("inputs.csv");
-    write_run(&inputs, |_, _| 0.0);
+    write_run_warmer(&inputs, t1_shift, |_, _| 0.0);
     let pred = dir.join("pred.csv");
     thermcomp(&[
         "predict",
@@ -207,9 +218,19 @@ fn run_of_spec(dir: &Path, spec: &str, seed: u64) -> PathBuf {
         .collect();
     assert_eq!(y.len(), N);
     let noise = ar1(N, 0.3, seed);
-    let data = dir.join("new.csv");
-    write_run(&data, |k, _| y[k] + noise[k]);
+    let data = dir.join(name);
+    write_run_warmer(&data, t1_shift, |k, _| y[k] + noise[k]);
     data
+}
+
+/// dz_um's new `key` array (`gains`, `coef`) in a refit report.
+fn updated(r: &Value, key: &str) -> Vec<f64> {
+    r["update"]["dz_um"]["new"][key]
+        .as_array()
+        .unwrap_or_else(|| panic!("{r}"))
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect()
 }
 
 const TF_OLD: &str = "kind = \"tf\"\ndt_s = 15.0\n\
@@ -225,12 +246,7 @@ fn a_tf_banks_spindle_gain_is_recovered() {
     let data = run_of_spec(dir.path(), &truth, 44);
     let out = dir.path().join("out.bin");
     let r = refit(&old, &data, &out);
-    let g: Vec<f64> = r["update"]["dz_um"]["new"]["gains"]
-        .as_array()
-        .unwrap_or_else(|| panic!("{r}"))
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
+    let g = updated(&r, "gains");
     let (before, after) = holdout_rmse(&r, "dz_um");
     eprintln!("tf spindle x1.4: gains {g:?}; held-out rmse {before:.3} -> {after:.3} um");
     assert_eq!(r["changed"], true, "{r}");
@@ -253,24 +269,26 @@ const FBANK_OLD: &str = "kind = \"fbank\"\ndt_s = 15.0\n\
 features = [{ input = \"T1\" }, { input = \"T1\", tau_s = 3600.0 }, { input = \"T2\", tau_s = 900.0 }]\n\
 [[fbank.output]]\noutput = \"dz_um\"\nintercept = -20.0\ncoef = [1.0, 2.0, -1.5]\n";
 
+/// A new run whose truth is `FBANK_OLD` with the lagged T1 feature's
+/// weight 3.0 instead of 2.0 (noise seed 55), in a fresh folder.
+fn lagged_fbank_run() -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = FBANK_OLD.replacen("coef = [1.0, 2.0, -1.5]", "coef = [1.0, 3.0, -1.5]", 1);
+    let data = run_of_spec(dir.path(), &truth, 55);
+    (dir, data)
+}
+
 #[test]
 fn a_filter_banks_lagged_gain_is_recovered() {
     // The default `auto` model is a filter bank. The truth: the lagged T1
     // feature's weight is 3.0 where the model has 2.0 (the structure behind
     // the sensor grew more than calibrated); the rest as before.
-    let dir = tempfile::tempdir().unwrap();
+    let (dir, data) = lagged_fbank_run();
     let old = build(dir.path(), "old", FBANK_OLD);
-    let truth = FBANK_OLD.replacen("coef = [1.0, 2.0, -1.5]", "coef = [1.0, 3.0, -1.5]", 1);
-    let data = run_of_spec(dir.path(), &truth, 55);
     let out = dir.path().join("out.bin");
     let r = refit(&old, &data, &out);
     let (before, after) = holdout_rmse(&r, "dz_um");
-    let coef: Vec<f64> = r["update"]["dz_um"]["new"]["coef"]
-        .as_array()
-        .unwrap_or_else(|| panic!("{r}"))
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
+    let coef = updated(&r, "coef");
     eprintln!("fbank lagged T1 x1.5: coef {coef:?}; held-out rmse {before:.3} -> {after:.3} um");
     assert_eq!(r["changed"], true, "{r}");
     assert_eq!(r["kept"], "new");
@@ -289,6 +307,52 @@ fn a_filter_banks_lagged_gain_is_recovered() {
     assert_eq!(shown["kind"], "fbank", "{shown}");
     let e = json(&["eval", "--model", p(&out), "--data", p(&data), "--json"]);
     assert!(e["dz_um"]["rmse_um"].as_f64().unwrap() < 0.6, "{e}");
+}
+
+/// A change-form regression on T1 written on its logged channel, as `fit
+/// --model auto` writes one next to absolute-form targets: `T1 + 2
+/// lag(T1) - 3 x0`, `x0` the hold feature (the run's first T1).
+const FBANK_HOLD: &str = "kind = \"fbank\"\ndt_s = 15.0\n\
+[fbank]\ninputs = [{ name = \"T1\", reference = \"absolute\" }]\n\
+features = [{ input = \"T1\" }, { input = \"T1\", tau_s = 3600.0 }, \
+{ input = \"T1\", tau_s = 1.7976931348623157e308 }]\n\
+[[fbank.output]]\noutput = \"dz_um\"\nintercept = 0.0\ncoef = [1.0, 2.0, -3.0]\n";
+
+#[test]
+fn a_window_refit_keeps_the_hold_tied_so_a_run_starting_warmer_is_right() {
+    // The truth's lagged weight is 3 (hold -4). A least-squares window on
+    // one run sees the hold column constant: left free, its weight would go
+    // into that run's intercept and a run starting 5 K warmer would be off
+    // by 4 x 5 = 20 um. Tied, the update is a change-form regression again.
+    let dir = tempfile::tempdir().unwrap();
+    let old = build(dir.path(), "old", FBANK_HOLD);
+    let truth = FBANK_HOLD.replacen("coef = [1.0, 2.0, -3.0]", "coef = [1.0, 3.0, -4.0]", 1);
+    let data = run_of_spec(dir.path(), &truth, 66);
+    let warmer = run_of_spec_warmer(dir.path(), &truth, 67, 5.0, "warmer.csv");
+    let out = dir.path().join("out.bin");
+    let r = json(&[
+        "refit",
+        "--model",
+        p(&old),
+        "--data",
+        p(&data),
+        "--out",
+        p(&out),
+        "--method",
+        "window",
+        "--json",
+    ]);
+    assert_eq!(r["kept"], "new", "{r}");
+    let coef = updated(&r, "coef");
+    eprintln!("window refit with a hold: coef {coef:?}");
+    // The hold is minus the others' sum, to rounding.
+    assert!((coef[2] + coef[0] + coef[1]).abs() < 1e-9, "{coef:?}");
+    // On the warmer run: the noise (0.3 um sd) and the window's fit error,
+    // far from the 20 um a free hold would leave.
+    let e = json(&["eval", "--model", p(&out), "--data", p(&warmer), "--json"]);
+    let rmse = e["dz_um"]["rmse_um"].as_f64().unwrap();
+    eprintln!("window refit with a hold: {rmse:.3} um rms on the run 5 K warmer");
+    assert!(rmse < 1.0, "{rmse} um on the warmer run");
 }
 
 /// Every row of a CSV file of numbers, the header skipped.
@@ -313,10 +377,8 @@ fn fbank_old_with_bounds() -> String {
 
 #[test]
 fn a_refitted_blob_keeps_its_envelope_and_widens_its_band_to_the_new_runs() {
-    let dir = tempfile::tempdir().unwrap();
+    let (dir, data) = lagged_fbank_run();
     let old = build(dir.path(), "old", &fbank_old_with_bounds());
-    let truth = FBANK_OLD.replacen("coef = [1.0, 2.0, -1.5]", "coef = [1.0, 3.0, -1.5]", 1);
-    let data = run_of_spec(dir.path(), &truth, 55);
     let out = dir.path().join("out.bin");
     let rep = dir.path().join("rep");
     let r = json(&[

@@ -51,6 +51,12 @@ use serde::{Deserialize, Serialize};
 /// hub is in docs/firmware-cost.md.
 pub const MAX_FB_FEATURES: usize = 256;
 
+/// Time constant of a hold feature: its pole `exp(-dt / f64::MAX)` rounds
+/// to exactly 1 at every sample time, so `s = 1 s + 0 v` keeps the run's
+/// first value to the last bit (a finite, positive time constant, as
+/// [`FilterBank`] requires of every filter).
+pub const HOLD_TAU_S: f64 = f64::MAX;
+
 /// One feature: a power of an input, optionally low-pass filtered.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Feature {
@@ -200,7 +206,7 @@ mod tests {
     fn a_pole_of_one_holds_the_first_value_exactly() {
         // exp(-dt / f64::MAX) rounds to 1, and 1 s + 0 v is s to the last bit.
         for dt in [1e-3, 1.0, 40.0, 86_400.0] {
-            assert_eq!(pole(f64::MAX, dt), 1.0);
+            assert_eq!(pole(HOLD_TAU_S, dt), 1.0);
         }
         let mut s = filter_step(1.0, 0.0, 21.37, true);
         for v in [25.0, -3.0, 1e6, 21.0] {

@@ -203,7 +203,7 @@ fn the_largest_bank_fits_a_blob() {
         8100.0,
         24_300.0,
         72_900.0,
-        f64::MAX,
+        model_core::fbank::HOLD_TAU_S,
     ];
     let names = ["dx_um", "dy_um", "dz_um", "e_um"];
     let mut m = fbank_sized(MAX_CHANNELS, &taus, &names[..MAX_OUTPUTS]);

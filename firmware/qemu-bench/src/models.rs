@@ -284,7 +284,7 @@ pub fn fbank() -> Model {
             8100.0,
             24_300.0,
             72_900.0,
-            f64::MAX,
+            model_core::fbank::HOLD_TAU_S,
         ] {
             let _ = features.push(Feature {
                 input: u8::try_from(input).unwrap_or(0),

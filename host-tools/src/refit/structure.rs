@@ -65,6 +65,69 @@ pub(crate) struct Structure {
     pub(crate) old: Coefs,
     /// TF banks: the indices of this output's entries; they have no intercept.
     pub(crate) tf_entries: Option<Vec<usize>>,
+    /// Filter banks: the output's hold features and the features tied to
+    /// them (empty for the other forms).
+    pub(crate) holds: Vec<Hold>,
+}
+
+/// A filter bank's hold feature (pole 1: the run's first value, `x0`) with
+/// the output's other first-power features on its channel. A change-form
+/// regression written on a logged channel (fit/auto/layout.rs) weighs the
+/// hold by minus their sum, `sum b_j (F_j(x) - x0)`; the update keeps it so:
+/// it regresses on `s_j - s_hold` and writes the hold back as `-sum b_j`.
+/// A free hold column is constant within a run, so a least-squares window
+/// on one run would fold `-sum b_j x0` of that run into the intercept, and
+/// the next run, starting elsewhere, would be off by `sum b_j` times the
+/// difference of the starts.
+pub(crate) struct Hold {
+    /// The hold feature's index.
+    pub(crate) feature: usize,
+    /// The tied features' indices.
+    pub(crate) tied: Vec<usize>,
+}
+
+impl Hold {
+    /// The holds output `eq` weighs (non-zero coefficient) in `bank`, whose
+    /// features have the `poles` model-core derived.
+    fn of(bank: &FilterBank, eq: &FbOutput, poles: &[f64]) -> Vec<Hold> {
+        let f = &bank.features;
+        (0..f.len())
+            .filter(|&h| poles.get(h) == Some(&1.0) && eq.coef.get(h).is_some_and(|c| *c != 0.0))
+            .map(|h| Hold {
+                feature: h,
+                tied: (0..f.len())
+                    .filter(|&j| {
+                        j != h
+                            && f[j].input == f[h].input
+                            && f[j].power == 1
+                            && poles.get(j) != Some(&1.0)
+                    })
+                    .collect(),
+            })
+            .collect()
+    }
+
+    /// Coefficients `b` fitted on [`Hold::apply`]'s regressors with each
+    /// hold's weight set to minus its tied features' sum.
+    pub(crate) fn tie(holds: &[Hold], mut b: Vec<f64>) -> Vec<f64> {
+        for h in holds {
+            b[h.feature] = -h.tied.iter().map(|&j| b[j]).sum::<f64>();
+        }
+        b
+    }
+
+    /// A row's regressors with the tied features taken relative to the
+    /// hold and the hold's own column zero.
+    fn apply(holds: &[Hold], mut row: Vec<f64>) -> Vec<f64> {
+        for h in holds {
+            let x0 = row[h.feature];
+            for &j in &h.tied {
+                row[j] -= x0;
+            }
+            row[h.feature] = 0.0;
+        }
+        row
+    }
 }
 
 pub(crate) fn linear_eq(model: &Model, k: usize) -> Option<&LinearOutput> {
@@ -129,6 +192,7 @@ pub(crate) fn static_structures(old: &ValidModel, runs: &[RunFile]) -> Result<Ve
                 regs,
                 old: old_c,
                 tf_entries: None,
+                holds: Vec::new(),
             })
         })
         .collect()
@@ -217,7 +281,8 @@ fn fbank_feature_series(
 }
 
 /// Every output's [`Structure`] of a filter bank: the features (shared by
-/// every output) as regressors, the old intercept and weights.
+/// every output) as regressors, taken relative to the output's holds
+/// ([`Hold`]), the old intercept and weights.
 fn fbank_structures(
     old: &ValidModel,
     bank: &FilterBank,
@@ -231,12 +296,16 @@ fn fbank_structures(
                 .iter()
                 .find(|e| usize::from(e.output) == k)
                 .ok_or_else(|| anyhow!("output #{k} has no equation"))?;
+            let holds = Hold::of(bank, eq, old.fbank_poles());
             let regs = runs
                 .iter()
                 .enumerate()
                 .map(|(ri, run)| {
                     (0..run.len())
-                        .map(|row| series.iter().map(|f| f[ri][row]).collect())
+                        .map(|row| {
+                            let r: Option<Vec<f64>> = series.iter().map(|f| f[ri][row]).collect();
+                            r.map(|r| Hold::apply(&holds, r))
+                        })
                         .collect()
                 })
                 .collect();
@@ -244,6 +313,7 @@ fn fbank_structures(
                 regs,
                 old: (eq.intercept, eq.coef.to_vec()),
                 tf_entries: None,
+                holds,
             })
         })
         .collect()
@@ -278,6 +348,7 @@ pub(crate) fn tf_structures(
                 regs,
                 old: (0.0, vec![1.0; idx.len()]),
                 tf_entries: Some(idx),
+                holds: Vec::new(),
             }
         })
         .collect())

@@ -6,7 +6,7 @@
 use super::change::Verdict;
 use super::outcome::{Equation, UpdateEntry};
 use super::rls::{self, Coefs};
-use super::structure::{structures, with_updates, Structure};
+use super::structure::{structures, with_updates, Hold, Structure};
 use super::{Method, UpdateData, ValidRefitParams};
 use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
@@ -102,10 +102,11 @@ pub(crate) fn update_one(
     if st.tf_entries.is_some() {
         return Ok((0.0, gains_ls(&xs, &yv, m)?));
     }
-    match s.method {
-        Method::Rls => Ok(rls::rls(&xs, &yv, &st.old, s.lambda, s.n_prior)),
-        Method::Window => crate::num::linalg::least_squares(&xs, &yv),
-    }
+    let (b0, b) = match s.method {
+        Method::Rls => rls::rls(&xs, &yv, &st.old, s.lambda, s.n_prior),
+        Method::Window => crate::num::linalg::least_squares(&xs, &yv)?,
+    };
+    Ok((b0, Hold::tie(&st.holds, b)))
 }
 
 /// The runs' mean sample time, s, and the update settings it resolves

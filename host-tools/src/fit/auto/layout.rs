@@ -23,15 +23,9 @@ use super::features::Role;
 use super::search::Member;
 use super::table::Form;
 use anyhow::{anyhow, bail, Result};
-use model_core::fbank::{FbOutput, Feature, FilterBank, MAX_FB_FEATURES};
+use model_core::fbank::{FbOutput, Feature, FilterBank, HOLD_TAU_S, MAX_FB_FEATURES};
 use model_core::model::MAX_CHANNELS;
 use model_core::Reference;
-
-/// Time constant of the hold feature: its pole `exp(-dt / f64::MAX)` rounds
-/// to exactly 1 at every sample time, so `s = 1 s + 0 v` keeps the run's
-/// first value to the last bit (model-core's `fbank`, unchanged: the time
-/// constant is finite and positive as it requires).
-pub const HOLD_TAU_S: f64 = f64::MAX;
 
 /// One model channel: a dataset input, the grid form whose values give
 /// its calibration envelope, and the reference the hub subtracts.
@@ -208,6 +202,12 @@ fn averaged_rows(
                     w * b,
                 ));
                 if rewrite && m.form == Form::Change && roles[d.input] == Role::Temperature {
+                    // F(x - x0) = F(x) - x0 holds for the first power only.
+                    if d.power != 1 {
+                        bail!(
+                            "auto: a squared change-form temperature cannot go on a logged channel"
+                        );
+                    }
                     let hold = Feature {
                         input,
                         power: 1,
