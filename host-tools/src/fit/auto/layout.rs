@@ -14,10 +14,10 @@
 //! it started with. A change-form regression `sum_f b_f F_f(x - x0)` is then
 //! `sum_f b_f F_f(x) - (sum_f b_f) x0` per input.
 //!
-//! When the features of every target together exceed the hub's, [`trim`]
-//! shortens the ensembles: the lowest-ranked member of the largest ensemble
-//! goes first, until they fit. Each target's own search already keeps its
-//! ensemble within the hub's features, so one target never needs it.
+//! The search's filter grids cannot give more features than the hub holds
+//! (at most 32 channels of 7 features or 16 temperatures of 12 in both
+//! forms, plus the heat sources': a test in mod.rs counts them);
+//! [`Layout::check`] still refuses in one line what the hub would not take.
 
 use super::features::Role;
 use super::search::Member;
@@ -104,11 +104,6 @@ impl Layout {
             features: heapless::Vec::from_slice(&self.features).map_err(|_| cap())?,
             outputs,
         })
-    }
-
-    /// Whether the hub takes it.
-    pub fn fits(&self) -> bool {
-        self.channels.len() <= MAX_CHANNELS && self.features.len() <= MAX_FB_FEATURES
     }
 
     /// A one-line refusal when the hub does not take it.
@@ -232,32 +227,6 @@ fn averaged_rows(
     Ok((feats, rows))
 }
 
-/// Shortens the ensembles (`winners[t]`, best-ranked first) until every
-/// target together fits the hub: the last member of the largest ensemble
-/// goes first (of equal ones, the later target's). Returns how many members
-/// each target lost and the layout of what is left; refuses in one line
-/// when single members do not fit.
-pub fn trim(roles: &[Role], winners: &mut [Vec<Member>]) -> Result<(Vec<usize>, Layout)> {
-    let mut dropped = vec![0; winners.len()];
-    loop {
-        let slices: Vec<&[Member]> = winners.iter().map(Vec::as_slice).collect();
-        let layout = Layout::of(roles, &slices)?;
-        if layout.fits() {
-            return Ok((dropped, layout));
-        }
-        let largest = (0..winners.len())
-            .filter(|&t| winners[t].len() > 1)
-            .max_by_key(|&t| (winners[t].len(), t));
-        let Some(t) = largest else {
-            // Does not fit: the check says why in one line.
-            layout.check()?;
-            return Ok((dropped, layout));
-        };
-        winners[t].pop();
-        dropped[t] += 1;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -281,7 +250,6 @@ mod tests {
             },
             lambda: 0.0,
             fold_coefs: Vec::new(),
-            table_row: 0,
         }
     }
 
@@ -372,35 +340,5 @@ mod tests {
             // each product is exact to ~1e-14 and a few of them add up.
             assert!(worst < 1e-12, "target {row}: {worst}");
         }
-    }
-
-    #[test]
-    fn trimming_drops_the_last_member_of_the_largest_ensemble_first() {
-        // One feature per member, each on its own input (40 + 40 members,
-        // one form): 80 channels must come down to the hub's 32.
-        let roles = vec![Role::HeatSource; 80];
-        let ens = |from: usize| -> Vec<Member> {
-            (from..from + 40)
-                .map(|i| member(Form::Absolute, &[(i, 2700.0)], &[1.0], 0.0))
-                .collect()
-        };
-        let mut winners = vec![ens(0), ens(40)];
-        let (dropped, layout) = trim(&roles, &mut winners).unwrap();
-        assert_eq!(layout.channels.len(), MAX_CHANNELS);
-        assert_eq!(winners[0].len() + winners[1].len(), MAX_CHANNELS);
-        assert_eq!(dropped, [24, 24]);
-        // The best-ranked (first) members stay.
-        assert_eq!(winners[0][0].features[0].input, 0);
-        assert_eq!(winners[1][0].features[0].input, 40);
-        // Single members that cannot fit are refused in one line.
-        let wide: Vec<Member> = vec![member(
-            Form::Absolute,
-            &(0..40).map(|i| (i, 0.0)).collect::<Vec<_>>(),
-            &[1.0; 40],
-            0.0,
-        )];
-        let mut one = vec![wide];
-        let e = trim(&roles, &mut one).unwrap_err().to_string();
-        assert!(e.contains("the hub takes at most 32"), "{e}");
     }
 }

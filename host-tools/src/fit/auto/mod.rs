@@ -396,9 +396,9 @@ struct RidgeFit {
     layout: Layout,
 }
 
-/// Step 1: the ridge search of every target, the ensembles shortened
-/// until every target together fits the hub (layout.rs), each winner with
-/// its band.
+/// Step 1: the ridge search of every target and the winners' layout on
+/// the hub (layout.rs; the grids cannot exceed its features, a test
+/// checks), each winner with its band.
 fn ridge_targets(
     ds: &Dataset,
     grid: &[GridRun],
@@ -418,28 +418,19 @@ fn ridge_targets(
                 .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?,
         );
     }
-    let mut members: Vec<Vec<Member>> = found
-        .iter_mut()
-        .map(|f| std::mem::take(&mut f.members))
-        .collect();
-    let (trimmed, layout) = layout::trim(roles, &mut members)?;
+    let winners: Vec<&[Member]> = found.iter().map(|f| f.members.as_slice()).collect();
+    let layout = Layout::of(roles, &winners)?;
     let mut out = RidgeFit {
         choices: Vec::new(),
         residuals: Vec::new(),
         layout,
     };
-    for (j, (mut found, members)) in found.into_iter().zip(members).enumerate() {
-        if trimmed[j] > 0 {
-            for (k, row) in found.table.iter_mut().enumerate() {
-                row.chosen &= members.iter().any(|m| m.table_row == k);
-            }
-            found.cv_residuals = search::cv_residuals(forms, &members, &ys[j], folds, s.dt_s);
-        }
+    for (target, found) in ds.targets.iter().zip(found) {
         let choice = target_choice(
-            &ds.targets[j],
+            target,
             found.table,
             &found.cv_residuals,
-            &members,
+            &found.members,
             forms,
             folds,
         );
@@ -635,6 +626,34 @@ fn bounds(envelope: &[Span], bands: &[Band]) -> Result<Bounds> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_largest_union_of_the_grids_fits_the_hub() {
+        // Every target's members together use at most every time constant
+        // of the grids. A temperature on a logged channel with the hold:
+        // raw, each temperature time constant, the hold; in both forms
+        // without the rewrite (two channels each): twice raw and the time
+        // constants. A heat source (speed_rpm, power_kw: at most 2), both
+        // powers of each heat time constant, on one channel.
+        let distinct = |sets: &[&[f64]]| {
+            let mut v: Vec<f64> = sets.iter().flat_map(|s| s.iter().copied()).collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v.len()
+        };
+        let per_temp = 1 + distinct(&TEMP_SETS);
+        let per_heat = 2 * distinct(&HEAT_SETS);
+        let worst = (0..=2)
+            .map(|heat| {
+                let logged = (MAX_CHANNELS - heat) * (per_temp + 1);
+                let both_forms = (MAX_CHANNELS - heat) / 2 * 2 * per_temp;
+                logged.max(both_forms) + heat * per_heat
+            })
+            .max()
+            .unwrap();
+        assert_eq!(worst, 230, "30 x 7 + 2 x 10");
+        assert!(worst <= MAX_FB_FEATURES);
+    }
 
     /// 1000 residuals inside the envelope, |r| = 0.001 .. 1.000: the
     /// nearest-rank 95 % quantile is exactly 0.950.

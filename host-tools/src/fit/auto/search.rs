@@ -60,8 +60,6 @@ pub struct Member {
     pub lambda: f64,
     /// Coefficients fitted without each fold, for the CV residuals.
     pub fold_coefs: Vec<Option<Coefs>>,
-    /// Its row in the target's CV table ([`TargetSearch::table`]).
-    pub table_row: usize,
 }
 
 /// The outcome for one target.
@@ -269,7 +267,7 @@ fn pick_members(
     };
     let mut members: Vec<Member> = Vec::new();
     let mut union: Vec<FeatureDef> = Vec::new();
-    for (table_row, &i) in order.iter().enumerate() {
+    for &i in order {
         if members.len() >= s.ensemble.max(1) {
             break;
         }
@@ -303,7 +301,6 @@ fn pick_members(
             coefs,
             lambda,
             fold_coefs,
-            table_row,
         });
     }
     members
@@ -339,7 +336,7 @@ pub fn search(
 
 /// `y - ŷ` of the averaged winner on each scored calibration sample, `ŷ`
 /// from the members fitted for that sample's fold (never on it).
-pub fn cv_residuals(
+fn cv_residuals(
     forms: &[FormData],
     members: &[Member],
     y: &[f64],
