@@ -148,12 +148,19 @@ def make_runs(exe, tmp, seed):
     return cal, test
 
 
-def refit_on_room1(exe, tmp, test):
-    """rmse on room2 of the auto blob before and after `refit` on room1 (the
-    user's move after a day whose room moved: seed 002's self-adaptive
+def coverage(y, lo, hi):
+    """Share of the rows with a band whose value lies inside it, % (rows
+    without a band are left out, as `--report` counts)."""
+    has = np.isfinite(lo) & np.isfinite(hi)
+    return 100.0 * np.mean((y[has] >= lo[has]) & (y[has] <= hi[has]))
+
+
+def refit_on_room1(exe, tmp, model, test):
+    """rmse on room2 of the blob `model` before and after `refit` on room1
+    (the user's move after a day whose room moved: seed 002's self-adaptive
     update), and the refitted blob's band coverage on room2, %."""
-    run(exe, "refit", "--model", f"{tmp}/m.bin", "--data", test[0], "--out", f"{tmp}/r.bin")
-    before = json.loads(run(exe, "eval", "--model", f"{tmp}/m.bin", "--data", test[1], "--json"))
+    run(exe, "refit", "--model", model, "--data", test[0], "--out", f"{tmp}/r.bin")
+    before = json.loads(run(exe, "eval", "--model", model, "--data", test[1], "--json"))
     after = json.loads(run(exe, "eval", "--model", f"{tmp}/r.bin", "--data", test[1], "--json"))
     run(exe, "predict", "--model", f"{tmp}/r.bin", "--interval", "--data", test[1],
         "--out", f"{tmp}/rp.csv")
@@ -165,9 +172,7 @@ def refit_on_room1(exe, tmp, test):
             cover[t] = float("nan")
             continue
         lo, hi = pred[:, pcol[f"{t}_lo95"]], pred[:, pcol[f"{t}_hi95"]]
-        has = np.isfinite(lo) & np.isfinite(hi)  # rows with a band, as the report counts
-        yt = y[has, col[t]]
-        cover[t] = 100.0 * np.mean((yt >= lo[has]) & (yt <= hi[has]))
+        cover[t] = coverage(y[:, col[t]], lo, hi)
     return {t: (before[t]["rmse_um"], after[t]["rmse_um"], cover[t]) for t in TARGETS}
 
 
@@ -193,7 +198,7 @@ def main():
         run(exe, "predict", "--model", f"{tmp}/m.bin", "--interval", *data_args(test),
             "--out", f"{tmp}/p.csv")
         pred, pcol = read_predictions(f"{tmp}/p.csv")
-        refit = refit_on_room1(exe, tmp, test)
+        refit = refit_on_room1(exe, tmp, f"{tmp}/m.bin", test)
         cal_d = [read(p)[0] for p in cal]
         test_d = [read(p)[0] for p in test]
         print(f"{'target':8} {'auto':>8} {'ridge':>8} {'sd y':>8} {'cover%':>7} {'half':>7} {'flag%':>6}"
@@ -205,7 +210,7 @@ def main():
             e = np.concatenate([model(features(d, col, temps)) - d[:, col[t]] for d in test_d])
             y = np.concatenate([d[:, col[t]] for d in test_d])
             lo, hi = pred[:, pcol[f"{t}_lo95"]], pred[:, pcol[f"{t}_hi95"]]
-            cover = 100.0 * np.mean((y >= lo) & (y <= hi))
+            cover = coverage(y, lo, hi)
             half = float(np.mean(hi - lo) / 2)
             tj = next(x for x in fit_json["details"]["targets"] if x["target"] == t)
             band = tj["band"]

@@ -395,8 +395,9 @@ impl RunFile {
         self.columns.iter().any(|c| c == name)
     }
 
-    /// Every column with its values, in file order, for consumers that handle
-    /// columns they do not know by name (copying, listing, plotting).
+    /// Every column with its values, in file order, for a caller that
+    /// handles columns it does not know by name (the in-memory round trip
+    /// of `host-tools/tests/memory_runs.rs`).
     pub fn iter_columns(&self) -> impl Iterator<Item = (&str, Cells<'_>)> {
         self.columns
             .iter()

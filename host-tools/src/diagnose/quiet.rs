@@ -257,13 +257,16 @@ fn period_of(t: &[f64], resid: &[f64], windows: &[Range<usize>], lefts: &[Vec<f6
         .0
 }
 
-/// [`period_of`] from `resid` itself.
-pub fn quiet_period_s(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
+/// [`period_of`] from `resid` itself (the tests' entry).
+#[cfg(test)]
+fn quiet_period_s(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
     period_of(t, resid, windows, &quadratic_lefts(t, resid, windows))
 }
 
-/// What the windows' quadratics leave of `resid`, over its white noise.
-pub fn quiet_ratio(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
+/// What the windows' quadratics leave of `resid`, over its white noise
+/// (the tests' entry).
+#[cfg(test)]
+fn quiet_ratio(t: &[f64], resid: &[f64], windows: &[Range<usize>]) -> f64 {
     ratio_of(resid, &quadratic_lefts(t, resid, windows))
 }
 

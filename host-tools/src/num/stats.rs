@@ -55,17 +55,16 @@ pub fn mean(x: &[f64]) -> f64 {
     x.iter().sum::<f64>() / x.len() as f64
 }
 
-/// The `q` quantile of `|v|` (nearest rank).
+/// The `q` quantile of `|v|` (nearest rank; 0 for an empty slice).
 pub fn quantile_abs(v: &[f64], q: f64) -> f64 {
-    let mut a: Vec<f64> = v.iter().map(|e| e.abs()).collect();
-    a.sort_by(f64::total_cmp);
-    if a.is_empty() {
+    if v.is_empty() {
         return 0.0;
     }
+    let mut a: Vec<f64> = v.iter().map(|e| e.abs()).collect();
     // Nearest rank: ceil(q n) - 1.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let i = ((q * a.len() as f64).ceil() as usize).clamp(1, a.len()) - 1;
-    a[i]
+    kth_smallest(&mut a, i)
 }
 
 /// Pearson's correlation coefficient (seed 003 Eq. 11), or `None` when
