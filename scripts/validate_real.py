@@ -187,11 +187,10 @@ def write(res, cover, width, secs, methods):
              "replaced it (the geometric mean of the per-fold errors) was chosen on the",
              "development split alone (docs/fit.md, \"The CV criterion\") and then run here once.",
              "The `gp` row is an isotropic-RBF Gaussian process on the ridge's",
-             "features; a tuned kernel does better (the issue quotes 88.9 % mean on the 24 h",
-             "protocol), so it is a weak reference here. We do not reproduce that figure: a",
-             "linear + RBF kernel (scikit-learn `DotProduct + ConstantKernel * RBF +",
-             "WhiteKernel`, marginal likelihood, every 8th calibration row, the same features),",
-             "run once on 2026-11-27, scored 76.9 / 84.6 / 47.8 / 41.9 / 25.4 %, mean 55.3.", ""]
+             "features, a weak reference: the issue quotes 88.9 % mean on the 24 h protocol",
+             "for a Gaussian process on such features, and we do not reproduce it. A linear +",
+             "RBF kernel does no better (`scripts/gp_linear_rbf.py`, run once on 2026-11-27:",
+             "76.9 / 84.6 / 47.8 / 41.9 / 25.4 %, mean 55.3).", ""]
     for p, title, key, unit in [("24h", "24 h protocol: held-out reduction %", 0, "%"),
                                 ("authors", "Authors' split: mean absolute error, um", 1, "um")]:
         lines += [f"## {title}", "", "| method | " + " | ".join(TARGETS) + " | mean |",
