@@ -14,6 +14,7 @@ use model_core::linear::LinearOutput;
 use model_core::pcr::{Pcr, PcrOutput};
 use model_core::tf::TfEntry;
 use model_core::{Model, Params, Reference, ValidModel};
+use std::rc::Rc;
 
 /// Per run, per row: one output's regressors (None where any is missing).
 pub(crate) type Regressors = Vec<Vec<Option<Vec<f64>>>>;
@@ -59,8 +60,9 @@ pub(crate) fn model_inputs(model: &ValidModel, run: &RunFile) -> Result<Vec<Opti
 
 /// What one output's update works on: its regressors and the old coefficients.
 pub(crate) struct Structure {
-    /// `regs[run][row]`.
-    pub(crate) regs: Regressors,
+    /// `regs[run][row]` (shared by the outputs of a filter bank that have
+    /// no hold: its features are every output's regressors).
+    pub(crate) regs: Rc<Regressors>,
     /// Old `(intercept, slopes)`; for a TF bank `(0, [1; entries])` (gains).
     pub(crate) old: Coefs,
     /// TF banks: the indices of this output's entries; they have no intercept.
@@ -184,12 +186,12 @@ pub(crate) fn static_structures(old: &ValidModel, runs: &[RunFile]) -> Result<Ve
     (0..old.outputs().len())
         .map(|k| {
             let (phi, old_c) = static_equation(old.model(), k)?;
-            let regs = xs
+            let regs: Regressors = xs
                 .iter()
                 .map(|run| run.iter().map(|x| x.as_deref().map(&phi)).collect())
                 .collect();
             Ok(Structure {
-                regs,
+                regs: Rc::new(regs),
                 old: old_c,
                 tf_entries: None,
                 holds: Vec::new(),
@@ -288,7 +290,19 @@ fn fbank_structures(
     bank: &FilterBank,
     runs: &[RunFile],
 ) -> Result<Vec<Structure>> {
-    let series = fbank_feature_series(old, bank, runs)?;
+    let shared: Rc<Regressors> = {
+        let series = fbank_feature_series(old, bank, runs)?;
+        Rc::new(
+            runs.iter()
+                .enumerate()
+                .map(|(ri, run)| {
+                    (0..run.len())
+                        .map(|row| series.iter().map(|f| f[ri][row]).collect())
+                        .collect()
+                })
+                .collect(),
+        )
+    };
     (0..old.outputs().len())
         .map(|k| {
             let eq = bank
@@ -297,18 +311,20 @@ fn fbank_structures(
                 .find(|e| usize::from(e.output) == k)
                 .ok_or_else(|| anyhow!("output #{k} has no equation"))?;
             let holds = Hold::of(bank, eq, old.fbank_poles());
-            let regs = runs
-                .iter()
-                .enumerate()
-                .map(|(ri, run)| {
-                    (0..run.len())
-                        .map(|row| {
-                            let r: Option<Vec<f64>> = series.iter().map(|f| f[ri][row]).collect();
-                            r.map(|r| Hold::apply(&holds, r))
+            let regs = if holds.is_empty() {
+                Rc::clone(&shared)
+            } else {
+                Rc::new(
+                    shared
+                        .iter()
+                        .map(|run| {
+                            run.iter()
+                                .map(|r| r.clone().map(|r| Hold::apply(&holds, r)))
+                                .collect()
                         })
-                        .collect()
-                })
-                .collect();
+                        .collect(),
+                )
+            };
             Ok(Structure {
                 regs,
                 old: (eq.intercept, eq.coef.to_vec()),
@@ -335,7 +351,7 @@ pub(crate) fn tf_structures(
                 .filter(|(_, e)| usize::from(e.output) == k)
                 .map(|(i, _)| i)
                 .collect();
-            let regs = runs
+            let regs: Regressors = runs
                 .iter()
                 .enumerate()
                 .map(|(ri, run)| {
@@ -345,7 +361,7 @@ pub(crate) fn tf_structures(
                 })
                 .collect();
             Structure {
-                regs,
+                regs: Rc::new(regs),
                 old: (0.0, vec![1.0; idx.len()]),
                 tf_entries: Some(idx),
                 holds: Vec::new(),
