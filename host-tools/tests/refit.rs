@@ -87,7 +87,12 @@ fn linear_case(seed: u64, y: impl Fn(usize, &[f64; 3]) -> f64) -> LinearCase {
 
 /// `refit --json` of the blob `old` on the run `data`, writing `out`.
 fn refit(old: &Path, data: &Path, out: &Path) -> Value {
-    json(&[
+    refit_with(old, data, out, &[])
+}
+
+/// [`refit`] with `extra` options.
+fn refit_with(old: &Path, data: &Path, out: &Path, extra: &[&str]) -> Value {
+    let mut a = vec![
         "refit",
         "--model",
         p(old),
@@ -96,7 +101,9 @@ fn refit(old: &Path, data: &Path, out: &Path) -> Value {
         "--out",
         p(out),
         "--json",
-    ])
+    ];
+    a.extend_from_slice(extra);
+    json(&a)
 }
 
 /// Held-out rmse of `target` before and after a refit.
@@ -330,18 +337,7 @@ fn a_window_refit_keeps_the_hold_tied_so_a_run_starting_warmer_is_right() {
     let data = run_of_spec(dir.path(), &truth, 66);
     let warmer = run_of_spec_warmer(dir.path(), &truth, 67, 5.0, "warmer.csv");
     let out = dir.path().join("out.bin");
-    let r = json(&[
-        "refit",
-        "--model",
-        p(&old),
-        "--data",
-        p(&data),
-        "--out",
-        p(&out),
-        "--method",
-        "window",
-        "--json",
-    ]);
+    let r = refit_with(&old, &data, &out, &["--method", "window"]);
     assert_eq!(r["kept"], "new", "{r}");
     let coef = updated(&r, "coef");
     eprintln!("window refit with a hold: coef {coef:?}");
@@ -381,18 +377,7 @@ fn a_refitted_blob_keeps_its_envelope_and_widens_its_band_to_the_new_runs() {
     let old = build(dir.path(), "old", &fbank_old_with_bounds());
     let out = dir.path().join("out.bin");
     let rep = dir.path().join("rep");
-    let r = json(&[
-        "refit",
-        "--model",
-        p(&old),
-        "--data",
-        p(&data),
-        "--out",
-        p(&out),
-        "--json",
-        "--report",
-        p(&rep),
-    ]);
+    let r = refit_with(&old, &data, &out, &["--report", p(&rep)]);
     assert_eq!(r["kept"], "new", "{r}");
     let shown = json(&["model", "show", "--model", p(&out), "--json"]);
     let b = &shown["bounds"];
