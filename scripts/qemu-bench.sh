@@ -7,8 +7,12 @@
 # SysTick counts guest instructions, and prints its table. Then cross-checks
 # one number against an instruction trace (`-singlestep -d exec,nochain`).
 #
+# Then runs the `stack` binary (peak stack use of the hub's boot, command and
+# sample paths, by painting) and checks it against the stack budget.
+#
 # Fails (non-zero) if QEMU or the thumbv7em target is missing, if a run times
-# out or panics, or if the output lacks an expected line or a check is off.
+# out or panics, if the output lacks an expected line or a check is off, or if
+# a path's stack use is over the budget.
 #
 # Needs: qemu-system-arm (Debian: `apt-get install qemu-system-arm`, 7.2 known
 # to work) and `rustup target add thumbv7em-none-eabihf`. Takes a few seconds
@@ -99,4 +103,31 @@ awk '
     inside { n++; if ($NF ~ /(df3|aeabi_d|aeabi_[iu]i2d|aeabi_d2|libm4math4sqrt)/) f++ }
     END { printf "trace-check: %d of %d instructions (%.0f %%) are software f64 (compiler_builtins, libm sqrt)\n", f, n, 100 * f / n }' \
     "$work/trace.log"
+# 3. Peak stack use of the hub's paths (stack painting; the firmware
+# library's own boot, command and sample code on each kind's largest model).
+# The budget: the F446's 128 KiB of SRAM less the hub's static RAM (29 KiB,
+# scripts/firmware-size.sh) leaves 99 KiB; the stack is given 64 KiB of it
+# (docs/firmware-cost.md, "Stack"), the rest is margin for the interrupt
+# handlers' frames, which nest on top.
+stack_budget=65536
+status=0
+timeout "$run_timeout_s" "${qemu[@]}" -kernel "$elf_dir/stack" >"$work/stack.txt" 2>&1 || status=$?
+cat "$work/stack.txt"
+[ "$status" -eq 0 ] || fail "stack exited with status $status"
+grep -q '^stack: done$' "$work/stack.txt" || fail "no 'stack: done' line"
+# The method's check: a frame holding a 16 KiB buffer measures the buffer
+# plus the call's few words (at most 256 bytes more).
+awk '/^verify: a frame holding/ { want = $5; got = $8; seen = 1;
+        if (got < want || got > want + 256) { print "stack verify off: " $0; bad = 1 } }
+     END { exit (bad || !seen) }' "$work/stack.txt" || fail "stack-painting check failed"
+for kind in tf bp linear pcr arma fbank; do
+    grep -q "^| $kind | [0-9]" "$work/stack.txt" || fail "no '$kind' stack line"
+done
+boot=$(sed -n 's/^boot: Pipeline::without_model into its static: \([0-9]*\) bytes$/\1/p' "$work/stack.txt")
+[ -n "$boot" ] || fail "no boot stack line"
+[ "$boot" -le "$stack_budget" ] || fail "boot's stack use $boot is over $stack_budget bytes"
+awk -F'|' -v budget="$stack_budget" '/^\| [a-z]+ \| [0-9]/ {
+        over = 0; for (i = 3; i <= 8; i++) if ($i + 0 > budget) over = 1
+        if (over) { print "over the stack budget: " $0; bad = 1 }
+    } END { exit bad }' "$work/stack.txt" || fail "a path's stack use is over $stack_budget bytes"
 echo "qemu-bench: OK"

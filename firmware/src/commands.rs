@@ -11,6 +11,7 @@
 //!   right before that erase, and a committed model is swapped in under one
 //!   lock between two samples.
 
+use crate::hub::Hub;
 use crate::pipeline::{Pipeline, SwapError};
 use crate::protocol::{Command, CommandKind, ErrorCode, HubMessage, PROTOCOL_VERSION};
 use crate::upload::{MappedFlash, Slot, Uploader};
@@ -108,23 +109,34 @@ fn upload<F: MappedFlash>(
         );
     };
     let uploading = uploader.is_uploading();
-    let event = pipeline.with(|p| {
-        p.set_uploading(uploading);
-        match committed {
-            Some(c) => match p.swap_model(c.hub) {
-                Ok(()) => Event::Swapped { slot: c.slot },
-                Err(error) => Event::SwapRefused {
-                    slot: c.slot,
-                    error,
-                },
-            },
-            None => match (begin, &reply) {
-                (Some(len), HubMessage::Ack(_)) => Event::Erased { len },
-                _ => Event::None,
-            },
-        }
-    });
+    pipeline.with(|p| p.set_uploading(uploading));
+    let event = match committed {
+        Some(c) => swap_in(pipeline, uploader, c.slot),
+        None => match (begin, &reply) {
+            (Some(len), HubMessage::Ack(_)) => Event::Erased { len },
+            _ => Event::None,
+        },
+    };
     (reply, event)
+}
+
+/// Loads the model just committed to `slot` into a hub on this frame's
+/// stack (outside the pipeline's lock: decoding takes milliseconds) and
+/// swaps it in (under the lock: an exchange, no hub by value). Its own
+/// frame, never inlined: the command task's stack holds this hub only
+/// while a commit is swapped in (docs/firmware-cost.md, "Stack").
+#[inline(never)]
+fn swap_in<F: MappedFlash>(
+    pipeline: &mut impl SharedPipeline,
+    uploader: &Uploader<F>,
+    slot: Slot,
+) -> Event {
+    let mut hub = Hub::empty();
+    hub.reload(uploader.slot_bytes(slot));
+    match pipeline.with(|p| p.swap_model(&mut hub)) {
+        Ok(()) => Event::Swapped { slot },
+        Err(error) => Event::SwapRefused { slot, error },
+    }
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@
 
 use model_core::blob::{HEADER_LEN, MAX_BLOB_LEN, TRAILER_LEN};
 use model_core::model::StepError;
-use model_core::{BlobError, ModelState, ValidModel};
+use model_core::{BlobError, ModelSlot, ModelState, ValidModel};
 
 pub use crate::offsets::{Offsets, MAX_INPUTS, MAX_OUTPUTS};
 
@@ -85,7 +85,8 @@ pub fn blob_len(slot: &[u8]) -> usize {
 /// The model (if any), its state, and the last good offsets.
 #[derive(Clone, Debug)]
 pub struct Hub {
-    model: Result<ValidModel, BlobError>,
+    /// The model, decoded where it lies (model-core's `ModelSlot`).
+    model: ModelSlot,
     state: ModelState,
     offsets: [f64; MAX_OUTPUTS],
     slopes: [f64; MAX_OUTPUTS],
@@ -102,27 +103,61 @@ impl Hub {
     /// prefix holding the blob). Never fails: without a valid model the hub
     /// reports zero offsets, and [`Hub::load_error`] says why.
     pub fn load(slot: &[u8]) -> Self {
-        let blob = slot.get(..blob_len(slot)).unwrap_or(&[]);
-        Self::with_model(model_core::decode(blob))
+        let mut hub = Self::empty();
+        hub.reload(slot);
+        hub
     }
 
-    /// A hub around an already decoded blob (or why it was refused).
-    pub fn with_model(model: Result<ValidModel, BlobError>) -> Self {
+    /// A hub without a model ([`Hub::load_error`]: [`BlobError::TooShort`],
+    /// as for an empty slot), built where it is returned to: the hub's
+    /// stack holds it once (load into it with [`Hub::reload`]).
+    pub fn empty() -> Self {
         Self {
-            positional: model.as_ref().map_or(0, |m| m.positional_outputs()),
-            model,
+            model: ModelSlot::new(),
             state: ModelState::new(),
             offsets: [0.0; MAX_OUTPUTS],
             slopes: [0.0; MAX_OUTPUTS],
+            positional: 0,
             faults: Faults::default(),
             last_fault: None,
             extrapolation: 0.0,
         }
     }
 
+    /// [`Hub::load`] into this hub, where its model lies: the model never
+    /// passes through the stack (docs/firmware-cost.md, "Stack"). The
+    /// state starts afresh, as in a new hub.
+    pub fn reload(&mut self, slot: &[u8]) {
+        let blob = slot.get(..blob_len(slot)).unwrap_or(&[]);
+        // A refused blob is kept as the load error.
+        let _ = self.model.load(blob);
+        self.start_afresh();
+    }
+
+    /// A hub around an already decoded blob (or why it was refused).
+    pub fn with_model(model: Result<ValidModel, BlobError>) -> Self {
+        let mut hub = Self {
+            model: ModelSlot::from(model),
+            ..Self::empty()
+        };
+        hub.start_afresh();
+        hub
+    }
+
+    /// Everything but the model as in a hub that just loaded it.
+    fn start_afresh(&mut self) {
+        self.positional = self.model().map_or(0, |m| m.positional_outputs());
+        self.state = ModelState::new();
+        self.offsets = [0.0; MAX_OUTPUTS];
+        self.slopes = [0.0; MAX_OUTPUTS];
+        self.faults = Faults::default();
+        self.last_fault = None;
+        self.extrapolation = 0.0;
+    }
+
     /// The loaded model.
     pub fn model(&self) -> Option<&ValidModel> {
-        self.model.as_ref().ok()
+        self.model.model().ok()
     }
 
     /// Bit `j` set: output `j` is positional (sent as a slope).
@@ -132,7 +167,7 @@ impl Hub {
 
     /// Why no model was loaded.
     pub fn load_error(&self) -> Option<BlobError> {
-        self.model.as_ref().err().copied()
+        self.model.model().err()
     }
 
     /// Readings [`Hub::on_sample`] expects: one per model input (0 without a model).
@@ -173,7 +208,7 @@ impl Hub {
     /// if the model refuses the sample, the last good offsets (zero before
     /// the first good sample and without a model). Never non-finite.
     pub fn on_sample(&mut self, readings: &[f64]) -> Offsets {
-        let Ok(model) = &self.model else {
+        let Ok(model) = self.model.model() else {
             return Offsets::ZERO;
         };
         let positional = self.positional;

@@ -56,7 +56,7 @@ pub mod upload;
 #[cfg(feature = "model")]
 pub mod commands;
 
-#[cfg(all(feature = "model", any(test, feature = "test-support")))]
+#[cfg(all(feature = "model", any(test, feature = "ram-flash")))]
 pub mod ram_flash;
 
 pub mod config;

@@ -14,8 +14,10 @@
 //!
 //! * `app` (target only, `cfg(target_os = "none")`): the RTIC v2 application.
 //!   `init` picks the boot slot (`upload::select_boot_slot` over both slots,
-//!   read through `FlashExt::read`), loads its `Hub` into a `Pipeline` held
-//!   in a static, and sets up USART2, SPI1 with one chip select per MAX31865
+//!   read through `FlashExt::read`), builds a `Pipeline` without a model in
+//!   its static and loads the slot's blob into it there (`Pipeline::load`:
+//!   the model never passes through the stack, docs/firmware-cost.md
+//!   "Stack"), and sets up USART2, SPI1 with one chip select per MAX31865
 //!   (`board::RTD_CS_PINS`), CAN1 and the IWDG.
 //!   - `sample` (priority 2): configures the converters (auto conversion),
 //!     then every `Pipeline::sample_period_ms` from a fixed start reads the
@@ -1029,6 +1031,25 @@ mod app {
         )
     }
 
+    /// The pipeline without a model, in its static. Its own frame, never
+    /// inlined: the library builds the pipeline by value (about 25 KiB with
+    /// the model slot), and that frame is gone before the model is decoded
+    /// into the static (docs/firmware-cost.md, "Stack").
+    #[cfg(feature = "model")]
+    #[inline(never)]
+    fn empty_pipeline(
+        slot: &'static mut MaybeUninit<Core>,
+        config: firmware::pipeline::PipelineConfig,
+    ) -> &'static mut Core {
+        use firmware::pipeline::Pipeline;
+        match config.checked() {
+            Ok(config) => slot.write(Pipeline::without_model(config)),
+            // The settings passed the dictionary's checks, which include the
+            // pipeline's cross-checks; the defaults are checked by tests.
+            Err(_) => defmt::panic!("pipeline config refused"),
+        }
+    }
+
     /// Picks the boot slot (`upload::select_boot_slot`), loads its model
     /// into the pipeline static and builds the uploader.
     #[cfg(feature = "model")]
@@ -1036,8 +1057,7 @@ mod app {
         flash: pac::FLASH,
         slot: &'static mut MaybeUninit<Core>,
     ) -> (&'static mut Core, Upload, Settings) {
-        use firmware::hub::Hub;
-        use firmware::pipeline::{Pipeline, PipelineConfig};
+        use firmware::pipeline::PipelineConfig;
         use firmware::upload::{select_boot_slot, Slot, SlotMap, Uploader};
         use stm32f4xx_hal::flash::FlashExt;
 
@@ -1052,8 +1072,6 @@ mod app {
         let (a, b) = (region(layout::MODEL_A), region(layout::MODEL_B));
         let active = select_boot_slot(a, b);
         defmt::info!("boot slot: {=str}", active.map_or("none", Slot::name));
-        // No bootable slot: load A anyway, so the log says why it failed.
-        let hub = Hub::load(if active == Some(Slot::B) { b } else { a });
         // The settings last saved over CANopen (0x1010), else the defaults.
         let settings = match firmware::canopen::store::latest(region(layout::SETTINGS)) {
             Some((seq, s)) => {
@@ -1062,15 +1080,10 @@ mod app {
             }
             None => Settings::DEFAULT,
         };
-        let config = settings.pipeline_config(PipelineConfig::DEFAULT);
-        // Hub (11.4 KiB) and Pipeline (~13 KiB) pass through init's stack once
-        // each before landing in the static: the library builds them by value.
-        let pipeline = match Pipeline::new(hub, config) {
-            Ok(p) => slot.write(p),
-            // The settings passed the dictionary's checks, which include the
-            // pipeline's cross-checks; the defaults are checked by tests.
-            Err(_) => defmt::panic!("pipeline config refused"),
-        };
+        let pipeline = empty_pipeline(slot, settings.pipeline_config(PipelineConfig::DEFAULT));
+        // Into the static, where the model lies. No bootable slot: load A
+        // anyway, so the log says why it failed.
+        pipeline.load(if active == Some(Slot::B) { b } else { a });
         glue::log_model(pipeline.hub());
         let flash = glue::BoardFlash(stm32f4xx_hal::flash::LockedFlash::new(flash));
         (

@@ -12,8 +12,8 @@
 //!          let report = pipeline.on_sample(&readings[..]);   // infallible
 //!          emit::spawn(report);                               // `Report` is Copy
 //!          reschedule after pipeline.sample_period_ms()
-//! upload:  let hub = Hub::load(slot_b); (low priority, slow)
-//!          pipeline.lock(|p| p.swap_model(hub));  (between two samples)
+//! upload:  hub.reload(slot_b);  (a Hub on the command task's stack; low priority, slow)
+//!          pipeline.lock(|p| p.swap_model(&mut hub));  (between two samples)
 //! command: pipeline.lock(|p| p.set_tool_length_mm(mm));
 //!          (also at each sample with a tool length received over CAN,
 //!          `cnc_inputs::CncInputs::take_tool_mm`)
@@ -216,6 +216,12 @@ impl PipelineConfig {
         slope_stroke_mm: 1000.0,
     };
 
+    /// The settings, checked ([`PipelineConfig::validate`]).
+    pub fn checked(self) -> Result<ValidConfig, ConfigError> {
+        self.validate()?;
+        Ok(ValidConfig(self))
+    }
+
     /// Checks every setting once, and that the ramp to zero is no faster
     /// than any output's slew limit (else the limiter, not the configured
     /// ramp, would set the rate).
@@ -406,6 +412,11 @@ fn bit(j: usize) -> u32 {
         .unwrap_or(0)
 }
 
+/// Settings that passed [`PipelineConfig::validate`]
+/// ([`PipelineConfig::checked`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ValidConfig(PipelineConfig);
+
 /// The hub plus everything between the converters and the CNC.
 #[derive(Clone, Debug)]
 pub struct Pipeline {
@@ -440,17 +451,28 @@ impl Pipeline {
     /// `config`. Offsets start at zero and reach the model's through the
     /// slew limiter, so power-up is not a jump either.
     pub fn new(hub: Hub, config: PipelineConfig) -> Result<Self, ConfigError> {
-        config.validate()?;
-        let timing = Timing::new(&config, config.sample_period_s(&hub));
-        Ok(Self {
-            tool_mask: tool_mask(&hub),
-            tip: tip_map(&hub),
-            position_mask: position_mask(&hub),
-            deps: output_deps(&hub),
+        let mut p = Self::without_model(config.checked()?);
+        p.hub = hub;
+        p.follow_hub();
+        Ok(p)
+    }
+
+    /// [`Pipeline::new`] around a hub without a model, built where it is
+    /// returned to (the boot path writes it to its static, then
+    /// [`Pipeline::load`]s the model into it there: docs/firmware-cost.md,
+    /// "Stack").
+    pub fn without_model(config: ValidConfig) -> Self {
+        let ValidConfig(config) = config;
+        Self {
+            hub: Hub::empty(),
+            // What follow_hub derives from a hub without a model.
+            timing: Timing::new(&config, config.default_sample_period_s),
+            tool_mask: 0,
+            tip: None,
+            position_mask: 0,
+            deps: lane_deps(None, [0; MAX_OUTPUTS]),
             slopes_um_per_m: [0.0; MAX_OUTPUTS],
-            hub,
             config,
-            timing,
             spike: [SpikeState::NEW; MAX_INPUTS],
             plausible: [PlausibleState::NEW; MAX_INPUTS],
             tool_mm: None,
@@ -458,7 +480,7 @@ impl Pipeline {
             offsets_um: [0.0; MAX_OUTPUTS],
             seq: 0,
             uploading: false,
-        })
+        }
     }
 
     /// The hub (model, load error, fault counters).
@@ -523,8 +545,11 @@ impl Pipeline {
     /// the fault timer and the tool length carry over. The sample period
     /// becomes the new model's (see [`Pipeline::sample_period_s`]).
     ///
-    /// Refuses a hub without a model, keeping the running one.
-    pub fn swap_model(&mut self, hub: Hub) -> Result<(), SwapError> {
+    /// Refuses a hub without a model, keeping the running one. The hubs
+    /// are exchanged, not moved: on success `hub` holds the old one, and no
+    /// hub passes through the stack by value (docs/firmware-cost.md,
+    /// "Stack").
+    pub fn swap_model(&mut self, hub: &mut Hub) -> Result<(), SwapError> {
         let Some(new) = hub.model() else {
             return Err(SwapError::NoModel);
         };
@@ -569,18 +594,42 @@ impl Pipeline {
                 }
             }
         }
-        self.timing = Timing::new(&self.config, self.config.sample_period_s(&hub));
-        self.tool_mask = tool_mask(&hub);
-        self.tip = tip_map(&hub);
-        self.position_mask = position_mask(&hub);
-        self.deps = output_deps(&hub);
         self.supervisors = supervisors;
         self.slopes_um_per_m = slopes_um_per_m;
         self.offsets_um = offsets_um;
         self.spike = spike;
         self.plausible = plausible;
-        self.hub = hub;
+        core::mem::swap(&mut self.hub, hub);
+        self.follow_hub();
         Ok(())
+    }
+
+    /// Loads the blob at the start of `slot` into the pipeline's own hub,
+    /// where its model lies (the boot path: no hub passes through the
+    /// stack, docs/firmware-cost.md "Stack"), and starts as
+    /// [`Pipeline::new`] would around that hub: offsets from zero, every
+    /// filter and supervisor afresh; the settings and the tool length
+    /// stay. Without a valid blob the pipeline runs without a model, and
+    /// `hub().load_error()` says why.
+    pub fn load(&mut self, slot: &[u8]) {
+        self.hub.reload(slot);
+        self.supervisors = [Supervisor::NEW; MAX_OUTPUTS];
+        self.slopes_um_per_m = [0.0; MAX_OUTPUTS];
+        self.offsets_um = [0.0; MAX_OUTPUTS];
+        self.spike = [SpikeState::NEW; MAX_INPUTS];
+        self.plausible = [PlausibleState::NEW; MAX_INPUTS];
+        self.follow_hub();
+    }
+
+    /// What the pipeline derives from its hub's model: the sample timing,
+    /// the tool-length, tip and position lanes, the outputs' inputs.
+    fn follow_hub(&mut self) {
+        let hub = &self.hub;
+        self.timing = Timing::new(&self.config, self.config.sample_period_s(hub));
+        self.tool_mask = tool_mask(hub);
+        self.tip = tip_map(hub);
+        self.position_mask = position_mask(hub);
+        self.deps = output_deps(hub);
     }
 
     /// Puts each faulty input's last good value into `inputs`; false if
@@ -1184,12 +1233,48 @@ mod tests {
     fn swap_refuses_a_hub_without_a_model_and_takes_the_new_period() {
         let mut p = Pipeline::new(hub(&tool_model()), PipelineConfig::DEFAULT).unwrap();
         assert_eq!(
-            p.swap_model(Hub::load(&[0xFF; 64])),
+            p.swap_model(&mut Hub::load(&[0xFF; 64])),
             Err(SwapError::NoModel)
         );
         assert_eq!(p.hub().input_count(), 2);
-        assert_eq!(p.swap_model(hub(&tf_model(2.0))), Ok(()));
+        assert_eq!(p.swap_model(&mut hub(&tf_model(2.0))), Ok(()));
         assert_eq!(p.sample_period_s(), 2.0);
         assert_eq!(p.hub().input_count(), 1);
+    }
+
+    /// The boot path (a pipeline without a model, then the slot loaded
+    /// into it in place) builds what `new` builds around the loaded hub,
+    /// field for field (their `Debug` forms), and runs the same; a second
+    /// load replaces the first as a fresh start would.
+    #[test]
+    fn loading_in_place_builds_what_new_builds_around_the_loaded_hub() {
+        let blob = |m: &ValidModel| {
+            let mut buf = std::vec![0u8; model_core::blob::MAX_BLOB_LEN];
+            let n = model_core::encode(m, &mut buf).unwrap();
+            buf.truncate(n);
+            buf
+        };
+        let (tool, tf) = (blob(&tool_model()), blob(&tf_model(2.0)));
+        let mut booted = Pipeline::without_model(PipelineConfig::DEFAULT.checked().unwrap());
+        assert_eq!(
+            std::format!("{booted:?}"),
+            std::format!(
+                "{:?}",
+                Pipeline::new(Hub::load(&[]), PipelineConfig::DEFAULT).unwrap()
+            )
+        );
+        for slot in [&tool, &tf, &tool] {
+            booted.load(slot);
+            let new = Pipeline::new(Hub::load(slot), PipelineConfig::DEFAULT).unwrap();
+            assert_eq!(std::format!("{booted:?}"), std::format!("{new:?}"));
+        }
+        assert_eq!(booted.hub().input_count(), 2);
+        booted.load(&[0xFF; 64]);
+        assert_eq!(
+            booted.hub().load_error(),
+            Some(model_core::BlobError::BadMagic)
+        );
+        let refused = Pipeline::new(Hub::load(&[0xFF; 64]), PipelineConfig::DEFAULT).unwrap();
+        assert_eq!(std::format!("{booted:?}"), std::format!("{refused:?}"));
     }
 }

@@ -1,15 +1,14 @@
-//! NOR flash in RAM for tests of the upload path, here and in host-tools
-//! (feature `test-support`; never on the board).
+//! NOR flash in RAM for tests of the upload path, here, in host-tools and
+//! in the stack bench (feature `ram-flash`, and `test-support` for the
+//! heap-backed [`RamFlash::new`]; never on the board).
 //!
 //! Behaves as the STM32's flash does where it matters: erase sets 0xFF, a
 //! write can only clear bits (writing a 1 over a 0 is an error, as it would
 //! silently fail on chip), the contents are readable in place
 //! ([`MappedFlash`]), and an optional byte budget cuts the power mid-write.
+//! The bytes live in any buffer: a `Vec` on the host, a static array where
+//! there is no heap (`firmware/qemu-bench`'s `stack`).
 
-extern crate alloc;
-
-use alloc::vec;
-use alloc::vec::Vec;
 use embedded_storage::nor_flash::{
     check_erase, check_read, check_write, ErrorType, NorFlash, NorFlashErrorKind, ReadNorFlash,
 };
@@ -19,19 +18,37 @@ use crate::upload::MappedFlash;
 /// See the module docs. `WRITE_SIZE` 4 (stricter than the F446's 1, so
 /// alignment bugs show), `ERASE_SIZE` 4 KiB.
 #[derive(Clone, Debug)]
-pub struct RamFlash {
-    data: Vec<u8>,
+pub struct RamFlash<B = Heap> {
+    data: B,
     /// Bytes that may still be written before the "power cut" (`None`: no cut).
     pub budget: Option<usize>,
     /// Erase operations so far.
     pub erases: usize,
 }
 
+/// The buffer of [`RamFlash::new`]: a `Vec` with `test-support`.
+#[cfg(any(test, feature = "test-support"))]
+pub type Heap = alloc::vec::Vec<u8>;
+/// Without a heap there is no default buffer: name one.
+#[cfg(not(any(test, feature = "test-support")))]
+pub type Heap = &'static mut [u8];
+
+#[cfg(any(test, feature = "test-support"))]
+extern crate alloc;
+
+#[cfg(any(test, feature = "test-support"))]
 impl RamFlash {
-    /// `len` erased bytes.
+    /// `len` erased bytes, on the heap.
     pub fn new(len: usize) -> Self {
+        Self::over(alloc::vec![0xFF; len])
+    }
+}
+
+impl<B: AsRef<[u8]> + AsMut<[u8]>> RamFlash<B> {
+    /// Flash over `data`, as it is (fill it with 0xFF for an erased one).
+    pub fn over(data: B) -> Self {
         Self {
-            data: vec![0xFF; len],
+            data,
             budget: None,
             erases: 0,
         }
@@ -39,27 +56,27 @@ impl RamFlash {
 
     /// The contents.
     pub fn bytes(&self) -> &[u8] {
-        &self.data
+        self.data.as_ref()
     }
 
     /// The contents, writable without flash rules (to damage them in tests).
     pub fn bytes_mut(&mut self) -> &mut [u8] {
-        &mut self.data
+        self.data.as_mut()
     }
 }
 
-impl ErrorType for RamFlash {
+impl<B> ErrorType for RamFlash<B> {
     type Error = NorFlashErrorKind;
 }
 
-impl ReadNorFlash for RamFlash {
+impl<B: AsRef<[u8]> + AsMut<[u8]>> ReadNorFlash for RamFlash<B> {
     const READ_SIZE: usize = 1;
 
     fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
         check_read(self, offset, bytes.len())?;
         let from = offset as usize;
         let src = self
-            .data
+            .bytes()
             .get(from..from + bytes.len())
             .ok_or(NorFlashErrorKind::OutOfBounds)?;
         bytes.copy_from_slice(src);
@@ -67,18 +84,18 @@ impl ReadNorFlash for RamFlash {
     }
 
     fn capacity(&self) -> usize {
-        self.data.len()
+        self.bytes().len()
     }
 }
 
-impl NorFlash for RamFlash {
+impl<B: AsRef<[u8]> + AsMut<[u8]>> NorFlash for RamFlash<B> {
     const WRITE_SIZE: usize = 4;
     const ERASE_SIZE: usize = 4096;
 
     fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
         check_erase(self, from, to)?;
         self.erases += 1;
-        self.data
+        self.bytes_mut()
             .get_mut(from as usize..to as usize)
             .ok_or(NorFlashErrorKind::OutOfBounds)?
             .fill(0xFF);
@@ -87,12 +104,14 @@ impl NorFlash for RamFlash {
 
     fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
         check_write(self, offset, bytes.len())?;
+        let budget = &mut self.budget;
         let cells = self
             .data
+            .as_mut()
             .get_mut(offset as usize..)
             .ok_or(NorFlashErrorKind::OutOfBounds)?;
         for (cell, b) in cells.iter_mut().zip(bytes) {
-            if let Some(left) = &mut self.budget {
+            if let Some(left) = budget {
                 if *left == 0 {
                     return Err(NorFlashErrorKind::Other); // power cut
                 }
@@ -107,8 +126,8 @@ impl NorFlash for RamFlash {
     }
 }
 
-impl MappedFlash for RamFlash {
+impl<B: AsRef<[u8]> + AsMut<[u8]>> MappedFlash for RamFlash<B> {
     fn mapped(&self) -> &[u8] {
-        &self.data
+        self.bytes()
     }
 }

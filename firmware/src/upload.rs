@@ -44,11 +44,11 @@
 
 use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
 use model_core::blob::{
-    check_frame_split, crc32, decode_split, Crc32, HEADER_LEN, MAX_BLOB_LEN, TRAILER_LEN,
+    check_frame_split, check_split, crc32, Crc32, HEADER_LEN, MAX_BLOB_LEN, TRAILER_LEN,
 };
 use model_core::BlobError;
 
-use crate::hub::{blob_len, Hub};
+use crate::hub::blob_len;
 use crate::layout::{FLASH_BASE, MODEL_A, MODEL_B};
 use crate::protocol::{Command, ErrorCode, HubMessage, CHUNK_MAX};
 
@@ -170,7 +170,7 @@ impl SlotMap {
 /// (exactly as [`Hub::load`]); a bare valid blob in slot A is generation 0.
 pub fn slot_generation(slot: Slot, bytes: &[u8]) -> Option<u32> {
     let blob = bytes.get(..blob_len(bytes))?;
-    model_core::decode(blob).ok()?;
+    check_split(&[], blob).ok()?;
     let stored = blob
         .get(blob.len().checked_sub(TRAILER_LEN)?..)
         .and_then(|b| <[u8; 4]>::try_from(b).ok())
@@ -299,15 +299,14 @@ impl From<UploadError> for ErrorCode {
     }
 }
 
-/// A committed upload: the slot now active and the hub to swap in.
-#[derive(Debug)]
+/// A committed upload: the slot now active, whose model to swap in
+/// ([`Uploader::slot_bytes`], `Hub::reload`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Committed {
     /// The slot written (now the active one).
     pub slot: Slot,
     /// Its generation.
     pub generation: u32,
-    /// The new model, decoded from the bytes in flash.
-    pub hub: Hub,
 }
 
 /// The blob's first bytes, held in RAM until commit (the magic, rounded up
@@ -371,6 +370,16 @@ impl<F: MappedFlash> Uploader<F> {
     /// settings, `canopen::store`), between uploads' steps.
     pub fn flash_mut(&mut self) -> &mut F {
         &mut self.flash
+    }
+
+    /// The whole of `slot` as the flash maps it (empty if the map does not
+    /// fit the flash): what `Hub::reload` takes after a commit.
+    pub fn slot_bytes(&self, slot: Slot) -> &[u8] {
+        let at = self.map.offset(slot) as usize;
+        self.flash
+            .mapped()
+            .get(at..at + self.map.len as usize)
+            .unwrap_or(&[])
     }
 
     /// Gives the flash back.
@@ -539,10 +548,9 @@ impl<F: MappedFlash> Uploader<F> {
         // Exactly these bytes must be one blob (no trailing bytes), then
         // decode as the hub does.
         let (header, _) = check_frame_split(head, tail).map_err(UploadError::Blob)?;
-        let hub = Hub::with_model(decode_split(head, tail));
-        if let Some(e) = hub.load_error() {
-            return Err(UploadError::Blob(e));
-        }
+        // Decoded in check_split's own frame and dropped: the command task
+        // then loads it where its hub lies (docs/firmware-cost.md, "Stack").
+        check_split(head, tail).map_err(UploadError::Blob)?;
         // Checked: now the magic, then the record that makes it bootable.
         let start = self.map.offset(slot);
         self.flash.write(start, head).map_err(flash_err)?;
@@ -565,11 +573,7 @@ impl<F: MappedFlash> Uploader<F> {
             return Err(UploadError::Flash(NorFlashErrorKind::Other));
         }
         self.active = Some(slot);
-        Ok(Committed {
-            slot,
-            generation,
-            hub,
-        })
+        Ok(Committed { slot, generation })
     }
 
     /// Drops the upload in progress (the half-written slot never boots).

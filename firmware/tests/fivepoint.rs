@@ -116,7 +116,7 @@ fn swap_carries_lanes_by_tip_name() {
     let mut p = pipeline();
     p.set_tool_length_mm(100.0).unwrap();
     let before = run(&mut p, 10);
-    p.swap_model(Hub::with_model(Ok(pipeline()
+    p.swap_model(&mut Hub::with_model(Ok(pipeline()
         .hub()
         .model()
         .unwrap()

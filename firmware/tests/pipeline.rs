@@ -412,7 +412,7 @@ fn model_swap_mid_run_continues_without_a_jump() {
     // The new model lists its outputs the other way round and doubles dz:
     // dx_um = -4 (T2 - 20), dz_um = 20 (T1 - 20).
     let new = linear(&["T1", "T2"], &[("dx_um", 1, -4.0), ("dz_um", 0, 20.0)]);
-    p.swap_model(hub(&new)).unwrap();
+    p.swap_model(&mut hub(&new)).unwrap();
     let r = p.on_sample(&temps(25.0, 25.0));
     assert_eq!(r.state, HubState::Running);
     // By name: dx stays at -20, dz moves one slew step from 50 towards 100.
@@ -426,7 +426,7 @@ fn model_swap_mid_run_continues_without_a_jump() {
 #[test]
 fn swap_to_a_dynamic_model_restarts_its_state_and_period() {
     let (mut p, _) = running_at_50_and_minus_20(&two_axis());
-    p.swap_model(hub(&tf_model())).unwrap();
+    p.swap_model(&mut hub(&tf_model())).unwrap();
     assert_eq!(p.sample_period_ms(), 1000);
     // The TF restarts at steady state (reference = this sample): target 0,
     // so dz leaves 50 at the slew rate; dx is gone from the report.

@@ -23,9 +23,9 @@
 //! geometry ([`FivePoint`](crate::fivepoint::FivePoint)) after the bounds;
 //! a version-2 body still decodes, with none.
 
-use crate::model::{Bounds, Model, ModelError, ModelKind, Params, ValidModel};
-use crate::model::{Channel, Name, MAX_CHANNELS, MAX_OUTPUTS};
-use serde::Deserialize;
+use crate::in_place;
+use crate::model::{Model, ModelError, ModelKind, ValidModel};
+use crate::slot::ModelSlot;
 
 /// Magic bytes at offset 0.
 pub const MAGIC: [u8; 4] = *b"TCMB";
@@ -279,73 +279,48 @@ pub fn decode(bytes: &[u8]) -> Result<ValidModel, BlobError> {
 }
 
 /// [`decode`] of the blob `head ++ tail` (see [`check_frame_split`]).
+///
+/// The model is decoded in a [`ModelSlot`] on this function's stack and
+/// returned by value: on the hub, load into a static slot instead
+/// ([`ModelSlot::load_split`]).
 pub fn decode_split(head: &[u8], tail: &[u8]) -> Result<ValidModel, BlobError> {
+    let mut slot = ModelSlot::new();
+    slot.load_split(head, tail)?;
+    slot.into_model()
+}
+
+/// Whether the blob `head ++ tail` decodes into a valid model, as
+/// [`decode_split`] would; the model is decoded in this function's own
+/// frame and dropped with it (a hub checks an upload with it before the
+/// upload may boot).
+#[inline(never)]
+pub fn check_split(head: &[u8], tail: &[u8]) -> Result<(), BlobError> {
+    ModelSlot::new().load_split(head, tail)
+}
+
+/// The framing checks of [`decode_split`], then the body decoded into
+/// `place` (in place: `in_place`). The model is not validated; on error
+/// `place` holds a partly decoded one.
+pub(crate) fn decode_into(head: &[u8], tail: &[u8], place: &mut Model) -> Result<(), BlobError> {
     let (header, body) = check_frame_split(head, tail)?;
     let kind = ModelKind::from_code(header.kind_code).ok_or(BlobError::BadKind {
         code: header.kind_code,
     })?;
-    let (model, rest): (Model, &[u8]) = match header.version {
-        1 => postcard::take_from_bytes::<ModelV1>(body).map(|(m, rest)| (m.into(), rest)),
-        2 => postcard::take_from_bytes::<ModelV2>(body).map(|(m, rest)| (m.into(), rest)),
-        _ => postcard::take_from_bytes(body),
-    }
-    .map_err(|_| BlobError::Malformed)?;
-    if !rest.is_empty() {
-        return Err(BlobError::Malformed);
-    }
-    if model.kind() != kind {
+    // Format 1 has no bounds and format 2 no five-point geometry: the
+    // model's last two fields, or its last (check_frame_split refused
+    // every other version).
+    let fields = match header.version {
+        1 => in_place::FIELDS_V1,
+        2 => in_place::FIELDS_V2,
+        _ => in_place::FIELDS_NOW,
+    };
+    in_place::model(body, fields, place).map_err(|_| BlobError::Malformed)?;
+    if place.kind() != kind {
         return Err(BlobError::BadKind {
             code: header.kind_code,
         });
     }
-    Ok(model.validate()?)
-}
-
-/// The body of a version-1 blob: [`Model`] without its last field, the
-/// bounds. Its fields decode with `Model`'s own field types, so the only
-/// extra code is this struct's visitor.
-#[derive(Deserialize)]
-struct ModelV1 {
-    inputs: heapless::Vec<Channel, MAX_CHANNELS>,
-    outputs: heapless::Vec<Name, MAX_OUTPUTS>,
-    dt_s: f64,
-    params: Params,
-}
-
-impl From<ModelV1> for Model {
-    fn from(m: ModelV1) -> Self {
-        Self {
-            inputs: m.inputs,
-            outputs: m.outputs,
-            dt_s: m.dt_s,
-            params: m.params,
-            bounds: None,
-            five_point: None,
-        }
-    }
-}
-
-/// The body of a version-2 blob: [`Model`] without the five-point geometry.
-#[derive(Deserialize)]
-struct ModelV2 {
-    inputs: heapless::Vec<Channel, MAX_CHANNELS>,
-    outputs: heapless::Vec<Name, MAX_OUTPUTS>,
-    dt_s: f64,
-    params: Params,
-    bounds: Option<Bounds>,
-}
-
-impl From<ModelV2> for Model {
-    fn from(m: ModelV2) -> Self {
-        Self {
-            inputs: m.inputs,
-            outputs: m.outputs,
-            dt_s: m.dt_s,
-            params: m.params,
-            bounds: m.bounds,
-            five_point: None,
-        }
-    }
+    Ok(())
 }
 
 /// Encodes a validated model into `buf`; returns the blob's length.

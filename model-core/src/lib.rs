@@ -5,7 +5,8 @@
 //! user validates on a PC is what the hub computes.
 //!
 //! - [`model`]: a model's inputs, outputs and kind; validation; stepping.
-//! - [`blob`]: the versioned, CRC-checked postcard format that is flashed.
+//! - [`blob`]: the versioned, CRC-checked postcard format that is flashed;
+//!   [`slot`]: a blob loaded where the model lies (the hub's model static).
 //! - model kinds: [`tf`] (seed 004), [`fbank`] (seed 004, fixed real poles),
 //!   [`linear`] (seed 002), [`pcr`] and
 //!   [`position`] (seed 003), [`bp`] (seeds 000/003), [`arma`] (seed 001).
@@ -26,6 +27,7 @@ pub mod error;
 pub mod fbank;
 pub mod fivepoint;
 pub mod geometry;
+mod in_place;
 pub mod linear;
 pub mod metrics;
 pub mod model;
@@ -33,6 +35,7 @@ pub mod pcr;
 pub mod poly;
 pub mod position;
 pub mod rtd;
+pub mod slot;
 pub mod tf;
 mod wire;
 
@@ -41,3 +44,4 @@ pub use model::{
     Bounds, Channel, Model, ModelError, ModelKind, ModelState, Name, Params, Reference, Span,
     ValidModel,
 };
+pub use slot::ModelSlot;

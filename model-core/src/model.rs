@@ -272,6 +272,18 @@ impl Model {
 
     /// Checks everything once; the result runs without further checks.
     pub fn validate(self) -> Result<ValidModel, ModelError> {
+        let (derived, tip) = self.check()?;
+        Ok(ValidModel {
+            model: self,
+            derived,
+            tip,
+        })
+    }
+
+    /// The checks of [`Model::validate`], on the model where it lies (a
+    /// [`crate::slot::ModelSlot`] validates in place); what validation
+    /// derives.
+    pub(crate) fn check(&self) -> Result<(Derived, Option<TipMap>), ModelError> {
         let (n_in, n_out) = (self.inputs.len(), self.outputs.len());
         if n_in == 0 || n_out == 0 {
             return Err(ModelError::NoInputsOrOutputs);
@@ -434,16 +446,31 @@ impl Model {
             Some(fp) => Some(fp.map(&self.outputs)?),
             None => None,
         };
-        let valid = ValidModel {
-            model: self,
-            derived,
-            tip,
-        };
-        if valid.tip.is_some() && valid.positional_outputs() != 0 {
+        if tip.is_some() && positional_outputs(&self.params) != 0 {
             return Err(ModelError::BadFivePoint);
         }
-        Ok(valid)
+        Ok((derived, tip))
     }
+}
+
+/// Bit `j` set: output `j` is positional ([`ValidModel::positional_outputs`]).
+fn positional_outputs(params: &Params) -> u8 {
+    let mut mask = 0u8;
+    let mut mark = |output: u8| mask |= 1u8.checked_shl(u32::from(output)).unwrap_or(0);
+    match params {
+        Params::Linear(lin) => lin
+            .outputs
+            .iter()
+            .filter(|eq| eq.position.is_some())
+            .for_each(|eq| mark(eq.output)),
+        Params::Pcr(pcr) => pcr
+            .outputs
+            .iter()
+            .filter(|eq| eq.position.is_some())
+            .for_each(|eq| mark(eq.output)),
+        _ => {}
+    }
+    mask
 }
 
 /// What validation derives from the coefficients of a kind, kept for the
@@ -452,7 +479,7 @@ impl Model {
 // As for `Params`: no heap on the hub, so no boxing of the large variants.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
-enum Derived {
+pub(crate) enum Derived {
     None,
     /// The realised form of each TF entry.
     Tf(heapless::Vec<RealisedTf, MAX_TF_ENTRIES>),
@@ -463,9 +490,9 @@ enum Derived {
 /// A model that passed [`Model::validate`]; running it cannot fail.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ValidModel {
-    model: Model,
-    derived: Derived,
-    tip: Option<TipMap>,
+    pub(crate) model: Model,
+    pub(crate) derived: Derived,
+    pub(crate) tip: Option<TipMap>,
 }
 
 /// Why one step produced no outputs (the state is left as it was).
@@ -698,22 +725,7 @@ impl ValidModel {
     /// ([`PositionTerm`](crate::position::PositionTerm)), sent to a CNC as a
     /// thermal slope ([`ValidModel::thermal_slopes`]).
     pub fn positional_outputs(&self) -> u8 {
-        let mut mask = 0u8;
-        let mut mark = |output: u8| mask |= 1u8.checked_shl(u32::from(output)).unwrap_or(0);
-        match &self.model.params {
-            Params::Linear(lin) => lin
-                .outputs
-                .iter()
-                .filter(|eq| eq.position.is_some())
-                .for_each(|eq| mark(eq.output)),
-            Params::Pcr(pcr) => pcr
-                .outputs
-                .iter()
-                .filter(|eq| eq.position.is_some())
-                .for_each(|eq| mark(eq.output)),
-            _ => {}
-        }
-        mask
+        positional_outputs(&self.model.params)
     }
 
     /// Bit `i` set: output `output` depends on input `i`. A hub whose

@@ -12,7 +12,7 @@
 use core::fmt;
 
 use heapless::vec::VecView;
-use serde::de::{Deserialize, Deserializer, Error, SeqAccess, Visitor};
+use serde::de::{Deserialize, DeserializeSeed, Deserializer, Error, SeqAccess, Visitor};
 
 /// For `#[serde(deserialize_with = "crate::wire::list")]` on a
 /// `heapless::Vec<T, N>` field.
@@ -22,6 +22,19 @@ pub(crate) fn list<'de, D: Deserializer<'de>, T: Deserialize<'de>, const N: usiz
     let mut out = heapless::Vec::new();
     d.deserialize_seq(Fill(out.as_mut_view()))?;
     Ok(out)
+}
+
+/// The list decoded into an existing vector, replacing its contents (the
+/// in-place decoder's lists: `crate::in_place`).
+pub(crate) struct Into<'a, T>(pub(crate) &'a mut VecView<T>);
+
+impl<'de, T: Deserialize<'de>> DeserializeSeed<'de> for Into<'_, T> {
+    type Value = ();
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        self.0.clear();
+        d.deserialize_seq(Fill(self.0))
+    }
 }
 
 /// Pushes every element into the vector; too many is an error.

@@ -5,6 +5,8 @@
 //!   `model_core` types (so the blob encoder and decoder run on them).
 //! * [`update`]: the work of one sample: 16 RTD codes to temperatures, one
 //!   `ValidModel::step`, and the stand-in for the frame encoder.
+//! * [`stack`]: peak stack use of a piece of code, by painting (the
+//!   `stack` binary: the hub's command, sample and boot paths).
 //! * [`clock`]: SysTick (extended past 24 bits by its wrap interrupt) and the
 //!   DWT cycle counter. Under QEMU with `-icount shift=0` one guest
 //!   instruction advances virtual time by 1 ns, and SysTick, clocked from the
@@ -18,6 +20,7 @@
 
 pub mod clock;
 pub mod models;
+pub mod stack;
 pub mod update;
 
 /// Ends the program: a semihosting exit (QEMU quits with status 0 or 1;

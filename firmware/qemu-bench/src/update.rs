@@ -6,8 +6,9 @@
 //! 2. `ValidModel::step` on those temperatures.
 //! 3. [`encode_frame`]: a stand-in for the frame encoder (the outputs as
 //!    f32 plus a status byte, postcard-serialised into a buffer). The
-//!    firmware's `can_frames` encoders are not linked in: a dependency on the
-//!    firmware lib for thumbv7em brings its board-only crates along.
+//!    firmware's `can_frames` encoders are not timed here (the firmware
+//!    library is linked since the `stack` binary needs it; this stand-in
+//!    keeps the figures comparable with the earlier rounds').
 
 use crate::models::{CHANNELS, OUTPUTS};
 use model_core::rtd::{Rtd, RtdChannel, RtdCode};

@@ -3,6 +3,7 @@
 //! the flash holds).
 
 use super::*;
+use crate::hub::Hub;
 use crate::ram_flash::RamFlash;
 use crate::test_util::{name, vec};
 use model_core::linear::{Coef, Linear, LinearOutput};
@@ -141,7 +142,7 @@ fn good_uploads_alternate_slots_with_rising_generations() {
 
     let c = upload(&mut u, &blob(1.0), CHUNK_MAX).unwrap();
     assert_eq!((c.slot, c.generation), (Slot::A, 1));
-    assert_eq!(intercept_of(&c.hub), 1.0);
+    assert_eq!(intercept_of(&Hub::load(u.slot_bytes(c.slot))), 1.0);
     assert_eq!(reboot(&u.flash), Some(Slot::A));
     assert!(!u.is_uploading());
 
@@ -451,7 +452,8 @@ fn handle_answers_commands_over_the_protocol() {
         reply,
         HubMessage::Ack(crate::protocol::CommandKind::UploadCommit)
     );
-    assert_eq!(intercept_of(&committed.unwrap().hub), 4.0);
+    let slot = committed.unwrap().slot;
+    assert_eq!(intercept_of(&Hub::load(u.slot_bytes(slot))), 4.0);
     // Error codes on the wire for blob refusals.
     assert_eq!(
         ErrorCode::from(UploadError::Blob(BlobError::BadCrc {

@@ -1,0 +1,225 @@
+//! Peak stack use of the hub's paths, by painting (`qemu_bench::stack`),
+//! for the largest model of each kind (docs/firmware-cost.md, "Stack").
+//!
+//! The firmware library's own code runs here, as the RTIC tasks call it:
+//!
+//! * boot (`init`): `Pipeline::new` without a model (by value, then into
+//!   its static), `select_boot_slot` (both slots' blobs checked), then
+//!   `Pipeline::load` of the slot into the static, in place;
+//! * the command task (priority 1): `commands::execute` of an upload's
+//!   commit, the costliest command (it decodes the uploaded blob into a new
+//!   `Hub` and swaps it into the pipeline), after its begin and chunks went
+//!   through an uploader over RAM standing in for the flash;
+//! * the sample task (priority 2): `Pipeline::on_sample`, which can preempt
+//!   the command task, so the two depths add up on the board.
+//!
+//! Built and run by scripts/qemu-bench.sh (QEMU, Cortex-M4 code generation
+//! with the firmware's size-first profile).
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use core::mem::MaybeUninit;
+use cortex_m_rt::entry;
+use cortex_m_semihosting::hprintln;
+use firmware::commands::{execute, Event};
+use firmware::pipeline::{Pipeline, PipelineConfig, Reading};
+use firmware::protocol::{Command, HubMessage, CHUNK_MAX};
+use firmware::ram_flash::RamFlash;
+use firmware::upload::{select_boot_slot, Slot, SlotMap, Uploader};
+use model_core::blob::{self, MAX_BLOB_LEN};
+use model_core::ModelKind;
+use panic_semihosting as _;
+use qemu_bench::models::{self, KINDS, WIDE_CHANNELS};
+use qemu_bench::stack::peak;
+// The firmware library brings the STM32F446's PAC along, whose `rt`
+// feature makes cortex-m-rt expect its interrupt vectors: link them.
+use stm32f4xx_hal as _;
+
+/// Bytes of stack painted below each measurement: far more than any path
+/// needs (QEMU's mps2-an386 has 4 MiB of RAM).
+const DEPTH: usize = 256 * 1024;
+/// One model slot of the stand-in flash: room for the largest blob and the
+/// commit record, a whole number of erase units.
+const SLOT: u32 = 32 * 1024;
+const MAP: SlotMap = SlotMap {
+    a: 0,
+    b: SLOT,
+    len: SLOT,
+};
+const FLASH_LEN: usize = 2 * SLOT as usize;
+/// The stand-in flash: the firmware's test flash over a static buffer.
+type Flash = RamFlash<&'static mut [u8]>;
+
+/// Stack bytes of each path for one kind's largest model.
+struct Depths {
+    /// Boot: which slot to boot (both slots' blobs checked).
+    select: Option<usize>,
+    /// Boot, last step: `Pipeline::load` of the slot, in place.
+    load: Option<usize>,
+    /// The command task: an upload's commit.
+    commit: Option<usize>,
+    /// The sample task.
+    sample: Option<usize>,
+}
+
+/// Bytes of the buffer on the frame of [`known_frame`].
+const KNOWN: usize = 16 * 1024;
+
+/// The method's check: a frame holding a buffer of known size, written
+/// through (so the compiler cannot leave it out).
+#[inline(never)]
+fn known_frame() {
+    let buf = [0x5Au8; KNOWN];
+    black_box(&buf);
+}
+
+fn show(d: Option<usize>) -> heapless::String<16> {
+    use core::fmt::Write;
+    let mut s = heapless::String::new();
+    let _ = match d {
+        Some(b) => write!(s, "{}", b),
+        None => write!(s, ">= {}", DEPTH),
+    };
+    s
+}
+
+/// Uploads `bytes` up to (not including) the commit; false if a step was
+/// refused.
+fn upload_up_to_commit(
+    pipeline: &mut Pipeline,
+    uploader: &mut Uploader<Flash>,
+    bytes: &[u8],
+) -> bool {
+    let begin = Command::UploadBegin {
+        len: bytes.len() as u32,
+        crc32: blob::crc32(bytes),
+    };
+    if !matches!(
+        execute(pipeline, uploader, || {}, &begin).0,
+        HubMessage::Ack(_)
+    ) {
+        return false;
+    }
+    bytes.chunks(CHUNK_MAX).enumerate().all(|(i, c)| {
+        let Ok(chunk) = heapless::Vec::from_slice(c) else {
+            return false;
+        };
+        let cmd = Command::UploadChunk {
+            offset: (i * CHUNK_MAX) as u32,
+            bytes: chunk,
+        };
+        matches!(
+            execute(pipeline, uploader, || {}, &cmd).0,
+            HubMessage::Ack(_)
+        )
+    })
+}
+
+fn measure(
+    kind: ModelKind,
+    pipeline: &mut Pipeline,
+    uploader: &mut Uploader<Flash>,
+    buf: &mut [u8],
+) -> Option<Depths> {
+    let valid = models::build(kind).validate().ok()?;
+    let len = blob::encode(&valid, buf).ok()?;
+    let bytes = &buf[..len];
+    let ((), load) = peak(DEPTH, || pipeline.load(black_box(bytes)));
+    if pipeline.hub().model().is_none() {
+        hprintln!("error: the {} blob did not load", kind.name());
+        return None;
+    }
+    if !upload_up_to_commit(pipeline, uploader, bytes) {
+        return None;
+    }
+    let (swapped, commit) = peak(DEPTH, || {
+        let (_, event) = execute(pipeline, uploader, || {}, &Command::UploadCommit);
+        matches!(event, Event::Swapped { .. })
+    });
+    if !swapped {
+        hprintln!("error: the {} blob was not committed", kind.name());
+        return None;
+    }
+    let (a, b) = (uploader.slot_bytes(Slot::A), uploader.slot_bytes(Slot::B));
+    let (booted, select) = peak(DEPTH, || select_boot_slot(black_box(a), black_box(b)));
+    if booted.is_none() {
+        hprintln!("error: no slot to boot after the {} commit", kind.name());
+        return None;
+    }
+    let readings = [Reading::Value(20.0); WIDE_CHANNELS];
+    let ((), sample) = peak(DEPTH, || {
+        black_box(&pipeline.on_sample(black_box(&readings)));
+    });
+    Some(Depths {
+        select,
+        load,
+        commit,
+        sample,
+    })
+}
+
+#[entry]
+fn main() -> ! {
+    let Some(cells) = cortex_m::singleton!(: [u8; FLASH_LEN] = [0xFF; FLASH_LEN]) else {
+        hprintln!("error: flash buffer already taken");
+        qemu_bench::exit(false)
+    };
+    // Boot's first step: the pipeline without a model, built by value and
+    // written to its static, as the firmware's `init` does; every kind is
+    // then loaded into it in turn.
+    let Some(core) = cortex_m::singleton!(: MaybeUninit<Pipeline> = MaybeUninit::uninit()) else {
+        hprintln!("error: pipeline static already taken");
+        qemu_bench::exit(false)
+    };
+    let (pipeline, new_pipeline) = peak(DEPTH, || {
+        PipelineConfig::DEFAULT
+            .checked()
+            .ok()
+            .map(|c| core.write(Pipeline::without_model(c)))
+    });
+    let Some(pipeline) = pipeline else {
+        hprintln!("error: the default pipeline settings were refused");
+        qemu_bench::exit(false)
+    };
+    // The uploader alternates slots: each kind's commit lands in the one
+    // the previous kind's did not.
+    let mut uploader = Uploader::new(RamFlash::over(&mut cells[..]), MAP, Some(Slot::A));
+    let mut buf = [0u8; MAX_BLOB_LEN];
+    hprintln!(
+        "stack: peak stack use of the hub's paths, bytes (painted {} B deep)",
+        DEPTH
+    );
+    let ((), known) = peak(DEPTH, known_frame);
+    hprintln!(
+        "verify: a frame holding {} bytes measures {} bytes",
+        KNOWN,
+        show(known)
+    );
+    hprintln!(
+        "boot: Pipeline::without_model into its static: {} bytes",
+        show(new_pipeline)
+    );
+    hprintln!("| kind | boot: select_boot_slot | boot: Pipeline::load | command: upload commit | sample: Pipeline::on_sample | command + sample |");
+    hprintln!("|---|---|---|---|---|---|");
+    let mut ok = true;
+    for kind in KINDS {
+        let Some(d) = measure(kind, pipeline, &mut uploader, &mut buf) else {
+            hprintln!("error: {} could not be measured", kind.name());
+            ok = false;
+            continue;
+        };
+        let both = d.commit.zip(d.sample).map(|(c, s)| c + s);
+        hprintln!(
+            "| {} | {} | {} | {} | {} | {} |",
+            kind.name(),
+            show(d.select),
+            show(d.load),
+            show(d.commit),
+            show(d.sample),
+            show(both)
+        );
+    }
+    hprintln!("stack: done");
+    qemu_bench::exit(ok)
+}
