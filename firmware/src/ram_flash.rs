@@ -1,6 +1,6 @@
 //! NOR flash in RAM for tests of the upload path, here, in host-tools and
-//! in the stack bench (feature `ram-flash`, and `test-support` for the
-//! heap-backed [`RamFlash::new`]; never on the board).
+//! in the stack bench (feature `ram-flash`, and `test-support` for
+//! [`HeapFlash`], on the heap; never on the board).
 //!
 //! Behaves as the STM32's flash does where it matters: erase sets 0xFF, a
 //! write can only clear bits (writing a 1 over a 0 is an error, as it would
@@ -18,7 +18,7 @@ use crate::upload::MappedFlash;
 /// See the module docs. `WRITE_SIZE` 4 (stricter than the F446's 1, so
 /// alignment bugs show), `ERASE_SIZE` 4 KiB.
 #[derive(Clone, Debug)]
-pub struct RamFlash<B = Heap> {
+pub struct RamFlash<B> {
     data: B,
     /// Bytes that may still be written before the "power cut" (`None`: no cut).
     pub budget: Option<usize>,
@@ -26,18 +26,15 @@ pub struct RamFlash<B = Heap> {
     pub erases: usize,
 }
 
-/// The buffer of [`RamFlash::new`]: a `Vec` with `test-support`.
-#[cfg(any(test, feature = "test-support"))]
-pub type Heap = alloc::vec::Vec<u8>;
-/// Without a heap there is no default buffer: name one.
-#[cfg(not(any(test, feature = "test-support")))]
-pub type Heap = &'static mut [u8];
-
 #[cfg(any(test, feature = "test-support"))]
 extern crate alloc;
 
+/// The flash on the heap (`test-support`): what host tests use.
 #[cfg(any(test, feature = "test-support"))]
-impl RamFlash {
+pub type HeapFlash = RamFlash<alloc::vec::Vec<u8>>;
+
+#[cfg(any(test, feature = "test-support"))]
+impl HeapFlash {
     /// `len` erased bytes, on the heap.
     pub fn new(len: usize) -> Self {
         Self::over(alloc::vec![0xFF; len])

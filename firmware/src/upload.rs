@@ -2,7 +2,7 @@
 //! against power loss at any point.
 //!
 //! A slot (one 128 KiB flash sector) holds the blob at offset 0, exactly as
-//! [`Hub::load`] reads it, and a 16-byte [`CommitRecord`] in its last 16
+//! `Hub::load` reads it, and a 16-byte [`CommitRecord`] in its last 16
 //! bytes. The sequence (spec: `docs/wire-format.md`):
 //!
 //! 1. `UploadBegin { len, crc32 }`: erase the slot that is *not* running.
@@ -12,10 +12,12 @@
 //! 3. `UploadCommit`: check the blob where it lies (the flash is
 //!    memory-mapped, [`MappedFlash`]; the held-back magic joins it from
 //!    RAM, so no 16 KiB copy): the announced CRC, then a decode exactly as
-//!    [`Hub::load`] does (magic, version, length, CRC, kind, body, model
-//!    validation), and only then write the magic and
-//!    then the record, with a generation one above any seen. The new [`Hub`] is returned for
-//!    the pipeline to swap in between two samples.
+//!    `Hub::load` does (magic, version, length, CRC, kind, body, model
+//!    validation; `check_split`, in its own stack frame, the model dropped
+//!    with it), and only then write the magic and then the record, with a
+//!    generation one above any seen. [`Committed`] names the slot; the
+//!    command task loads it into a hub and swaps that in between two
+//!    samples (`commands::swap_in`).
 //!
 //! At boot, [`select_boot_slot`] picks the slot whose record and blob are
 //! both valid with the highest generation. A power cut before the record is
@@ -39,8 +41,9 @@
 //! (`board::FLASH_SECTOR_ERASE_MAX_MS`, 4 s at x8) plus a feed period,
 //! which `board` asserts at compile time. Chunk writes (64 bytes,
 //! ~16 us/word) and the commit (reads, one 16-byte write) are short.
-//! The commit's [`Hub`] is moved into the sampling task's shared resource
-//! under a lock: a whole-value swap, so a sample never sees half a model.
+//! The committed model is loaded outside the pipeline's lock and exchanged
+//! with the running hub under it (`Pipeline::swap_model`), so a sample
+//! never sees half a model.
 
 use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
 use model_core::blob::{
@@ -167,7 +170,7 @@ impl SlotMap {
 
 /// The generation `slot`'s contents boot with, or `None` if they must not
 /// boot: needs a valid record whose blob CRC matches a blob that decodes
-/// (exactly as [`Hub::load`]); a bare valid blob in slot A is generation 0.
+/// (exactly as `Hub::load`); a bare valid blob in slot A is generation 0.
 pub fn slot_generation(slot: Slot, bytes: &[u8]) -> Option<u32> {
     let blob = bytes.get(..blob_len(bytes))?;
     check_split(&[], blob).ok()?;
@@ -583,7 +586,7 @@ impl<F: MappedFlash> Uploader<F> {
 
     /// Carries out an upload command and gives the reply; `None` for
     /// commands that are not about uploads (`Ping`, `SetToolLength`).
-    /// On a successful commit, the [`Committed`] hub to swap in.
+    /// On a successful commit, the [`Committed`] slot to load and swap in.
     pub fn handle(&mut self, command: &Command) -> Option<(HubMessage, Option<Committed>)> {
         let kind = command.kind();
         let result = match command {

@@ -21,7 +21,7 @@ use firmware::protocol::{
     encode, Command, CommandKind, ErrorCode, FrameReader, HubMessage, Telemetry, COMMAND_FRAME_MAX,
     HUB_FRAME_MAX, PROTOCOL_VERSION,
 };
-use firmware::ram_flash::RamFlash;
+use firmware::ram_flash::HeapFlash;
 use firmware::upload::{select_boot_slot, slot_generation, CommitRecord, Slot, SlotMap, Uploader};
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
@@ -34,12 +34,12 @@ use common::{fails_one_line, ok, p, run};
 const SLOT: usize = 128 * 1024;
 
 /// The board's two model slots in the firmware's in-memory NOR flash.
-fn board_flash() -> RamFlash {
-    RamFlash::new(2 * SLOT)
+fn board_flash() -> HeapFlash {
+    HeapFlash::new(2 * SLOT)
 }
 
 /// Slot A and slot B.
-fn slots(f: &RamFlash) -> (&[u8], &[u8]) {
+fn slots(f: &HeapFlash) -> (&[u8], &[u8]) {
     f.bytes().split_at(SLOT)
 }
 
@@ -64,7 +64,7 @@ struct Sim {
 
 /// What the hub saw.
 struct Seen {
-    flash: RamFlash,
+    flash: HeapFlash,
     commands: Vec<Command>,
     /// Bytes that arrived while the flash was erasing (lost on a board).
     during_erase: usize,
@@ -78,7 +78,7 @@ struct Hub {
 }
 
 impl Hub {
-    fn start(sim: Sim, flash: RamFlash) -> Self {
+    fn start(sim: Sim, flash: HeapFlash) -> Self {
         let pty = openpty(None, None).expect("openpty");
         let mut t = tcgetattr(&pty.slave).unwrap();
         cfmakeraw(&mut t);
@@ -121,7 +121,7 @@ fn send(mut f: &File, msg: &HubMessage) {
     let _ = f.write_all(&buf[..n]);
 }
 
-fn serve(master: File, sim: Sim, flash: RamFlash, stop: &AtomicBool) -> Seen {
+fn serve(master: File, sim: Sim, flash: HeapFlash, stop: &AtomicBool) -> Seen {
     let (a, b) = slots(&flash);
     let active = select_boot_slot(a, b);
     let mut up = Uploader::new(flash, MAP, active);
@@ -236,7 +236,7 @@ fn build(dir: &Path, spec: &str) -> (String, Vec<u8>) {
 }
 
 /// A flash whose slot A holds `blob`, committed at generation 3.
-fn flash_with(blob: &[u8]) -> RamFlash {
+fn flash_with(blob: &[u8]) -> HeapFlash {
     let mut f = board_flash();
     f.bytes_mut()[..blob.len()].copy_from_slice(blob);
     let blob_crc = u32::from_le_bytes(blob[blob.len() - 4..].try_into().unwrap());

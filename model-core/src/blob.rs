@@ -25,7 +25,6 @@
 
 use crate::in_place;
 use crate::model::{Model, ModelError, ModelKind, ValidModel};
-use crate::slot::ModelSlot;
 
 /// Magic bytes at offset 0.
 pub const MAGIC: [u8; 4] = *b"TCMB";
@@ -280,13 +279,13 @@ pub fn decode(bytes: &[u8]) -> Result<ValidModel, BlobError> {
 
 /// [`decode`] of the blob `head ++ tail` (see [`check_frame_split`]).
 ///
-/// The model is decoded in a [`ModelSlot`] on this function's stack and
-/// returned by value: on the hub, load into a static slot instead
-/// ([`ModelSlot::load_split`]).
+/// The model is decoded on this function's stack and returned by value: on
+/// the hub, load into a static slot instead
+/// ([`crate::ModelSlot::load_split`]).
 pub fn decode_split(head: &[u8], tail: &[u8]) -> Result<ValidModel, BlobError> {
-    let mut slot = ModelSlot::new();
-    slot.load_split(head, tail)?;
-    slot.into_model()
+    let mut model = Model::placeholder();
+    decode_into(head, tail, &mut model)?;
+    Ok(model.validate()?)
 }
 
 /// Whether the blob `head ++ tail` decodes into a valid model, as
@@ -295,7 +294,10 @@ pub fn decode_split(head: &[u8], tail: &[u8]) -> Result<ValidModel, BlobError> {
 /// upload may boot).
 #[inline(never)]
 pub fn check_split(head: &[u8], tail: &[u8]) -> Result<(), BlobError> {
-    ModelSlot::new().load_split(head, tail)
+    let mut model = Model::placeholder();
+    decode_into(head, tail, &mut model)?;
+    model.check()?;
+    Ok(())
 }
 
 /// The framing checks of [`decode_split`], then the body decoded into

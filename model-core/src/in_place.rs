@@ -3,7 +3,7 @@
 //! serde's derived decoders build each value and return it, so a model (up
 //! to 15 KiB: the 256-feature filter bank) passed by value through every
 //! nested visitor, postcard's wrappers and the format versions' conversions:
-//! on the hub, one decode took 114 KiB of stack, more than the F446's RAM
+//! on the hub, one decode took 114 KB of stack, more than the F446's RAM
 //! leaves it (docs/firmware-cost.md, "Stack"). Here the model's fields are
 //! decoded into their places: its lists element by element
 //! (`wire::Into`), the filter bank's lists the same way, the smaller

@@ -270,6 +270,21 @@ impl Model {
         self.params.kind()
     }
 
+    /// Storage for a model to be decoded into (`blob::decode_into`): no
+    /// inputs, no outputs, an empty linear model. Not a valid model.
+    pub(crate) fn placeholder() -> Self {
+        Self {
+            inputs: heapless::Vec::new(),
+            outputs: heapless::Vec::new(),
+            dt_s: 0.0,
+            params: Params::Linear(crate::linear::Linear {
+                outputs: heapless::Vec::new(),
+            }),
+            bounds: None,
+            five_point: None,
+        }
+    }
+
     /// Checks everything once; the result runs without further checks.
     pub fn validate(self) -> Result<ValidModel, ModelError> {
         let (derived, tip) = self.check()?;

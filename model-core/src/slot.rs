@@ -10,8 +10,7 @@
 //! error until the next good load; its storage is never read as a model.
 
 use crate::blob::{self, BlobError};
-use crate::linear::Linear;
-use crate::model::{Derived, Model, Params, ValidModel};
+use crate::model::{Derived, Model, ValidModel};
 
 /// See the module docs. Two slots are equal, and print alike, when their
 /// [`ModelSlot::model`]s are: the storage behind a refused blob is not part
@@ -48,16 +47,7 @@ impl ModelSlot {
     pub fn new() -> Self {
         Self {
             valid: ValidModel {
-                model: Model {
-                    inputs: heapless::Vec::new(),
-                    outputs: heapless::Vec::new(),
-                    dt_s: 0.0,
-                    params: Params::Linear(Linear {
-                        outputs: heapless::Vec::new(),
-                    }),
-                    bounds: None,
-                    five_point: None,
-                },
+                model: Model::placeholder(),
                 derived: Derived::None,
                 tip: None,
             },

@@ -15,6 +15,12 @@
 use core::hint::black_box;
 use core::ptr;
 
+extern "C" {
+    /// cortex-m-rt: the first byte after the statics (where a heap would
+    /// start).
+    static __sheap: u32;
+}
+
 /// The paint: a word that neither a pointer into RAM nor a small integer nor
 /// a common float looks like.
 const PAINT: u32 = 0xA5C3_5A3C;
@@ -35,18 +41,22 @@ fn call<R>(f: impl FnOnce() -> R) -> R {
 /// or `None` for the bytes if it reached the end of the paint (the depth is
 /// then at least `depth`).
 ///
+/// The paint reaches down to `sp - depth`, or to the end of the statics
+/// (cortex-m-rt's `__sheap`) if that is higher, so it never writes over a
+/// static; the result is then `None` sooner.
+///
 /// # Safety (internal)
 ///
-/// Writes and reads the words from `sp - depth` to `sp - GUARD`: free stack
-/// below the current frame, which nothing else owns while interrupts are
-/// masked. The caller must leave `depth` bytes of RAM below its frame (QEMU's
-/// mps2-an386 has 4 MiB).
+/// Writes and reads the words from the bottom above to `sp - GUARD`: free
+/// stack below the current frame and above every static, which nothing else
+/// owns while interrupts are masked.
 #[inline(never)]
 pub fn peak<R>(depth: usize, f: impl FnOnce() -> R) -> (R, Option<usize>) {
     cortex_m::interrupt::free(|_| {
         let sp = cortex_m::register::msp::read() as usize & !3;
-        let bottom = sp - depth;
-        let top = sp - GUARD;
+        let statics_end = (&raw const __sheap as usize + 3) & !3;
+        let bottom = sp.saturating_sub(depth).max(statics_end);
+        let top = sp.saturating_sub(GUARD).max(bottom);
         let words = (top - bottom) / 4;
         let base = bottom as *mut u32;
         for k in 0..words {

@@ -150,9 +150,9 @@ pub fn save<F: NorFlash>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ram_flash::RamFlash;
+    use crate::ram_flash::HeapFlash;
 
-    const LEN: u32 = 4096; // one RamFlash sector: 32 records
+    const LEN: u32 = 4096; // one HeapFlash sector: 32 records
 
     #[test]
     fn record_bytes() {
@@ -171,7 +171,7 @@ mod tests {
 
     #[test]
     fn newest_wins_and_a_full_sector_is_erased() {
-        let mut flash = RamFlash::new(2 * LEN as usize);
+        let mut flash = HeapFlash::new(2 * LEN as usize);
         assert_eq!(latest(&flash.bytes()[LEN as usize..]), None);
         let mut s = Settings::DEFAULT;
         for i in 0..32u32 {
@@ -192,7 +192,7 @@ mod tests {
 
     #[test]
     fn a_torn_write_keeps_the_previous_record() {
-        let mut flash = RamFlash::new(LEN as usize);
+        let mut flash = HeapFlash::new(LEN as usize);
         let mut s = Settings::DEFAULT;
         save(&mut flash, 0, LEN, &s).unwrap();
         s.hold_time_s = 5.0;

@@ -6,7 +6,7 @@ use super::*;
 use crate::hub::Hub;
 use crate::pipeline::{PipelineConfig, Reading};
 use crate::protocol::CHUNK_MAX;
-use crate::ram_flash::RamFlash;
+use crate::ram_flash::HeapFlash;
 use crate::report::{HubState, StatusFlags};
 use crate::test_util::{name, vec};
 use crate::upload::SlotMap;
@@ -56,15 +56,15 @@ fn blob(intercept: f64) -> std::vec::Vec<u8> {
 }
 
 /// A hub running `dz = 1 + 0.5 T1` from slot A, and its uploader.
-fn hub() -> (Pipeline, Uploader<RamFlash>) {
+fn hub() -> (Pipeline, Uploader<HeapFlash>) {
     let running = Hub::load(&blob(1.0));
     let pipeline = Pipeline::new(running, PipelineConfig::DEFAULT).unwrap();
-    let uploader = Uploader::new(RamFlash::new(2 * SLOT as usize), MAP, Some(Slot::A));
+    let uploader = Uploader::new(HeapFlash::new(2 * SLOT as usize), MAP, Some(Slot::A));
     (pipeline, uploader)
 }
 
 /// Runs `cmd`; the reply, the event and how often the erase hook ran.
-fn run(p: &mut Pipeline, u: &mut Uploader<RamFlash>, cmd: &Command) -> (HubMessage, Event, usize) {
+fn run(p: &mut Pipeline, u: &mut Uploader<HeapFlash>, cmd: &Command) -> (HubMessage, Event, usize) {
     let mut fed = 0;
     let (reply, event) = execute(p, u, || fed += 1, cmd);
     (reply, event, fed)

@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::hub::Hub;
-use crate::ram_flash::RamFlash;
+use crate::ram_flash::HeapFlash;
 use crate::test_util::{name, vec};
 use model_core::linear::{Coef, Linear, LinearOutput};
 use model_core::{Channel, Model, Params, Reference, ValidModel};
@@ -17,15 +17,15 @@ const MAP: SlotMap = SlotMap {
     len: SLOT,
 };
 
-fn flash() -> RamFlash {
-    RamFlash::new(2 * SLOT as usize)
+fn flash() -> HeapFlash {
+    HeapFlash::new(2 * SLOT as usize)
 }
 
-fn slots(f: &RamFlash) -> (&[u8], &[u8]) {
+fn slots(f: &HeapFlash) -> (&[u8], &[u8]) {
     f.bytes().split_at(SLOT as usize)
 }
 
-fn reboot(f: &RamFlash) -> Option<Slot> {
+fn reboot(f: &HeapFlash) -> Option<Slot> {
     let (a, b) = slots(f);
     select_boot_slot(a, b)
 }
@@ -89,7 +89,7 @@ fn reseal(b: &mut [u8]) {
 
 /// Uploads `bytes` in chunks of `chunk` bytes, announcing their true CRC.
 fn upload(
-    u: &mut Uploader<RamFlash>,
+    u: &mut Uploader<HeapFlash>,
     bytes: &[u8],
     chunk: usize,
 ) -> Result<Committed, UploadError> {
@@ -364,7 +364,7 @@ fn writes_past_the_slot_are_refused() {
         b: 4096,
         len: 4096,
     };
-    let mut u = Uploader::new(RamFlash::new(8192), small, None);
+    let mut u = Uploader::new(HeapFlash::new(8192), small, None);
     let max = 4096 - RECORD_LEN as u32 - 4;
     assert_eq!(u.max_len(), max);
     assert_eq!(u.begin(max + 1, 0), Err(UploadError::BadLength { max }));
@@ -378,7 +378,7 @@ fn writes_past_the_slot_are_refused() {
         })
     );
     // A slot map beyond the device.
-    let mut u = Uploader::new(RamFlash::new(4096), small, None);
+    let mut u = Uploader::new(HeapFlash::new(4096), small, None);
     assert_eq!(u.begin(100, 0), Err(UploadError::Unsupported));
     // A chunk past the end of the announced blob never reaches the flash.
     let mut u = Uploader::new(flash(), MAP, None);
