@@ -102,7 +102,7 @@ row "with model (default)" "$flash" "$ram" "$text" "$data" "$bss"
 row "model path costs" "+$((flash - base_flash))" "+$((ram - base_ram))" \
   "+$((text - base_text))" "+$((data - base_data))" "+$((bss - base_bss))"
 echo "  default build: flash $(pct "$flash" "$FLASH_REGION") of the $((FLASH_REGION / 1024)) KiB FLASH region," \
-  "ram $(pct "$ram" "$RAM_REGION") of $((RAM_REGION / 1024)) KiB (static; stack not counted)"
+  "ram $(pct "$ram" "$RAM_REGION") of $((RAM_REGION / 1024)) KiB (static; the stack: scripts/qemu-bench.sh)"
 
 # Legacy-mangled local symbols that llvm-nm leaves half-demangled
 # (`_$LT$impl$u20$...`): undo the escapes and drop the hash.
