@@ -16,9 +16,9 @@ use core::hint::black_box;
 use core::ptr;
 
 extern "C" {
-    /// cortex-m-rt: the first byte after the statics (where a heap would
-    /// start).
-    static __sheap: u32;
+    /// cortex-m-rt: the lowest address the stack may use (by default the
+    /// first byte after the statics).
+    static _stack_end: u32;
 }
 
 /// The paint: a word that neither a pointer into RAM nor a small integer nor
@@ -41,9 +41,10 @@ fn call<R>(f: impl FnOnce() -> R) -> R {
 /// or `None` for the bytes if it reached the end of the paint (the depth is
 /// then at least `depth`).
 ///
-/// The paint reaches down to `sp - depth`, or to the end of the statics
-/// (cortex-m-rt's `__sheap`) if that is higher, so it never writes over a
-/// static; the result is then `None` sooner.
+/// The paint reaches down to `sp - depth`, or to the end of the stack
+/// region (cortex-m-rt's `_stack_end`, just above the statics) if that is
+/// higher, so it never writes over a static; the result is then `None`
+/// sooner.
 ///
 /// # Safety (internal)
 ///
@@ -54,8 +55,8 @@ fn call<R>(f: impl FnOnce() -> R) -> R {
 pub fn peak<R>(depth: usize, f: impl FnOnce() -> R) -> (R, Option<usize>) {
     cortex_m::interrupt::free(|_| {
         let sp = cortex_m::register::msp::read() as usize & !3;
-        let statics_end = (&raw const __sheap as usize + 3) & !3;
-        let bottom = sp.saturating_sub(depth).max(statics_end);
+        let stack_end = (&raw const _stack_end as usize + 3) & !3;
+        let bottom = sp.saturating_sub(depth).max(stack_end);
         let top = sp.saturating_sub(GUARD).max(bottom);
         let words = (top - bottom) / 4;
         let base = bottom as *mut u32;
