@@ -26,7 +26,8 @@
 #
 # flash = text + data (code, rodata, vector table, .data load image)
 # ram   = data + bss  (static RAM incl. .uninit, e.g. the defmt RTT buffer;
-#                      the stack is not counted)
+#                      the stack is not counted: its region is checked
+#                      below, its use by scripts/qemu-bench.sh)
 # Honours CARGO_TARGET_DIR; extra arguments go to both `cargo build`s.
 set -euo pipefail
 
@@ -103,6 +104,31 @@ row "model path costs" "+$((flash - base_flash))" "+$((ram - base_ram))" \
   "+$((text - base_text))" "+$((data - base_data))" "+$((bss - base_bss))"
 echo "  default build: flash $(pct "$flash" "$FLASH_REGION") of the $((FLASH_REGION / 1024)) KiB FLASH region," \
   "ram $(pct "$ram" "$RAM_REGION") of $((RAM_REGION / 1024)) KiB (static; the stack: scripts/qemu-bench.sh)"
+
+# The stack region of the default build. flip-link (.cargo/config.toml) puts
+# the stack below the statics, from `_stack_start` down to the start of RAM
+# (`_stack_end`), so an overflow faults instead of overwriting a static; the
+# region must hold the stack budget scripts/qemu-bench.sh checks the paths
+# against (docs/firmware-cost.md, "Stack").
+STACK_BUDGET=$((64 * 1024))
+RAM_ORIGIN=$((0x20000000))
+if [ -n "$NM" ]; then
+  sym() { "$NM" "$ELF" | awk -v s="$1" '$3 == s { print $1 }'; }
+  stack_start=$((16#$(sym _stack_start)))
+  stack_end=$((16#$(sym _stack_end)))
+  statics=$((16#$(sym __sdata)))
+  stack_room=$((stack_start - stack_end))
+  echo "  stack region: $(printf '0x%08x..0x%08x' "$stack_end" "$stack_start"), $stack_room bytes" \
+    "(budget $STACK_BUDGET)"
+  if [ "$stack_end" -ne "$RAM_ORIGIN" ] || [ "$stack_start" -gt "$statics" ]; then
+    echo "firmware-size: the stack is not below the statics (is the linker flip-link?)" >&2
+    exit 1
+  fi
+  if [ "$stack_room" -lt "$STACK_BUDGET" ]; then
+    echo "firmware-size: $stack_room bytes of stack room, under the $STACK_BUDGET budget" >&2
+    exit 1
+  fi
+fi
 
 # Legacy-mangled local symbols that llvm-nm leaves half-demangled
 # (`_$LT$impl$u20$...`): undo the escapes and drop the hash.
