@@ -14,7 +14,7 @@
 use crate::hub::Hub;
 use crate::pipeline::{Pipeline, SwapError};
 use crate::protocol::{Command, CommandKind, ErrorCode, HubMessage, PROTOCOL_VERSION};
-use crate::upload::{MappedFlash, Slot, Uploader};
+use crate::upload::{Committed, MappedFlash, Slot, Uploader};
 
 /// Access to the pipeline the sampling task shares: on the board an RTIC
 /// lock, on the host the pipeline itself.
@@ -98,7 +98,11 @@ fn upload<F: MappedFlash>(
         }
         _ => None,
     };
-    let Some((reply, committed)) = uploader.handle(cmd) else {
+    if let Command::UploadCommit = cmd {
+        return commit(pipeline, uploader);
+    }
+    // Not a commit (those come through `commit` above): nothing to swap in.
+    let Some((reply, _)) = uploader.handle(cmd) else {
         // Not an upload command: `execute` answers every other kind.
         return (
             HubMessage::Nack {
@@ -110,32 +114,44 @@ fn upload<F: MappedFlash>(
     };
     let uploading = uploader.is_uploading();
     pipeline.with(|p| p.set_uploading(uploading));
-    let event = match committed {
-        Some(c) => swap_in(pipeline, uploader, c.slot),
-        None => match (begin, &reply) {
-            (Some(len), HubMessage::Ack(_)) => Event::Erased { len },
-            _ => Event::None,
-        },
+    let event = match (begin, &reply) {
+        (Some(len), HubMessage::Ack(_)) => Event::Erased { len },
+        _ => Event::None,
     };
     (reply, event)
 }
 
-/// Loads the model just committed to `slot` into a hub on this frame's
-/// stack (outside the pipeline's lock: decoding takes milliseconds) and
-/// swaps it in (under the lock: an exchange, no hub by value). Its own
-/// frame, never inlined: the command task's stack holds this hub only
-/// while a commit is swapped in (docs/firmware-cost.md, "Stack").
+/// An upload's commit: the blob is decoded once, into a hub on this frame's
+/// stack, as the commit's check (outside the pipeline's lock: decoding takes
+/// milliseconds, a TF bank up to a second), and once committed that hub is
+/// swapped in (under the lock: an exchange, no hub by value). Its own frame,
+/// never inlined: the command task's stack holds this hub only during a
+/// commit (docs/firmware-cost.md, "Stack").
 #[inline(never)]
-fn swap_in<F: MappedFlash>(
+fn commit<F: MappedFlash>(
     pipeline: &mut impl SharedPipeline,
-    uploader: &Uploader<F>,
-    slot: Slot,
-) -> Event {
+    uploader: &mut Uploader<F>,
+) -> (HubMessage, Event) {
     let mut hub = Hub::empty();
-    hub.reload(uploader.slot_bytes(slot));
-    match pipeline.with(|p| p.swap_model(&mut hub)) {
-        Ok(()) => Event::Swapped { slot },
-        Err(error) => Event::SwapRefused { slot, error },
+    let committed = uploader.commit_with(|head, tail| hub.reload_split(head, tail));
+    let uploading = uploader.is_uploading();
+    pipeline.with(|p| p.set_uploading(uploading));
+    let kind = CommandKind::UploadCommit;
+    match committed {
+        Ok(Committed { slot, .. }) => {
+            let event = match pipeline.with(|p| p.swap_model(&mut hub)) {
+                Ok(()) => Event::Swapped { slot },
+                Err(error) => Event::SwapRefused { slot, error },
+            };
+            (HubMessage::Ack(kind), event)
+        }
+        Err(e) => (
+            HubMessage::Nack {
+                command: kind,
+                error: e.into(),
+            },
+            Event::None,
+        ),
     }
 }
 

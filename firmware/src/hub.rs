@@ -134,6 +134,15 @@ impl Hub {
         self.start_afresh();
     }
 
+    /// [`Hub::reload`] of the blob `head ++ tail` (exactly the blob, in two
+    /// parts: an upload's held-back first bytes and the rest in flash);
+    /// why it was refused, if it was.
+    pub fn reload_split(&mut self, head: &[u8], tail: &[u8]) -> Result<(), BlobError> {
+        let loaded = self.model.load_split(head, tail);
+        self.start_afresh();
+        loaded
+    }
+
     /// A hub around an already decoded blob (or why it was refused).
     pub fn with_model(model: Result<ValidModel, BlobError>) -> Self {
         let mut hub = Self {

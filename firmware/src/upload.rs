@@ -13,11 +13,10 @@
 //!    memory-mapped, [`MappedFlash`]; the held-back magic joins it from
 //!    RAM, so no 16 KiB copy): the announced CRC, then a decode exactly as
 //!    `Hub::load` does (magic, version, length, CRC, kind, body, model
-//!    validation; `check_split`, in its own stack frame, the model dropped
-//!    with it), and only then write the magic and then the record, with a
-//!    generation one above any seen. [`Committed`] names the slot; the
-//!    command task loads it into a hub and swaps that in between two
-//!    samples (`commands::swap_in`).
+//!    validation; [`Uploader::commit_with`] lets the command task decode it
+//!    into the hub it will swap in), and only then write the magic and then
+//!    the record, with a generation one above any seen. The command task
+//!    swaps that hub in between two samples (`commands::commit`).
 //!
 //! At boot, [`select_boot_slot`] picks the slot whose record and blob are
 //! both valid with the highest generation. A power cut before the record is
@@ -302,8 +301,9 @@ impl From<UploadError> for ErrorCode {
     }
 }
 
-/// A committed upload: the slot now active, whose model to swap in
-/// ([`Uploader::slot_bytes`], `Hub::reload`).
+/// A committed upload: the slot now active (its model is what
+/// [`Uploader::commit_with`]'s `load` decoded, or `Hub::reload` of
+/// [`Uploader::slot_bytes`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Committed {
     /// The slot written (now the active one).
@@ -517,6 +517,18 @@ impl<F: MappedFlash> Uploader<F> {
     /// refusal but `Incomplete` ends the upload; the running slot stays
     /// active in every case.
     pub fn commit(&mut self) -> Result<Committed, UploadError> {
+        self.commit_with(check_split)
+    }
+
+    /// [`Uploader::commit`] with `load` as the decode check: it is given
+    /// the blob (`head ++ tail`, the held-back magic and the rest in
+    /// flash) and must refuse it exactly as `model_core::blob::check_split`
+    /// would; it may keep what it decoded (the command task loads the blob
+    /// into the hub it then swaps in: one decode per upload).
+    pub fn commit_with(
+        &mut self,
+        load: impl FnOnce(&[u8], &[u8]) -> Result<(), BlobError>,
+    ) -> Result<Committed, UploadError> {
         let State::Receiving {
             slot,
             len,
@@ -551,9 +563,9 @@ impl<F: MappedFlash> Uploader<F> {
         // Exactly these bytes must be one blob (no trailing bytes), then
         // decode as the hub does.
         let (header, _) = check_frame_split(head, tail).map_err(UploadError::Blob)?;
-        // Decoded in check_split's own frame and dropped: the command task
-        // then loads it where its hub lies (docs/firmware-cost.md, "Stack").
-        check_split(head, tail).map_err(UploadError::Blob)?;
+        // Decoded where the caller's model lies, or in check_split's own
+        // frame and dropped (docs/firmware-cost.md, "Stack").
+        load(head, tail).map_err(UploadError::Blob)?;
         // Checked: now the magic, then the record that makes it bootable.
         let start = self.map.offset(slot);
         self.flash.write(start, head).map_err(flash_err)?;

@@ -206,6 +206,69 @@ fn a_corrupted_upload_is_refused_and_the_running_model_stays() {
     );
 }
 
+/// A blob of `m` framed as `encode` would, without validating `m` first
+/// (what a faulty writer could send).
+fn unvalidated_blob(m: &Model) -> std::vec::Vec<u8> {
+    use model_core::blob::{FORMAT_VERSION, HEADER_LEN, MAGIC};
+    let mut body = std::vec![0u8; 4096];
+    let n = postcard::to_slice(m, &mut body).unwrap().len();
+    let mut out = std::vec::Vec::new();
+    out.extend_from_slice(&MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&[m.kind().code(), 0]);
+    out.extend_from_slice(&(n as u32).to_le_bytes());
+    out.extend_from_slice(&body[..n]);
+    assert_eq!(out.len(), HEADER_LEN + n);
+    let crc = crc32(&out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+/// A blob whose CRCs are right and whose body decodes, but whose model is
+/// invalid (a NaN intercept), is refused at commit by the same decode that
+/// would load it: the running model stays, and the slot never boots.
+#[test]
+fn an_upload_that_decodes_but_is_invalid_is_refused_and_never_boots() {
+    let (mut p, mut u) = hub();
+    let mut m = model(4.0).model().clone();
+    if let model_core::Params::Linear(lin) = &mut m.params {
+        lin.outputs[0].intercept = f64::NAN;
+    }
+    let bad = unvalidated_blob(&m);
+    assert_eq!(
+        model_core::decode(&bad).unwrap_err(),
+        model_core::BlobError::Invalid(model_core::ModelError::NonFinite)
+    );
+    let begin = Command::UploadBegin {
+        len: bad.len() as u32,
+        crc32: crc32(&bad),
+    };
+    run(&mut p, &mut u, &begin);
+    for chunk in chunks(&bad) {
+        run(&mut p, &mut u, &chunk);
+    }
+    let (reply, event, _) = run(&mut p, &mut u, &Command::UploadCommit);
+    assert!(
+        matches!(
+            reply,
+            HubMessage::Nack {
+                command: CommandKind::UploadCommit,
+                error: ErrorCode::BadBlob { .. }
+            }
+        ),
+        "{reply:?}"
+    );
+    assert_eq!(event, Event::None);
+    assert!((settled_dz(&mut p) - 11.0).abs() < 1e-9, "old model runs");
+    // The upload went to slot B (A runs): B holds no bootable generation.
+    assert_eq!(u.target(), Slot::B);
+    assert_eq!(
+        crate::upload::slot_generation(Slot::B, u.slot_bytes(Slot::B)),
+        None,
+        "the refused upload never boots"
+    );
+}
+
 /// A chunk or commit with no upload, and a refused begin (too long), leave
 /// no UPLOADING flag behind and never feed-and-erase for nothing.
 #[test]
