@@ -60,8 +60,9 @@ pub(crate) fn model_inputs(model: &ValidModel, run: &RunFile) -> Result<Vec<Opti
 
 /// What one output's update works on: its regressors and the old coefficients.
 pub(crate) struct Structure {
-    /// `regs[run][row]` (shared by the outputs of a filter bank that have
-    /// no hold: its features are every output's regressors).
+    /// `regs[run][row]` (shared by every output of a filter bank: its
+    /// features are every output's regressors, each output's holds applied
+    /// to its update rows, [`Hold::apply`]).
     pub(crate) regs: Rc<Regressors>,
     /// Old `(intercept, slopes)`; for a TF bank `(0, [1; entries])` (gains).
     pub(crate) old: Coefs,
@@ -88,10 +89,18 @@ pub(crate) struct Hold {
     pub(crate) tied: Vec<usize>,
 }
 
+/// How far (relative to the weights' sizes) a hold's weight may be from
+/// minus its tied features' sum and still count as tied: the rounding of
+/// the sum the writer took (fit/auto/layout.rs).
+const TIE_TOLERANCE: f64 = 1e-9;
+
 impl Hold {
     /// The holds output `eq` weighs (non-zero coefficient) in `bank`, whose
-    /// features have the `poles` model-core derived.
-    fn of(bank: &FilterBank, eq: &FbOutput, poles: &[f64]) -> Vec<Hold> {
+    /// features have the `poles` model-core derived, that the old weights
+    /// tie (the hold's weight minus its tied features' sum, within
+    /// [`TIE_TOLERANCE`]). A hold the old model weighs freely (a bank not
+    /// written in change form on a logged channel) stays a free column.
+    pub(crate) fn of(bank: &FilterBank, eq: &FbOutput, poles: &[f64]) -> Vec<Hold> {
         let f = &bank.features;
         (0..f.len())
             .filter(|&h| poles.get(h) == Some(&1.0) && eq.coef.get(h).is_some_and(|c| *c != 0.0))
@@ -106,7 +115,16 @@ impl Hold {
                     })
                     .collect(),
             })
+            .filter(|hold| hold.ties(&eq.coef))
             .collect()
+    }
+
+    /// Whether weights `b` hold this hold's tie.
+    fn ties(&self, b: &[f64]) -> bool {
+        let w = |j: usize| b.get(j).copied().unwrap_or(0.0);
+        let sum: f64 = self.tied.iter().map(|&j| w(j)).sum();
+        let size = w(self.feature).abs() + self.tied.iter().map(|&j| w(j).abs()).sum::<f64>();
+        !self.tied.is_empty() && (w(self.feature) + sum).abs() <= TIE_TOLERANCE * size
     }
 
     /// Coefficients `b` fitted on [`Hold::apply`]'s regressors with each
@@ -120,7 +138,7 @@ impl Hold {
 
     /// A row's regressors with the tied features taken relative to the
     /// hold and the hold's own column zero.
-    fn apply(holds: &[Hold], mut row: Vec<f64>) -> Vec<f64> {
+    pub(crate) fn apply(holds: &[Hold], mut row: Vec<f64>) -> Vec<f64> {
         for h in holds {
             let x0 = row[h.feature];
             for &j in &h.tied {
@@ -310,26 +328,11 @@ fn fbank_structures(
                 .iter()
                 .find(|e| usize::from(e.output) == k)
                 .ok_or_else(|| anyhow!("output #{k} has no equation"))?;
-            let holds = Hold::of(bank, eq, old.fbank_poles());
-            let regs = if holds.is_empty() {
-                Rc::clone(&shared)
-            } else {
-                Rc::new(
-                    shared
-                        .iter()
-                        .map(|run| {
-                            run.iter()
-                                .map(|r| r.clone().map(|r| Hold::apply(&holds, r)))
-                                .collect()
-                        })
-                        .collect(),
-                )
-            };
             Ok(Structure {
-                regs,
+                regs: Rc::clone(&shared),
+                holds: Hold::of(bank, eq, old.fbank_poles()),
                 old: (eq.intercept, eq.coef.to_vec()),
                 tf_entries: None,
-                holds,
             })
         })
         .collect()
@@ -440,4 +443,52 @@ pub(crate) fn with_updates(
     model
         .validate()
         .map_err(|e| anyhow!("the updated model is invalid ({e}); the old one is kept"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use model_core::fbank::{Feature, HOLD_TAU_S};
+
+    /// T1 raw, T1 filtered at 15 min, T1 held; one output with `coef`.
+    fn bank(coef: &[f64]) -> (FilterBank, [f64; 3]) {
+        let feature = |tau_s| Feature {
+            input: 0,
+            power: 1,
+            tau_s,
+        };
+        let bank = FilterBank {
+            features: heapless::Vec::from_slice(&[
+                feature(0.0),
+                feature(900.0),
+                feature(HOLD_TAU_S),
+            ])
+            .unwrap(),
+            outputs: heapless::Vec::from_slice(&[FbOutput {
+                output: 0,
+                intercept: 0.0,
+                coef: heapless::Vec::from_slice(coef).unwrap(),
+            }])
+            .unwrap(),
+        };
+        (bank, [0.0, 0.9, 1.0])
+    }
+
+    /// A hold weighed as minus its channel's other weights (to the rounding
+    /// of their sum) is tied; one weighed freely stays a free column.
+    #[test]
+    fn only_a_hold_the_old_weights_tie_is_tied() {
+        let tied = [0.3, 1.7, -(0.3 + 1.7)];
+        let (b, poles) = bank(&tied);
+        let holds = Hold::of(&b, &b.outputs[0], &poles);
+        assert_eq!(holds.len(), 1);
+        assert_eq!((holds[0].feature, holds[0].tied.clone()), (2, vec![0, 1]));
+        let free = [0.3, 1.7, 5.0];
+        let (b, poles) = bank(&free);
+        assert!(Hold::of(&b, &b.outputs[0], &poles).is_empty());
+        // Off by 1e-6 relative: beyond rounding, so free as well.
+        let near = [0.3, 1.7, -2.0 * (1.0 + 1e-6)];
+        let (b, poles) = bank(&near);
+        assert!(Hold::of(&b, &b.outputs[0], &poles).is_empty());
+    }
 }

@@ -66,7 +66,7 @@ pub(crate) fn update_rows(
         let rows = run.t_s.iter().zip(&st.regs[ri]).zip(ys[ri]).take(split[ri]);
         for ((t, x), y) in rows {
             if let (true, Some(x), Some(y)) = (*t >= lo, x, y) {
-                xs.push(x.clone());
+                xs.push(Hold::apply(&st.holds, x.clone()));
                 yv.push(y);
             }
         }
