@@ -95,6 +95,23 @@ fn an_auto_fit_report_charts_every_output_and_says_its_own_figures() {
     assert_eq!(charts, 2 + 2 * 2, "charts");
     assert_eq!(page_json(&html), json, "the page's JSON is fit --json's");
     assert!(html.contains("dz_um: CV error of the best"), "CV chart");
+    // Every member of the model has its bar (marked " *"), ranked in the
+    // best 15 or not.
+    let members: usize = json["details"]["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            t["cv_table"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter(|r| r["chosen"] == true && r["cv_geo_rmse"].is_f64())
+                .count()
+        })
+        .sum();
+    assert!(members > 0);
+    assert_eq!(html.matches(" *</text>").count(), members, "members' bars");
     // The fit's table as it prints: dz_um's held-out rmse to 3 decimals.
     let rmse = json["targets"]["dz_um"]["holdout"]["rmse_um"]
         .as_f64()

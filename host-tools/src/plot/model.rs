@@ -88,21 +88,25 @@ fn names<'a>(v: impl Iterator<Item = &'a str>) -> String {
 fn cv_html(auto: &AutoReport) -> String {
     let mut html = String::from("<h2>Cross-validation (calibration rows only)</h2>");
     for t in &auto.targets {
+        // The best CV_ROWS, and every member of the model below them (the
+        // members are the best candidates of the winner's form that fit the
+        // hub together, so one can rank lower).
         let bars: Vec<(String, f64)> = t
             .cv_table
             .iter()
             .filter(|row| row.cv_geo_rmse.is_finite())
-            .map(|row| {
+            .enumerate()
+            .filter(|(rank, row)| *rank < CV_ROWS || row.chosen)
+            .map(|(_, row)| {
                 let chosen = if row.chosen { " *" } else { "" };
                 (format!("{}{chosen}", row.label()), row.cv_geo_rmse)
             })
-            .take(CV_ROWS)
             .collect();
         html.push_str(&bar_chart(
             &format!(
-                "{}: CV error of the best {} candidates (geometric-mean rmse; * in the model)",
-                t.target,
-                bars.len()
+                "{}: CV error of the best {} candidates and the model's members \
+                 (geometric-mean rmse; * in the model)",
+                t.target, CV_ROWS
             ),
             &bars,
             "um",
