@@ -38,7 +38,7 @@ pub struct DiagnoseArgs {
 /// Runs `thermcomp diagnose`.
 pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let started = std::time::Instant::now();
-    let page = a.report.as_ref().map(|d| d.join("index.html"));
+    let page = super::report_page(a.report.as_deref())?;
     let writes: Vec<_> = page.iter().map(|p| fsio::named("--report", p)).collect();
     let mut reads = vec![fsio::named("--sim", &a.sim), fsio::named("--real", &a.real)];
     reads.extend(a.machine.as_deref().map(|m| fsio::named("--machine", m)));

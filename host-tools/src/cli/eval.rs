@@ -5,7 +5,7 @@
 use super::source::{ModelSource, RunSource};
 use crate::data::fsio::{check_distinct, named};
 use crate::eval::{evaluate, evaluate_files};
-use crate::plot::model::{page_html, PageRun, PageText};
+use crate::plot::model::{PageRun, PageText};
 use anyhow::{bail, Result};
 use clap::Args;
 use serde_json::{Map, Value};
@@ -51,18 +51,19 @@ pub fn run(a: &EvalArgs) -> Result<()> {
             (evaluate(&model, &runs, &map)?, runs)
         }
     };
-    let Value::Object(out) = serde_json::to_value(&out)? else {
+    let json = serde_json::to_value(&out)?;
+    let Value::Object(fields) = &json else {
         bail!("eval: the outcome is not a JSON object");
     };
+    let table = table_text(fields);
     if let Some(dir) = &a.report {
-        write_report(dir, &model, &runs, &map, &out)?;
+        write_report(dir, &model, &runs, &map, &table, &json)?;
     }
     if a.json {
-        crate::data::fsio::print_line(&Value::Object(out).to_string())?;
+        crate::data::fsio::print_line(&json.to_string())
     } else {
-        crate::data::fsio::print(&table_text(&out))?;
+        crate::data::fsio::print(&table)
     }
-    Ok(())
 }
 
 /// `eval --report DIR`: the model on every run.
@@ -71,7 +72,8 @@ fn write_report(
     model: &model_core::ValidModel,
     runs: &[crate::data::runfile::RunFile],
     map: &crate::runner::ColumnMap,
-    out: &Map<String, Value>,
+    table: &str,
+    json: &Value,
 ) -> Result<()> {
     let page_runs: Vec<PageRun> = runs
         .iter()
@@ -81,14 +83,12 @@ fn write_report(
             role: "evaluated",
         })
         .collect();
-    let json = serde_json::to_string_pretty(out)?;
     let text = PageText {
         title: "thermcomp eval",
         auto: None,
-        summary: &table_text(out),
-        json: &json,
+        summary: table,
     };
-    super::publish_page(dir, &page_html(model, &page_runs, map, &text)?)
+    super::publish_page(dir, model, &page_runs, map, &text, json)
 }
 
 /// The text table of `eval`: one row per target, then per run.

@@ -15,7 +15,7 @@ use crate::fit::dynamic::options::{DynamicOptions, Ridge, Selection};
 use crate::fit::dynamic::orders::OrderRange;
 use crate::fit::pcr::PcrOptions;
 use crate::fit::{auto, fit, FitKind, FitOptions, FitOutcome, FitParams};
-use crate::plot::model::{page_html, PageRun, PageText};
+use crate::plot::model::{PageRun, PageText};
 use crate::runner::ColumnMap;
 use crate::score::TargetScore;
 use anyhow::{anyhow, Result};
@@ -427,8 +427,15 @@ fn check_paths(a: &FitArgs) -> Result<()> {
     fsio::check_distinct(&reads, &writes)
 }
 
-/// `fit --report DIR`: the model on its calibration and validation runs.
-fn write_report(a: &FitArgs, o: &FitOutcome, runs: &[RunFile], validate: &[RunFile]) -> Result<()> {
+/// `fit --report DIR`: the model on its calibration and validation runs,
+/// under the `table` and `json` the command prints.
+fn write_report(
+    a: &FitArgs,
+    o: &FitOutcome,
+    [runs, validate]: [&[RunFile]; 2],
+    table: &str,
+    json: &Value,
+) -> Result<()> {
     let Some(dir) = &a.report else {
         return Ok(());
     };
@@ -450,15 +457,19 @@ fn write_report(a: &FitArgs, o: &FitOutcome, runs: &[RunFile], validate: &[RunFi
             role: "validation, held out whole",
         }))
         .collect();
-    let json = serde_json::to_string_pretty(&report_json(o, &a.out)?)?;
     let text = PageText {
         title: "thermcomp fit",
         auto: o.auto_report(),
-        summary: &scores_text(&o.scores),
-        json: &json,
+        summary: table,
     };
-    let html = page_html(&o.model, &page_runs, &ColumnMap::default(), &text)?;
-    super::publish_page(dir, &html)
+    super::publish_page(
+        dir,
+        &o.model,
+        &page_runs,
+        &ColumnMap::default(),
+        &text,
+        json,
+    )
 }
 
 /// Says on stderr when an auto model's band is calibrated inside the
@@ -482,11 +493,12 @@ fn warn_unmeasured_band(o: &FitOutcome) {
 pub fn run(a: &FitArgs) -> Result<()> {
     let (o, runs, validate) = read_and_fit(a)?;
     warn_unmeasured_band(&o);
-    write_report(a, &o, &runs, &validate)?;
+    let (table, json) = (scores_text(&o.scores), report_json(&o, &a.out)?);
+    write_report(a, &o, [&runs, &validate], &table, &json)?;
     if a.json {
-        fsio::print_line(&report_json(&o, &a.out)?.to_string())?;
+        fsio::print_line(&json.to_string())?;
     } else {
-        fsio::print(&scores_text(&o.scores))?;
+        fsio::print(&table)?;
         eprintln!(
             "wrote {} ({} bytes, {} model on {} inputs, {} calibration rows)",
             a.out.display(),

@@ -268,7 +268,7 @@ fn with_out(
 
 /// The page `--report DIR` writes, `DIR/index.html`, for the paths check;
 /// a `DIR` that exists and is not a folder is refused before any work.
-pub fn report_page(dir: Option<&std::path::Path>) -> anyhow::Result<Option<std::path::PathBuf>> {
+fn report_page(dir: Option<&std::path::Path>) -> anyhow::Result<Option<std::path::PathBuf>> {
     let Some(dir) = dir else {
         return Ok(None);
     };
@@ -278,9 +278,18 @@ pub fn report_page(dir: Option<&std::path::Path>) -> anyhow::Result<Option<std::
     Ok(Some(dir.join("index.html")))
 }
 
-/// Writes the page `--report DIR` asked for and says where on stderr.
-pub fn publish_page(dir: &std::path::Path, html: &str) -> anyhow::Result<()> {
-    let path = crate::plot::write_page(dir, html)?;
+/// Writes the page `--report DIR` asked for, `model` on `runs` under the
+/// command's `text` and its `--json` object, and says where on stderr.
+fn publish_page(
+    dir: &std::path::Path,
+    model: &model_core::ValidModel,
+    runs: &[crate::plot::model::PageRun],
+    map: &crate::runner::ColumnMap,
+    text: &crate::plot::model::PageText,
+    json: &serde_json::Value,
+) -> anyhow::Result<()> {
+    let html = crate::plot::model::page_html(model, runs, map, text, json)?;
+    let path = crate::plot::write_page(dir, &html)?;
     eprintln!("wrote {}", path.display());
     Ok(())
 }

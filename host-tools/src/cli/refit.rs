@@ -105,9 +105,16 @@ fn check_paths(a: &RefitArgs) -> Result<()> {
 }
 
 /// `refit --report DIR`: the written model on the new runs, each run's
-/// held-out tail (the last `--holdout-fraction` of its span) marked.
-fn write_report(a: &RefitArgs, o: &RefitOutcome, old: &ValidModel, runs: &[RunFile]) -> Result<()> {
-    use crate::plot::model::{page_html, PageRun, PageText};
+/// held-out tail (the last `--holdout-fraction` of its span) marked, under
+/// the `text` and `json` the command prints.
+fn write_report(
+    a: &RefitArgs,
+    o: &RefitOutcome,
+    (old, runs): (&ValidModel, &[RunFile]),
+    text: &str,
+    json: &Value,
+) -> Result<()> {
+    use crate::plot::model::{PageRun, PageText};
     let Some(dir) = &a.report else {
         return Ok(());
     };
@@ -119,23 +126,17 @@ fn write_report(a: &RefitArgs, o: &RefitOutcome, old: &ValidModel, runs: &[RunFi
             role: "new run; its last --holdout-fraction held out",
         })
         .collect();
-    let json = serde_json::to_string_pretty(&report_json(o, &a.out)?)?;
-    let summary = outcome_text(o);
-    let text = PageText {
+    let page = PageText {
         title: if o.model.is_some() {
             "thermcomp refit: the updated model"
         } else {
             "thermcomp refit: the model unchanged"
         },
         auto: None,
-        summary: &summary,
-        json: &json,
+        summary: text,
     };
     let model = o.model.as_ref().unwrap_or(old);
-    super::publish_page(
-        dir,
-        &page_html(model, &page_runs, &ColumnMap::default(), &text)?,
-    )
+    super::publish_page(dir, model, &page_runs, &ColumnMap::default(), &page, json)
 }
 
 /// What `refit` reads.
@@ -192,11 +193,12 @@ pub fn run(a: &RefitArgs) -> Result<()> {
     for n in &o.report.notes {
         eprintln!("note: {n}");
     }
-    write_report(a, &o, &old, &runs)?;
+    let (text, json) = (outcome_text(&o), report_json(&o, &a.out)?);
+    write_report(a, &o, (&old, &runs), &text, &json)?;
     if a.json {
-        return fsio::print_line(&report_json(&o, &a.out)?.to_string());
+        return fsio::print_line(&json.to_string());
     }
-    fsio::print(&outcome_text(&o))?;
+    fsio::print(&text)?;
     let what = if o.model.is_some() {
         "updated"
     } else {

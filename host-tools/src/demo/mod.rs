@@ -439,7 +439,7 @@ impl Demo<'_> {
         let (cal_run, val_run) = (read(cal)?, read(val)?);
         let mut models = Vec::new();
         let mut fitted: Vec<FittedKind> = Vec::new();
-        let mut auto_outcome = None;
+        let mut report = None;
         for kind in KINDS {
             let name = kind_name(kind);
             bar.set_message(format!("fit {name}"));
@@ -456,21 +456,20 @@ impl Demo<'_> {
             let elapsed = started.elapsed().as_secs_f64();
             let command = fit_command(budget, kind, selected, [cal, val, &blob]);
             models.push(fit_entry(kind, &o, &blob, elapsed, command)?);
-            fitted.push((kind, o.model.clone(), blob));
             if kind == FitKind::Auto {
-                auto_outcome = Some(o);
+                report = Some(fit_report(dir, &o, [&cal_run, &val_run])?);
             }
+            fitted.push((kind, o.model, blob));
             bar.inc(1);
         }
         bar.finish_and_clear();
-        let auto_outcome = auto_outcome.ok_or_else(|| anyhow!("demo: no auto model fitted"))?;
         // The model is chosen on the calibration run only (auto's cross-
         // validation); the validation run scores it beside the other kinds.
         let best = models
             .iter()
             .find(|m| m.kind == kind_name(FitKind::Auto))
             .ok_or_else(|| anyhow!("demo: no auto model fitted"))?;
-        let report = fit_report(dir, &auto_outcome, [&cal_run, &val_run])?;
+        let report = report.ok_or_else(|| anyhow!("demo: no auto model fitted"))?;
         let t = p.end(&format!(
         "exported: auto (chosen by cross-validation on the calibration run), validation reduction {:.1} %, rmse {:.2} um",
         best.validation.reduction_pct, best.validation.rmse_um
@@ -747,14 +746,19 @@ fn fit_report(dir: &Path, o: &fit::FitOutcome, [cal, val]: [&RunFile; 2]) -> Res
             role: "validation, held out whole",
         },
     ];
-    let json = serde_json::to_string_pretty(&o.report)?;
     let text = PageText {
         title: "thermcomp fit --model auto (demo)",
         auto: o.auto_report(),
         summary: "",
-        json: &json,
     };
-    let html = page_html(&o.model, &runs, &crate::runner::ColumnMap::default(), &text)?;
+    let json = serde_json::to_value(&o.report)?;
+    let html = page_html(
+        &o.model,
+        &runs,
+        &crate::runner::ColumnMap::default(),
+        &text,
+        &json,
+    )?;
     crate::plot::write_page(&dir.join("fit"), &html)
 }
 

@@ -6,7 +6,7 @@ use super::align::Aligned;
 use super::candidates::Scored;
 use super::outcome::{finite, json_number, Band, Deployment, Diagnosis, Segment, Trained};
 use crate::plot::{bar_chart, esc, line_chart, page, write_page};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -85,7 +85,6 @@ pub fn write(
     d: &Diagnosis,
     extra: &str,
 ) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let t0 = al.t_s[0];
     let t_h: Vec<f64> = al.t_s.iter().map(|t| (t - t0) / 3600.0).collect();
     let ax = Axis {

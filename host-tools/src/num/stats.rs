@@ -67,6 +67,19 @@ pub fn quantile_abs(v: &[f64], q: f64) -> f64 {
     kth_smallest(&mut a, i)
 }
 
+/// How much of a band covers its residuals: of the `(residual,
+/// half-width)` pairs with both finite, the share (%) with `|residual| <=
+/// half-width`, and how many pairs that is (`None` without one).
+pub fn coverage_pct(pairs: impl IntoIterator<Item = (f64, f64)>) -> Option<(f64, usize)> {
+    let (n, inside) = pairs
+        .into_iter()
+        .filter(|(r, h)| r.is_finite() && h.is_finite())
+        .fold((0usize, 0usize), |(n, i), (r, h)| {
+            (n + 1, i + usize::from(r.abs() <= h))
+        });
+    (n > 0).then(|| (100.0 * inside as f64 / n as f64, n))
+}
+
 /// Pearson's correlation coefficient (seed 003 Eq. 11), or `None` when
 /// either series is constant (or shorter than 2) and r is undefined.
 pub fn pearson(x: &[f64], y: &[f64]) -> Option<f64> {

@@ -12,6 +12,7 @@
 use super::{band_chart, bar_chart, esc, line_chart, page};
 use crate::data::runfile::RunFile;
 use crate::fit::auto::AutoReport;
+use crate::num::stats::coverage_pct;
 use crate::runner::{self, ColumnMap};
 use anyhow::Result;
 use model_core::ValidModel;
@@ -42,9 +43,6 @@ pub struct PageText<'a> {
     /// The command's text figures (its table without `--json`), shown
     /// under the heading as they print; empty: none.
     pub summary: &'a str,
-    /// JSON shown at the end, pretty-printed: the command's `--json` object
-    /// (the demo: the fit's report).
-    pub json: &'a str,
 }
 
 /// The page of `model` on `runs` (columns read through `map`).
@@ -53,6 +51,7 @@ pub fn page_html(
     runs: &[PageRun],
     map: &ColumnMap,
     text: &PageText,
+    json: &serde_json::Value,
 ) -> Result<String> {
     let mut body = String::new();
     let _ = write!(
@@ -77,7 +76,13 @@ pub fn page_html(
     for r in runs {
         body.push_str(&run_html(model, r, map)?);
     }
-    Ok(page(text.title, &body, text.json))
+    // At the end, pretty-printed: the command's `--json` object (the demo:
+    // the fit's report).
+    Ok(page(
+        text.title,
+        &body,
+        &serde_json::to_string_pretty(json)?,
+    ))
 }
 
 fn names<'a>(v: impl Iterator<Item = &'a str>) -> String {
@@ -245,14 +250,12 @@ fn coverage_html(
     hold: Option<f64>,
 ) -> String {
     let cover = |from: f64| {
-        let (n, inside) = t_s
-            .iter()
-            .zip(resid.iter().zip(half))
-            .filter(|(t, (r, h))| **t >= from && r.is_finite() && h.is_finite())
-            .fold((0usize, 0usize), |(n, i), (_, (r, h))| {
-                (n + 1, i + usize::from(r.abs() <= *h))
-            });
-        (n > 0).then(|| (100.0 * inside as f64 / n as f64, n))
+        coverage_pct(
+            t_s.iter()
+                .zip(resid.iter().zip(half))
+                .filter(|(t, _)| **t >= from)
+                .map(|(_, (r, h))| (*r, *h)),
+        )
     };
     let mut s = format!("<p>{}: ", esc(name));
     match cover(f64::NEG_INFINITY) {

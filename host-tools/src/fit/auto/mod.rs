@@ -249,11 +249,8 @@ impl Band {
             .map(|(r, d)| (*r, *d))
             .collect();
         let covered = |g: f64, set: &[(f64, f64)]| {
-            let n = set
-                .iter()
-                .filter(|(r, d)| r.abs() <= half_width * (1.0 + g * d))
-                .count();
-            100.0 * n as f64 / set.len().max(1) as f64
+            let pairs = set.iter().map(|(r, d)| (*r, half_width * (1.0 + g * d)));
+            crate::num::stats::coverage_pct(pairs).map_or(0.0, |(pct, _)| pct)
         };
         let growth = if out.len() < MIN_EXTRAPOLATING {
             1.0
