@@ -98,11 +98,14 @@ fn upload<F: MappedFlash>(
         }
         _ => None,
     };
-    if let Command::UploadCommit = cmd {
-        return commit(pipeline, uploader);
-    }
-    // Not a commit (those come through `commit` above): nothing to swap in.
-    let Some((reply, _)) = uploader.handle(cmd) else {
+    // A commit decodes the blob into this hub as its check (outside the
+    // pipeline's lock: decoding takes milliseconds, a TF bank up to a
+    // second), and the hub is swapped in once the slot is committed (under
+    // the lock: an exchange, no hub by value; docs/firmware-cost.md,
+    // "Stack"). The other commands leave it empty.
+    let mut hub = Hub::empty();
+    let load = |head: &[u8], tail: &[u8]| hub.reload_split(head, tail);
+    let Some((reply, committed)) = uploader.handle_with(cmd, load) else {
         // Not an upload command: `execute` answers every other kind.
         return (
             HubMessage::Nack {
@@ -114,45 +117,15 @@ fn upload<F: MappedFlash>(
     };
     let uploading = uploader.is_uploading();
     pipeline.with(|p| p.set_uploading(uploading));
-    let event = match (begin, &reply) {
-        (Some(len), HubMessage::Ack(_)) => Event::Erased { len },
+    let event = match (committed, begin, &reply) {
+        (Some(Committed { slot, .. }), _, _) => match pipeline.with(|p| p.swap_model(&mut hub)) {
+            Ok(()) => Event::Swapped { slot },
+            Err(error) => Event::SwapRefused { slot, error },
+        },
+        (None, Some(len), HubMessage::Ack(_)) => Event::Erased { len },
         _ => Event::None,
     };
     (reply, event)
-}
-
-/// An upload's commit: the blob is decoded once, into a hub on this frame's
-/// stack, as the commit's check (outside the pipeline's lock: decoding takes
-/// milliseconds, a TF bank up to a second), and once committed that hub is
-/// swapped in (under the lock: an exchange, no hub by value). Its own frame,
-/// never inlined: the command task's stack holds this hub only during a
-/// commit (docs/firmware-cost.md, "Stack").
-#[inline(never)]
-fn commit<F: MappedFlash>(
-    pipeline: &mut impl SharedPipeline,
-    uploader: &mut Uploader<F>,
-) -> (HubMessage, Event) {
-    let mut hub = Hub::empty();
-    let committed = uploader.commit_with(|head, tail| hub.reload_split(head, tail));
-    let uploading = uploader.is_uploading();
-    pipeline.with(|p| p.set_uploading(uploading));
-    let kind = CommandKind::UploadCommit;
-    match committed {
-        Ok(Committed { slot, .. }) => {
-            let event = match pipeline.with(|p| p.swap_model(&mut hub)) {
-                Ok(()) => Event::Swapped { slot },
-                Err(error) => Event::SwapRefused { slot, error },
-            };
-            (HubMessage::Ack(kind), event)
-        }
-        Err(e) => (
-            HubMessage::Nack {
-                command: kind,
-                error: e.into(),
-            },
-            Event::None,
-        ),
-    }
 }
 
 #[cfg(test)]

@@ -87,15 +87,37 @@ pub fn blob_len(slot: &[u8]) -> usize {
 pub struct Hub {
     /// The model, decoded where it lies (model-core's `ModelSlot`).
     model: ModelSlot,
+    /// `ValidModel::positional_outputs`, once at load.
+    positional: u8,
+    /// What running the model leaves behind, fresh at every load.
+    run: Run,
+}
+
+/// What running a model leaves behind: its state, the last good outputs,
+/// the faults.
+#[derive(Clone, Debug)]
+struct Run {
     state: ModelState,
     offsets: [f64; MAX_OUTPUTS],
     slopes: [f64; MAX_OUTPUTS],
-    /// `ValidModel::positional_outputs`, once at load.
-    positional: u8,
     faults: Faults,
     last_fault: Option<StepError>,
     /// `ValidModel::extrapolation` after the last good step.
     extrapolation: f64,
+}
+
+impl Run {
+    /// Before the first sample.
+    fn new() -> Self {
+        Self {
+            state: ModelState::new(),
+            offsets: [0.0; MAX_OUTPUTS],
+            slopes: [0.0; MAX_OUTPUTS],
+            faults: Faults::default(),
+            last_fault: None,
+            extrapolation: 0.0,
+        }
+    }
 }
 
 impl Hub {
@@ -114,13 +136,8 @@ impl Hub {
     pub fn empty() -> Self {
         Self {
             model: ModelSlot::new(),
-            state: ModelState::new(),
-            offsets: [0.0; MAX_OUTPUTS],
-            slopes: [0.0; MAX_OUTPUTS],
             positional: 0,
-            faults: Faults::default(),
-            last_fault: None,
-            extrapolation: 0.0,
+            run: Run::new(),
         }
     }
 
@@ -130,8 +147,7 @@ impl Hub {
     pub fn reload(&mut self, slot: &[u8]) {
         let blob = slot.get(..blob_len(slot)).unwrap_or(&[]);
         // A refused blob is kept as the load error.
-        let _ = self.model.load(blob);
-        self.start_afresh();
+        let _ = self.reload_split(&[], blob);
     }
 
     /// [`Hub::reload`] of the blob `head ++ tail` (exactly the blob, in two
@@ -143,25 +159,10 @@ impl Hub {
         loaded
     }
 
-    /// A hub around an already decoded blob (or why it was refused).
-    pub fn with_model(model: Result<ValidModel, BlobError>) -> Self {
-        let mut hub = Self {
-            model: ModelSlot::from(model),
-            ..Self::empty()
-        };
-        hub.start_afresh();
-        hub
-    }
-
     /// Everything but the model as in a hub that just loaded it.
     fn start_afresh(&mut self) {
         self.positional = self.model().map_or(0, |m| m.positional_outputs());
-        self.state = ModelState::new();
-        self.offsets = [0.0; MAX_OUTPUTS];
-        self.slopes = [0.0; MAX_OUTPUTS];
-        self.faults = Faults::default();
-        self.last_fault = None;
-        self.extrapolation = 0.0;
+        self.run = Run::new();
     }
 
     /// The loaded model.
@@ -191,24 +192,24 @@ impl Hub {
 
     /// Whether the model has taken a sample (its references are set).
     pub fn started(&self) -> bool {
-        self.state.started()
+        self.run.state.started()
     }
 
     /// Whether the last good sample's inputs lay outside the model's
     /// calibration envelope by more than `EXTRAPOLATION_FLAG_AT` (10 % of
     /// an input's calibration range); false for a model without bounds.
     pub fn extrapolating(&self) -> bool {
-        self.extrapolation > model_core::model::EXTRAPOLATION_FLAG_AT
+        self.run.extrapolation > model_core::model::EXTRAPOLATION_FLAG_AT
     }
 
     /// Refused samples so far.
     pub fn faults(&self) -> Faults {
-        self.faults
+        self.run.faults
     }
 
     /// Why the last refused sample was refused.
     pub fn last_fault(&self) -> Option<StepError> {
-        self.last_fault
+        self.run.last_fault
     }
 
     /// One sample: `readings` holds one raw value per model input, in the
@@ -224,10 +225,10 @@ impl Hub {
         let mut out = [0.0; MAX_OUTPUTS];
         let mut slopes = [0.0; MAX_OUTPUTS];
         let result = model
-            .step(&mut self.state, readings, &mut out)
+            .step(&mut self.run.state, readings, &mut out)
             .and_then(|()| {
                 if positional != 0 {
-                    model.thermal_slopes(&self.state, readings, &mut slopes)?;
+                    model.thermal_slopes(&self.run.state, readings, &mut slopes)?;
                 }
                 // A positional output's thermal part is zero at the
                 // reference position; its geometric part is the CNC's own
@@ -247,10 +248,10 @@ impl Hub {
             });
         match result {
             Ok(()) => {
-                self.extrapolation = model.extrapolation(&self.state, readings);
-                self.offsets = out;
-                self.slopes = slopes;
-                self.faults.consecutive = 0;
+                self.run.extrapolation = model.extrapolation(&self.run.state, readings);
+                self.run.offsets = out;
+                self.run.slopes = slopes;
+                self.run.faults.consecutive = 0;
                 Offsets {
                     values: out,
                     slopes,
@@ -258,11 +259,11 @@ impl Hub {
                 }
             }
             Err(e) => {
-                self.faults.count(e);
-                self.last_fault = Some(e);
+                self.run.faults.count(e);
+                self.run.last_fault = Some(e);
                 Offsets {
-                    values: self.offsets,
-                    slopes: self.slopes,
+                    values: self.run.offsets,
+                    slopes: self.run.slopes,
                     fresh: false,
                 }
             }

@@ -40,6 +40,8 @@
 #![cfg_attr(not(test), no_std)]
 
 pub mod board;
+#[cfg(feature = "model")]
+pub mod boot;
 pub mod can_frames;
 pub mod can_rx;
 pub mod canopen;

@@ -1031,34 +1031,15 @@ mod app {
         )
     }
 
-    /// The pipeline without a model, in its static. Its own frame, never
-    /// inlined: the library builds the pipeline by value (about 25 KiB with
-    /// the model slot), and that frame is gone before the model is decoded
-    /// into the static (docs/firmware-cost.md, "Stack").
-    #[cfg(feature = "model")]
-    #[inline(never)]
-    fn empty_pipeline(
-        slot: &'static mut MaybeUninit<Core>,
-        config: firmware::pipeline::PipelineConfig,
-    ) -> &'static mut Core {
-        use firmware::pipeline::Pipeline;
-        match config.checked() {
-            Ok(config) => slot.write(Pipeline::without_model(config)),
-            // The settings passed the dictionary's checks, which include the
-            // pipeline's cross-checks; the defaults are checked by tests.
-            Err(_) => defmt::panic!("pipeline config refused"),
-        }
-    }
-
-    /// Picks the boot slot (`upload::select_boot_slot`), loads its model
-    /// into the pipeline static and builds the uploader.
+    /// Boots the pipeline in its static (`firmware::boot`: the slot to boot
+    /// picked, its model loaded in place) and builds the uploader.
     #[cfg(feature = "model")]
     fn boot(
         flash: pac::FLASH,
         slot: &'static mut MaybeUninit<Core>,
     ) -> (&'static mut Core, Upload, Settings) {
         use firmware::pipeline::PipelineConfig;
-        use firmware::upload::{select_boot_slot, Slot, SlotMap, Uploader};
+        use firmware::upload::{Slot, SlotMap, Uploader};
         use stm32f4xx_hal::flash::FlashExt;
 
         // The slots as byte slices of the memory-mapped flash (no `unsafe`:
@@ -1069,9 +1050,6 @@ mod app {
             let start = (r.origin - layout::FLASH_BASE) as usize;
             bytes.get(start..start + r.len as usize).unwrap_or(&[])
         };
-        let (a, b) = (region(layout::MODEL_A), region(layout::MODEL_B));
-        let active = select_boot_slot(a, b);
-        defmt::info!("boot slot: {=str}", active.map_or("none", Slot::name));
         // The settings last saved over CANopen (0x1010), else the defaults.
         let settings = match firmware::canopen::store::latest(region(layout::SETTINGS)) {
             Some((seq, s)) => {
@@ -1080,10 +1058,14 @@ mod app {
             }
             None => Settings::DEFAULT,
         };
-        let pipeline = empty_pipeline(slot, settings.pipeline_config(PipelineConfig::DEFAULT));
-        // Into the static, where the model lies. No bootable slot: load A
-        // anyway, so the log says why it failed.
-        pipeline.load(if active == Some(Slot::B) { b } else { a });
+        let Ok(config) = settings.pipeline_config(PipelineConfig::DEFAULT).checked() else {
+            // The settings passed the dictionary's checks, which include the
+            // pipeline's cross-checks; the defaults are checked by tests.
+            defmt::panic!("pipeline config refused")
+        };
+        let slots = [region(layout::MODEL_A), region(layout::MODEL_B)];
+        let (pipeline, active) = firmware::boot::boot(slot, config, slots);
+        defmt::info!("boot slot: {=str}", active.map_or("none", Slot::name));
         glue::log_model(pipeline.hub());
         let flash = glue::BoardFlash(stm32f4xx_hal::flash::LockedFlash::new(flash));
         (

@@ -16,7 +16,7 @@
 //!    validation; [`Uploader::commit_with`] lets the command task decode it
 //!    into the hub it will swap in), and only then write the magic and then
 //!    the record, with a generation one above any seen. The command task
-//!    swaps that hub in between two samples (`commands::commit`).
+//!    swaps that hub in between two samples (`commands`).
 //!
 //! At boot, [`select_boot_slot`] picks the slot whose record and blob are
 //! both valid with the highest generation. A power cut before the record is
@@ -598,13 +598,23 @@ impl<F: MappedFlash> Uploader<F> {
 
     /// Carries out an upload command and gives the reply; `None` for
     /// commands that are not about uploads (`Ping`, `SetToolLength`).
-    /// On a successful commit, the [`Committed`] slot to load and swap in.
+    /// On a successful commit, the [`Committed`] slot.
     pub fn handle(&mut self, command: &Command) -> Option<(HubMessage, Option<Committed>)> {
+        self.handle_with(command, check_split)
+    }
+
+    /// [`Uploader::handle`] with a commit's decode check done by `load`
+    /// ([`Uploader::commit_with`]).
+    pub fn handle_with(
+        &mut self,
+        command: &Command,
+        load: impl FnOnce(&[u8], &[u8]) -> Result<(), BlobError>,
+    ) -> Option<(HubMessage, Option<Committed>)> {
         let kind = command.kind();
         let result = match command {
             Command::UploadBegin { len, crc32 } => self.begin(*len, *crc32).map(|()| None),
             Command::UploadChunk { offset, bytes } => self.chunk(*offset, bytes).map(|()| None),
-            Command::UploadCommit => self.commit().map(Some),
+            Command::UploadCommit => self.commit_with(load).map(Some),
             Command::UploadAbort => {
                 self.abort();
                 Ok(None)

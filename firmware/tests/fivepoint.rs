@@ -46,8 +46,14 @@ fn pipeline() -> Pipeline {
             l_defl_mm: L_DEFL_MM,
         }),
     };
-    let model = model.validate().unwrap();
-    Pipeline::new(Hub::with_model(Ok(model)), PipelineConfig::DEFAULT).unwrap()
+    Pipeline::new(hub(&model.validate().unwrap()), PipelineConfig::DEFAULT).unwrap()
+}
+
+/// A hub running `model`, loaded from its blob as the board loads one.
+fn hub(model: &model_core::ValidModel) -> Hub {
+    let mut blob = [0u8; 4096];
+    let n = model_core::encode(model, &mut blob).unwrap();
+    Hub::load(&blob[..n])
 }
 
 /// The exact tip drift for E = 10 µm, θx = 2 µrad, θy = -1 µrad.
@@ -116,11 +122,7 @@ fn swap_carries_lanes_by_tip_name() {
     let mut p = pipeline();
     p.set_tool_length_mm(100.0).unwrap();
     let before = run(&mut p, 10);
-    p.swap_model(&mut Hub::with_model(Ok(pipeline()
-        .hub()
-        .model()
-        .unwrap()
-        .clone())))
+    p.swap_model(&mut hub(pipeline().hub().model().unwrap()))
         .unwrap();
     assert_eq!(p.offsets_um(), before.offsets, "no jump at a swap");
 }

@@ -24,8 +24,8 @@
 //!   as the TF path assumes), after that `s_j = p s_j + (1 - p) v`. The
 //!   filter has unit steady-state gain, so a coefficient is the feature's
 //!   gain in output units per input unit (per unit squared for `power` 2).
-//!   A time constant so long that the pole rounds to exactly 1 (`f64::MAX`
-//!   at any sample time) holds the run's first value, `s_j = v(0)`: the
+//!   A time constant so long that the pole rounds to exactly 1
+//!   ([`HOLD_TAU_S`] at any sample time) holds the run's first value, `s_j = v(0)`: the
 //!   trainer uses it to write a regression on changes from the run's first
 //!   sample on logged channels (`F(x - x0) = F(x) - x0` for a filter with
 //!   unit gain started in steady state).

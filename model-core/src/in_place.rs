@@ -157,13 +157,17 @@ impl<'de> Visitor<'de> for ParamsSeed<'_> {
 // Each kind in its own frame (never inlined): the frames of the kinds not
 // in the blob are not on the stack while one kind decodes.
 
+/// What `tf` and `fbank` say if the variant they just set were not there
+/// (it always is: the match only reaches into it).
+const JUST_SET: &str = "the variant just set is missing";
+
 /// A TF bank: its list of entries in place.
 #[inline(never)]
 fn tf<'de, A: VariantAccess<'de>>(value: A, params: &mut Params) -> Result<(), A::Error> {
     *params = Params::Tf(heapless::Vec::new());
     match params {
         Params::Tf(entries) => value.newtype_variant_seed(List(entries.as_mut_view())),
-        _ => Ok(()),
+        _ => Err(A::Error::custom(JUST_SET)),
     }
 }
 
@@ -187,7 +191,7 @@ fn fbank<'de, A: VariantAccess<'de>>(value: A, params: &mut Params) -> Result<()
     });
     match params {
         Params::Fbank(bank) => value.newtype_variant_seed(BankSeed(bank)),
-        _ => Ok(()),
+        _ => Err(A::Error::custom(JUST_SET)),
     }
 }
 

@@ -84,24 +84,4 @@ impl ModelSlot {
             Some(e) => Err(e),
         }
     }
-
-    /// The model by value, or why the last load gave none.
-    pub fn into_model(self) -> Result<ValidModel, BlobError> {
-        match self.error {
-            None => Ok(self.valid),
-            Some(e) => Err(e),
-        }
-    }
-}
-
-impl From<Result<ValidModel, BlobError>> for ModelSlot {
-    fn from(model: Result<ValidModel, BlobError>) -> Self {
-        match model {
-            Ok(valid) => Self { valid, error: None },
-            Err(e) => Self {
-                error: Some(e),
-                ..Self::new()
-            },
-        }
-    }
 }

@@ -23,6 +23,11 @@ pub mod models;
 pub mod stack;
 pub mod update;
 
+// The firmware library (a dependency for the `stack` binary) brings the
+// STM32F446's PAC along, whose `rt` feature makes cortex-m-rt expect its
+// interrupt vectors: every binary here links them through this crate.
+use stm32f4xx_hal as _;
+
 /// Ends the program: a semihosting exit (QEMU quits with status 0 or 1;
 /// probe-rs ends the run), then sleeps if nothing was listening.
 pub fn exit(success: bool) -> ! {

@@ -13,12 +13,9 @@ use cortex_m_semihosting::hprintln;
 use model_core::blob::{self, MAX_BLOB_LEN};
 use model_core::{ModelKind, ModelState};
 use panic_semihosting as _;
-// The firmware library (a dependency for the `stack` binary) brings the
-// STM32F446's PAC along, whose interrupt vectors cortex-m-rt then expects.
 use qemu_bench::clock::{known_loop, time, Clock, Cost, UNITS_PER_TICK};
 use qemu_bench::models::{self, CHANNELS, KINDS, OUTPUTS, WIDE_CHANNELS};
 use qemu_bench::update::{encode_frame, Sample, FRAME_BUF};
-use stm32f4xx_hal as _;
 
 /// Runs per timed loop of the per-sample operations: SysTick resolves 40
 /// instructions under QEMU, so 100 runs resolve 0.4 instruction per run.

@@ -49,10 +49,7 @@ fn model(intercept: f64) -> ValidModel {
 }
 
 fn blob(intercept: f64) -> std::vec::Vec<u8> {
-    let mut buf = std::vec![0u8; 4096];
-    let n = model_core::encode(&model(intercept), &mut buf).unwrap();
-    buf.truncate(n);
-    buf
+    crate::test_util::blob(&model(intercept))
 }
 
 /// A hub running `dz = 1 + 0.5 T1` from slot A, and its uploader.
@@ -206,24 +203,6 @@ fn a_corrupted_upload_is_refused_and_the_running_model_stays() {
     );
 }
 
-/// A blob of `m` framed as `encode` would, without validating `m` first
-/// (what a faulty writer could send).
-fn unvalidated_blob(m: &Model) -> std::vec::Vec<u8> {
-    use model_core::blob::{FORMAT_VERSION, HEADER_LEN, MAGIC};
-    let mut body = std::vec![0u8; 4096];
-    let n = postcard::to_slice(m, &mut body).unwrap().len();
-    let mut out = std::vec::Vec::new();
-    out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    out.extend_from_slice(&[m.kind().code(), 0]);
-    out.extend_from_slice(&(n as u32).to_le_bytes());
-    out.extend_from_slice(&body[..n]);
-    assert_eq!(out.len(), HEADER_LEN + n);
-    let crc = crc32(&out);
-    out.extend_from_slice(&crc.to_le_bytes());
-    out
-}
-
 /// A blob whose CRCs are right and whose body decodes, but whose model is
 /// invalid (a NaN intercept), is refused at commit by the same decode that
 /// would load it: the running model stays, and the slot never boots.
@@ -234,7 +213,7 @@ fn an_upload_that_decodes_but_is_invalid_is_refused_and_never_boots() {
     if let model_core::Params::Linear(lin) = &mut m.params {
         lin.outputs[0].intercept = f64::NAN;
     }
-    let bad = unvalidated_blob(&m);
+    let bad = crate::test_util::unvalidated_blob(&m);
     assert_eq!(
         model_core::decode(&bad).unwrap_err(),
         model_core::BlobError::Invalid(model_core::ModelError::NonFinite)

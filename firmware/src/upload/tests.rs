@@ -73,10 +73,7 @@ fn model(intercept: f64) -> ValidModel {
 }
 
 fn blob(intercept: f64) -> std::vec::Vec<u8> {
-    let mut buf = vec![0u8; MAX_BLOB_LEN];
-    let n = model_core::encode(&model(intercept), &mut buf).unwrap();
-    buf.truncate(n);
-    buf
+    crate::test_util::blob(&model(intercept))
 }
 
 /// Re-seals a blob's CRC after editing it (a blob that is well-formed but
@@ -222,13 +219,7 @@ fn corrupted_blobs_are_refused_and_the_old_slot_stays_active() {
     );
 
     // Well-formed but invalid model (non-finite coefficient).
-    let mut body = [0u8; 1024];
-    let body = postcard::to_slice(&raw_model(f64::NAN), &mut body).unwrap();
-    let mut b = blob(2.0)[..HEADER_LEN].to_vec();
-    b[8..12].copy_from_slice(&(body.len() as u32).to_le_bytes());
-    b.extend_from_slice(body);
-    b.extend([0; 4]);
-    reseal(&mut b);
+    let b = crate::test_util::unvalidated_blob(&raw_model(f64::NAN));
     assert!(matches!(
         refused(&b),
         UploadError::Blob(BlobError::Invalid(_))

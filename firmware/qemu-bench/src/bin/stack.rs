@@ -3,12 +3,14 @@
 //!
 //! The firmware library's own code runs here, as the RTIC tasks call it:
 //!
-//! * boot (`init`): `Pipeline::new` without a model (by value, then into
-//!   its static), `select_boot_slot` (both slots' blobs checked), then
-//!   `Pipeline::load` of the slot into the static, in place;
+//! * boot (`init`): `firmware::boot::boot`, the function `init` calls:
+//!   the slot to boot picked (both slots' blobs checked), the pipeline
+//!   built without a model into its static, the slot's model loaded into
+//!   it in place; once with nothing uploaded, then with each kind's model;
 //! * the command task (priority 1): `commands::execute` of an upload's
-//!   commit, the costliest command (it decodes the uploaded blob into a new
-//!   `Hub` and swaps it into the pipeline), after its begin and chunks went
+//!   commit, the costliest command (it decodes the uploaded blob into a
+//!   `Hub` on its stack and swaps it into the pipeline), after its begin
+//!   and chunks went
 //!   through an uploader over RAM standing in for the flash;
 //! * the sample task (priority 2): `Pipeline::on_sample`, which can preempt
 //!   the command task, so the two depths add up on the board.
@@ -22,19 +24,17 @@ use core::hint::black_box;
 use core::mem::MaybeUninit;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
+use firmware::boot::boot;
 use firmware::commands::{execute, Event};
-use firmware::pipeline::{Pipeline, PipelineConfig, Reading};
+use firmware::pipeline::{Pipeline, PipelineConfig, Reading, ValidConfig};
 use firmware::protocol::{Command, HubMessage, CHUNK_MAX};
 use firmware::ram_flash::RamFlash;
-use firmware::upload::{select_boot_slot, Slot, SlotMap, Uploader};
+use firmware::upload::{Slot, SlotMap, Uploader};
 use model_core::blob::{self, MAX_BLOB_LEN};
 use model_core::ModelKind;
 use panic_semihosting as _;
 use qemu_bench::models::{self, KINDS, WIDE_CHANNELS};
 use qemu_bench::stack::peak;
-// The firmware library brings the STM32F446's PAC along, whose `rt`
-// feature makes cortex-m-rt expect its interrupt vectors: link them.
-use stm32f4xx_hal as _;
 
 /// Bytes of stack painted below each measurement: far more than any path
 /// needs (QEMU's mps2-an386 has 4 MiB of RAM).
@@ -51,15 +51,12 @@ const FLASH_LEN: usize = 2 * SLOT as usize;
 /// The stand-in flash: the firmware's test flash over a static buffer.
 type Flash = RamFlash<&'static mut [u8]>;
 
-/// Stack bytes of each path for one kind's largest model.
+/// Stack bytes of the command and sample paths for one kind's largest
+/// model.
 struct Depths {
-    /// Boot: which slot to boot (both slots' blobs checked).
-    select: Option<usize>,
-    /// Boot, last step: `Pipeline::load` of the slot, in place.
-    load: Option<usize>,
     /// The command task: an upload's commit.
     commit: Option<usize>,
-    /// The sample task.
+    /// The sample task, ten samples.
     sample: Option<usize>,
 }
 
@@ -119,6 +116,8 @@ fn upload_up_to_commit(
     })
 }
 
+/// Uploads and commits `kind`'s largest model into `pipeline`, then runs
+/// samples on it.
 fn measure(
     kind: ModelKind,
     pipeline: &mut Pipeline,
@@ -128,11 +127,6 @@ fn measure(
     let valid = models::build(kind).validate().ok()?;
     let len = blob::encode(&valid, buf).ok()?;
     let bytes = &buf[..len];
-    let ((), load) = peak(DEPTH, || pipeline.load(black_box(bytes)));
-    if pipeline.hub().model().is_none() {
-        hprintln!("error: the {} blob did not load", kind.name());
-        return None;
-    }
     if !upload_up_to_commit(pipeline, uploader, bytes) {
         return None;
     }
@@ -144,12 +138,6 @@ fn measure(
         hprintln!("error: the {} blob was not committed", kind.name());
         return None;
     }
-    let (a, b) = (uploader.slot_bytes(Slot::A), uploader.slot_bytes(Slot::B));
-    let (booted, select) = peak(DEPTH, || select_boot_slot(black_box(a), black_box(b)));
-    if booted.is_none() {
-        hprintln!("error: no slot to boot after the {} commit", kind.name());
-        return None;
-    }
     // Ten samples: the first after a swap takes first-sample branches
     // (references, filter starts); the deepest of the ten counts.
     let readings = [Reading::Value(20.0); WIDE_CHANNELS];
@@ -158,12 +146,31 @@ fn measure(
             black_box(&pipeline.on_sample(black_box(&readings)));
         }
     });
-    Some(Depths {
-        select,
-        load,
-        commit,
-        sample,
-    })
+    Some(Depths { commit, sample })
+}
+
+/// Boots the pipeline into `core` from the uploader's slots, as `init`
+/// does after a reset: the pipeline, whether a model booted, and the
+/// stack it took.
+fn boot_from<'a>(
+    core: &'a mut MaybeUninit<Pipeline>,
+    uploader: &Uploader<Flash>,
+) -> (&'a mut Pipeline, bool, Option<usize>) {
+    let slots = [uploader.slot_bytes(Slot::A), uploader.slot_bytes(Slot::B)];
+    let ((pipeline, active), depth) = peak(DEPTH, || boot(core, config(), slots));
+    let booted = active.is_some() && pipeline.hub().model().is_some();
+    (pipeline, booted, depth)
+}
+
+/// The firmware's default settings, checked.
+fn config() -> ValidConfig {
+    match PipelineConfig::DEFAULT.checked() {
+        Ok(c) => c,
+        Err(_) => {
+            hprintln!("error: the default pipeline settings were refused");
+            qemu_bench::exit(false)
+        }
+    }
 }
 
 #[entry]
@@ -178,21 +185,11 @@ fn main() -> ! {
         hprintln!("error: flash buffer already taken");
         qemu_bench::exit(false)
     };
-    // Boot's first step: the pipeline without a model, built by value and
-    // written to its static, as the firmware's `init` does; every kind is
-    // then loaded into it in turn.
+    // The pipeline's static, booted as `init` does, before each kind's
+    // upload: the first time with nothing uploaded, then with the model
+    // the previous kind committed, and once more after the last.
     let Some(core) = cortex_m::singleton!(: MaybeUninit<Pipeline> = MaybeUninit::uninit()) else {
         hprintln!("error: pipeline static already taken");
-        qemu_bench::exit(false)
-    };
-    let (pipeline, new_pipeline) = peak(DEPTH, || {
-        PipelineConfig::DEFAULT
-            .checked()
-            .ok()
-            .map(|c| core.write(Pipeline::without_model(c)))
-    });
-    let Some(pipeline) = pipeline else {
-        hprintln!("error: the default pipeline settings were refused");
         qemu_bench::exit(false)
     };
     // The uploader alternates slots: each kind's commit lands in the one
@@ -209,28 +206,35 @@ fn main() -> ! {
         KNOWN,
         show(known)
     );
-    hprintln!(
-        "boot: Pipeline::without_model into its static: {} bytes",
-        show(new_pipeline)
-    );
-    hprintln!("| kind | boot: select_boot_slot | boot: Pipeline::load | command: upload commit | sample: Pipeline::on_sample | command + sample |");
-    hprintln!("|---|---|---|---|---|---|");
+    let mut rows: [Option<Depths>; KINDS.len()] = Default::default();
+    let mut boots = [None; KINDS.len()];
     let mut ok = true;
-    for kind in KINDS {
-        let Some(d) = measure(kind, pipeline, &mut uploader, &mut buf) else {
+    for (i, kind) in KINDS.into_iter().enumerate() {
+        let (pipeline, booted, depth) = boot_from(&mut *core, &uploader);
+        match i.checked_sub(1) {
+            None => hprintln!("boot without a model: {} bytes", show(depth)),
+            Some(prev) => boots[prev] = booted.then_some(depth),
+        }
+        rows[i] = measure(kind, pipeline, &mut uploader, &mut buf);
+    }
+    let (_, booted, depth) = boot_from(&mut *core, &uploader);
+    boots[KINDS.len() - 1] = booted.then_some(depth);
+    hprintln!("| kind | command: upload commit | sample: Pipeline::on_sample | command + sample | boot with it |");
+    hprintln!("|---|---|---|---|---|");
+    for ((kind, row), boot) in KINDS.into_iter().zip(rows).zip(boots) {
+        let (Some(d), Some(boot)) = (row, boot) else {
             hprintln!("error: {} could not be measured", kind.name());
             ok = false;
             continue;
         };
         let both = d.commit.zip(d.sample).map(|(c, s)| c + s);
         hprintln!(
-            "| {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} |",
             kind.name(),
-            show(d.select),
-            show(d.load),
             show(d.commit),
             show(d.sample),
-            show(both)
+            show(both),
+            show(boot)
         );
     }
     hprintln!("stack: done");

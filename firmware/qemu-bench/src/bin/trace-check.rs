@@ -11,12 +11,9 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use model_core::ModelState;
 use panic_semihosting as _;
-// The firmware library (a dependency for the `stack` binary) brings the
-// STM32F446's PAC along, whose interrupt vectors cortex-m-rt then expects.
 use qemu_bench::clock::{Clock, QEMU_INSN_PER_TICK};
 use qemu_bench::models::{self, CHANNELS, OUTPUTS};
 use qemu_bench::update::{encode_frame, Sample, FRAME_BUF};
-use stm32f4xx_hal as _;
 
 // The markers' bodies are `nop`s (inline asm, which the optimiser keeps), one
 // and two of them so that the linker cannot fold the two functions into one.
