@@ -113,10 +113,18 @@ echo "  default build: flash $(pct "$flash" "$FLASH_REGION") of the $((FLASH_REG
 STACK_BUDGET=$((64 * 1024))
 RAM_ORIGIN=$((0x20000000))
 if [ -n "$NM" ]; then
-  sym() { "$NM" "$ELF" | awk -v s="$1" '$3 == s { print $1 }'; }
-  stack_start=$((16#$(sym _stack_start)))
-  stack_end=$((16#$(sym _stack_end)))
-  statics=$((16#$(sym __sdata)))
+  sym() {
+    local v
+    v="$("$NM" "$ELF" | awk -v s="$1" '$3 == s { print $1 }')"
+    if [ -z "$v" ]; then
+      echo "firmware-size: no symbol $1 in $ELF" >&2
+      exit 1
+    fi
+    echo $((16#$v))
+  }
+  stack_start=$(sym _stack_start)
+  stack_end=$(sym _stack_end)
+  statics=$(sym __sdata)
   stack_room=$((stack_start - stack_end))
   echo "  stack region: $(printf '0x%08x..0x%08x' "$stack_end" "$stack_start"), $stack_room bytes" \
     "(budget $STACK_BUDGET)"
@@ -128,6 +136,8 @@ if [ -n "$NM" ]; then
     echo "firmware-size: $stack_room bytes of stack room, under the $STACK_BUDGET budget" >&2
     exit 1
   fi
+else
+  echo "  stack region: not checked (no llvm-nm: 'rustup component add llvm-tools')"
 fi
 
 # Legacy-mangled local symbols that llvm-nm leaves half-demangled
