@@ -5,7 +5,7 @@
 use super::align::Aligned;
 use super::candidates::Scored;
 use super::outcome::{finite, json_number, Band, Deployment, Diagnosis, Segment, Trained};
-use crate::plot::{bar_chart, esc, line_chart, page, write_page};
+use crate::plot::{bar_chart, esc, line_chart, page, write_page, TimeAxis};
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -65,13 +65,6 @@ fn deployment_html(d: &Deployment) -> String {
     h
 }
 
-/// The time axis of the plots: hours from the first row, and the hold-out
-/// start in hours.
-struct Axis {
-    t_h: Vec<f64>,
-    hold_h: Option<f64>,
-}
-
 /// Writes `dir/index.html`: the verdict, the candidates, the main
 /// channel's residual, the deployment view, where the gap is, every
 /// channel, `extra` (HTML: the physical diagnosis with `--machine`), and
@@ -86,11 +79,7 @@ pub fn write(
     extra: &str,
 ) -> Result<()> {
     let t0 = al.t_s[0];
-    let t_h: Vec<f64> = al.t_s.iter().map(|t| (t - t0) / 3600.0).collect();
-    let ax = Axis {
-        hold_h: t_h.get(n_fit).copied(),
-        t_h,
-    };
+    let ax = TimeAxis::new(&al.t_s, al.t_s.get(n_fit).copied());
     let mut html = String::new();
     let _ = write!(
         html,
@@ -118,7 +107,7 @@ fn candidates_html(
     al: &Aligned,
     main: usize,
     (scored, best_pred): (&[Scored], Option<&[f64]>),
-    ax: &Axis,
+    ax: &TimeAxis,
 ) -> String {
     let mut html = String::from("<h2>How far each candidate shrinks the held-out gap</h2>");
     let bars: Vec<(String, f64)> = scored
@@ -157,7 +146,7 @@ fn candidates_html(
                 (&best.name, pred),
                 ("left", &after),
             ],
-            ax.hold_h,
+            ax.hold_h(),
             300.0,
         ));
     }
@@ -193,14 +182,14 @@ fn where_html(segments: &[Segment], bands: &[Band], t0: f64) -> String {
 
 /// Sim vs real per displacement, and the residual of every displacement
 /// and temperature channel.
-fn channels_html(al: &Aligned, ax: &Axis) -> String {
+fn channels_html(al: &Aligned, ax: &TimeAxis) -> String {
     let mut html = String::from("<h2>Sim vs real</h2>");
     for c in al.channels.each().filter(|c| c.is_displacement()) {
         html.push_str(&line_chart(
             &format!("{} (um)", c.name),
             &ax.t_h,
             &[("sim", &c.sim), ("real", &c.real())],
-            ax.hold_h,
+            ax.hold_h(),
             220.0,
         ));
     }
@@ -211,7 +200,7 @@ fn channels_html(al: &Aligned, ax: &Axis) -> String {
             &format!("{} residual ({unit})", c.name),
             &ax.t_h,
             &[("real - sim", &c.resid)],
-            ax.hold_h,
+            ax.hold_h(),
             160.0,
         ));
     }

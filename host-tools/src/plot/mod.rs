@@ -18,6 +18,36 @@ pub fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
+/// A run's time axis on the charts: hours from its first row, and where
+/// its held-out rows start.
+pub struct TimeAxis {
+    /// Hours from the first row, one per row.
+    pub t_h: Vec<f64>,
+    /// Rows at or after this time (s) are held out; `None` when nothing
+    /// is, or when the time lies outside the run (everything or nothing
+    /// held out: no line to draw).
+    pub hold_s: Option<f64>,
+    t0: f64,
+}
+
+impl TimeAxis {
+    /// The axis of rows at times `t_s`, rows from `hold_from_s` held out.
+    pub fn new(t_s: &[f64], hold_from_s: Option<f64>) -> Self {
+        let t0 = t_s.first().copied().unwrap_or(0.0);
+        let inside = |h: f64| h > t0 && t_s.last().is_some_and(|&l| h <= l);
+        Self {
+            t_h: t_s.iter().map(|t| (t - t0) / 3600.0).collect(),
+            hold_s: hold_from_s.filter(|&h| inside(h)),
+            t0,
+        }
+    }
+
+    /// The hold-out start in hours from the first row (the charts' line).
+    pub fn hold_h(&self) -> Option<f64> {
+        self.hold_s.map(|h| (h - self.t0) / 3600.0)
+    }
+}
+
 /// Margins of a line chart's plot area, px: left, right, top, bottom.
 const MARGINS: (f64, f64, f64, f64) = (70.0, 20.0, 28.0, 32.0);
 
@@ -299,6 +329,23 @@ mod tests {
         let from = el.find(&key).map(|i| i + key.len()).expect("attribute");
         let to = el[from..].find('"').expect("closing quote") + from;
         el[from..to].parse().expect("number")
+    }
+
+    #[test]
+    fn the_hold_out_line_is_drawn_only_inside_the_run() {
+        // A run from t = 1000 s to 8200 s: hours count from its first row.
+        let t_s = [1000.0, 4600.0, 8200.0];
+        let ax = TimeAxis::new(&t_s, Some(4600.0));
+        assert_eq!(ax.t_h, [0.0, 1.0, 2.0]);
+        assert_eq!(ax.hold_h(), Some(1.0));
+        // Held out from the last row: still a line (one row held out).
+        assert_eq!(TimeAxis::new(&t_s, Some(8200.0)).hold_h(), Some(2.0));
+        // At or before the first row (everything held out) or after the
+        // last (nothing): no line.
+        for h in [1000.0, 500.0, 8200.5] {
+            assert_eq!(TimeAxis::new(&t_s, Some(h)).hold_s, None, "{h}");
+        }
+        assert_eq!(TimeAxis::new(&[], Some(1.0)).hold_s, None);
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! each target's cross-validation table as bars (the error every candidate
 //! left, the chosen ones marked) and how its band was calibrated.
 
-use super::{band_chart, bar_chart, esc, line_chart, page};
+use super::{band_chart, bar_chart, esc, line_chart, page, TimeAxis};
 use crate::data::runfile::RunFile;
 use crate::fit::auto::AutoReport;
 use crate::num::stats::coverage_pct;
@@ -140,14 +140,7 @@ fn cv_html(auto: &AutoReport) -> String {
 fn run_html(model: &ValidModel, r: &PageRun, map: &ColumnMap) -> Result<String> {
     let run = r.run;
     let p = runner::predict(model, run, map)?;
-    let t0 = run.t_s.first().copied().unwrap_or(0.0);
-    let axis = Axis {
-        t_h: run.t_s.iter().map(|t| (t - t0) / 3600.0).collect(),
-        hold: r
-            .holdout_from_s
-            .filter(|&h| h > t0 && run.t_s.last().is_some_and(|&l| h <= l)),
-        t0,
-    };
+    let axis = TimeAxis::new(&run.t_s, r.holdout_from_s);
     let mut html = format!(
         "<h2>{} ({})</h2>",
         esc(&run.path.display().to_string()),
@@ -168,20 +161,6 @@ fn run_html(model: &ValidModel, r: &PageRun, map: &ColumnMap) -> Result<String> 
         }
     }
     Ok(html)
-}
-
-/// A run's time axis: hours from its first row, and the hold-out start.
-struct Axis {
-    t_h: Vec<f64>,
-    /// Rows at or after this time (s) are held out.
-    hold: Option<f64>,
-    t0: f64,
-}
-
-impl Axis {
-    fn hold_h(&self) -> Option<f64> {
-        self.hold.map(|h| (h - self.t0) / 3600.0)
-    }
 }
 
 /// One output on one run, row for row (`NaN` where there is no value).
@@ -213,7 +192,7 @@ impl Series {
 
 /// An output's two charts (measured and predicted over the band; the
 /// residual inside the band's half-width) and the band's coverage.
-fn output_html(name: &str, s: &Series, axis: &Axis, t_s: &[f64]) -> String {
+fn output_html(name: &str, s: &Series, axis: &TimeAxis, t_s: &[f64]) -> String {
     let (t_h, hold_h) = (&axis.t_h, axis.hold_h());
     let title = format!("{name}: measured and predicted, um");
     let series = [("measured", &s.y[..]), ("predicted", &s.yhat[..])];
@@ -236,7 +215,7 @@ fn output_html(name: &str, s: &Series, axis: &Axis, t_s: &[f64]) -> String {
         hold_h,
         H,
     ));
-    html.push_str(&coverage_html(name, t_s, &s.resid, half, axis.hold));
+    html.push_str(&coverage_html(name, t_s, &s.resid, half, axis.hold_s));
     html
 }
 
