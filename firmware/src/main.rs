@@ -13,11 +13,12 @@
 //! (`lib.rs`: `board`, `layout`, `hub`) and `model-core`.
 //!
 //! * `app` (target only, `cfg(target_os = "none")`): the RTIC v2 application.
-//!   `init` picks the boot slot (`upload::select_boot_slot` over both slots,
-//!   read through `FlashExt::read`), builds a `Pipeline` without a model in
-//!   its static and loads the slot's blob into it there (`Pipeline::load`:
-//!   the model never passes through the stack, docs/firmware-cost.md
-//!   "Stack"), and sets up USART2, SPI1 with one chip select per MAX31865
+//!   `init` boots (`firmware::boot::boot` over both slots, read through
+//!   `FlashExt::read`): a `Pipeline` without a model built in its static,
+//!   the slots' blobs loaded into it there in the order their commit records
+//!   give until one loads (`Pipeline::load`: the model never passes through
+//!   the stack, docs/firmware-cost.md "Stack"; the slot booted is
+//!   `upload::select_boot_slot`'s), and sets up USART2, SPI1 with one chip select per MAX31865
 //!   (`board::RTD_CS_PINS`), CAN1 and the IWDG.
 //!   - `sample` (priority 2): configures the converters (auto conversion),
 //!     then every `Pipeline::sample_period_ms` from a fixed start reads the

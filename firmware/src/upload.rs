@@ -18,8 +18,9 @@
 //!    the record, with a generation one above any seen. The command task
 //!    swaps that hub in between two samples (`commands`).
 //!
-//! At boot, [`select_boot_slot`] picks the slot whose record and blob are
-//! both valid with the highest generation. A power cut before the record is
+//! At boot, the slot whose record and blob are both valid with the highest
+//! generation boots ([`select_boot_slot`]; `firmware::boot` tries the
+//! slots in [`boot_order`] and keeps the first that loads, the same slot). A power cut before the record is
 //! complete leaves a slot with no valid record (its CRC fails), so the old
 //! model boots; the running slot is never erased or written. A bare blob in
 //! slot A without a record (flashed by a debugger, as before uploads existed)
@@ -171,8 +172,18 @@ impl SlotMap {
 /// boot: needs a valid record whose blob CRC matches a blob that decodes
 /// (exactly as `Hub::load`); a bare valid blob in slot A is generation 0.
 pub fn slot_generation(slot: Slot, bytes: &[u8]) -> Option<u32> {
+    let generation = record_generation(slot, bytes)?;
+    check_split(&[], bytes.get(..blob_len(bytes))?).ok()?;
+    Some(generation)
+}
+
+/// [`slot_generation`] without decoding the blob's body: the blob's frame
+/// is whole (magic, version, length, CRC) and the record names that CRC,
+/// or slot A holds a bare framed blob (generation 0). Whether the body
+/// decodes and validates is left to the load that follows ([`boot_order`]).
+pub fn record_generation(slot: Slot, bytes: &[u8]) -> Option<u32> {
     let blob = bytes.get(..blob_len(bytes))?;
-    check_split(&[], blob).ok()?;
+    check_frame_split(&[], blob).ok()?;
     let stored = blob
         .get(blob.len().checked_sub(TRAILER_LEN)?..)
         .and_then(|b| <[u8; 4]>::try_from(b).ok())
@@ -197,6 +208,22 @@ pub fn select_boot_slot(a: &[u8], b: &[u8]) -> Option<Slot> {
         (None, Some(_)) => Some(Slot::B),
         (None, None) => None,
     }
+}
+
+/// The slots worth loading at boot, by their records alone: the highest
+/// generation first, A on a tie. Loading each in turn and keeping the
+/// first that loads boots exactly [`select_boot_slot`]'s slot, while each
+/// blob is decoded at most once, into the hub's own model (no model on the
+/// stack: `firmware::boot`).
+pub fn boot_order(a: &[u8], b: &[u8]) -> impl Iterator<Item = Slot> {
+    let (ga, gb) = (record_generation(Slot::A, a), record_generation(Slot::B, b));
+    let order = match (ga, gb) {
+        (Some(ga), Some(gb)) if gb > ga => [(Slot::B, true), (Slot::A, true)],
+        _ => [(Slot::A, ga.is_some()), (Slot::B, gb.is_some())],
+    };
+    order
+        .into_iter()
+        .filter_map(|(slot, ok)| ok.then_some(slot))
 }
 
 /// Why an upload step was refused.

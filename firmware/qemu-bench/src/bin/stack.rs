@@ -4,9 +4,9 @@
 //! The firmware library's own code runs here, as the RTIC tasks call it:
 //!
 //! * boot (`init`): `firmware::boot::boot`, the function `init` calls:
-//!   the slot to boot picked (both slots' blobs checked), the pipeline
-//!   built without a model into its static, the slot's model loaded into
-//!   it in place; once with nothing uploaded, then with each kind's model;
+//!   the pipeline built without a model into its static, the slots'
+//!   models loaded into it in place in the order of their commit records
+//!   until one loads; once with nothing uploaded, then with each kind's model;
 //! * the command task (priority 1): `commands::execute` of an upload's
 //!   commit, the costliest command (it decodes the uploaded blob into a
 //!   `Hub` on its stack and swaps it into the pipeline), after its begin
