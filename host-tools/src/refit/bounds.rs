@@ -52,9 +52,8 @@ pub(crate) fn carried(
     let half_width: heapless::Vec<f64, { model_core::model::MAX_OUTPUTS }> = b
         .half_width
         .iter()
-        .zip(tail_quantiles(&probe, data)?)
-        .enumerate()
-        .map(|(k, (&h, q))| if updated.contains(&k) { h.max(q) } else { h })
+        .zip(tail_quantiles(&probe, data, updated)?)
+        .map(|(&h, q)| q.map_or(h, |q| h.max(q)))
         .collect();
     for ((o, was), now) in old.outputs().iter().zip(&b.half_width).zip(&half_width) {
         if now > was {
@@ -82,22 +81,31 @@ fn with_bounds(model: ValidModel, bounds: Bounds) -> Result<ValidModel> {
         .map_err(|e| anyhow!("the updated model's bounds are invalid ({e})"))
 }
 
-/// Per output, the 95 % quantile of `|y - ŷ| / band` on the held-out
-/// tails (0 without a held-out sample): `probe` carries unit half-widths,
-/// so its band is `1 + growth d`.
-fn tail_quantiles(probe: &ValidModel, data: &UpdateData) -> Result<Vec<f64>> {
-    let mut ratios = vec![Vec::new(); probe.outputs().len()];
+/// Per output, for the `updated` ones only (`None` for the others), the
+/// 95 % quantile of `|y - ŷ| / band` on the held-out tails (0 without a
+/// held-out sample): `probe` carries unit half-widths, so its band is
+/// `1 + growth d`.
+fn tail_quantiles(
+    probe: &ValidModel,
+    data: &UpdateData,
+    updated: &[usize],
+) -> Result<Vec<Option<f64>>> {
+    let mut ratios: Vec<Option<Vec<f64>>> = (0..probe.outputs().len())
+        .map(|k| updated.contains(&k).then(Vec::new))
+        .collect();
     for ((run, ys), &start) in data.runs.iter().zip(data.ys).zip(data.split) {
         let p = runner::predict(probe, run, &ColumnMap::default())?;
         for (k, (r, y)) in ratios.iter_mut().zip(ys).enumerate() {
-            r.extend(tail_ratios(&p, k, *y, start..run.len()));
+            if let Some(r) = r {
+                r.extend(tail_ratios(&p, k, *y, start..run.len()));
+            }
         }
     }
     // A few ulps up: the band is rebuilt as `h (1 + growth d)`, which may
     // round below the very error the quantile was taken at.
     Ok(ratios
         .iter()
-        .map(|r| quantile_abs(r, 0.95) * (1.0 + 4.0 * f64::EPSILON))
+        .map(|r| Some(quantile_abs(r.as_ref()?, 0.95) * (1.0 + 4.0 * f64::EPSILON)))
         .collect())
 }
 
