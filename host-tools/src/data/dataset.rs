@@ -408,10 +408,21 @@ impl<'a> Dataset<'a> {
                     .map(|v| v.unwrap_or(0.0))
                     .collect()
             };
-            let split_t = run.t_s.get(run.calib_end).copied().unwrap_or(f64::INFINITY);
+            // Calibration samples: those every column brackets with
+            // calibration rows (no value of a held-out row interpolated in).
+            let calib_t = x
+                .iter()
+                .chain(&y)
+                .map(|c| {
+                    c[..run.calib_end]
+                        .iter()
+                        .rposition(Option::is_some)
+                        .map_or(f64::NEG_INFINITY, |i| run.t_s[i])
+                })
+                .fold(f64::INFINITY, f64::min);
             out.push(GridRun {
                 name: run.name.clone(),
-                calib_end: grid.partition_point(|t| *t < split_t),
+                calib_end: grid.partition_point(|t| *t <= calib_t),
                 x: x.iter().map(fill).collect(),
                 y: y.iter().map(fill).collect(),
                 t_s: grid,
@@ -487,6 +498,39 @@ mod tests {
             t1.runs[0].x_column(0),
             [Some(0.0), Some(1.0), Some(2.0), Some(3.5)]
         );
+    }
+
+    /// The grid's calibration samples never interpolate a held-out row:
+    /// the target is blank from t = 3 to 5 and rows from t = 4.5 are held
+    /// out, so the calibration grid ends at t = 2 (the target's last
+    /// calibration value), whatever the held-out rows hold. Before, it ran
+    /// to t = 5 (the first held-out row), its samples at 3 and 4 drawn
+    /// towards the held-out value.
+    #[test]
+    fn the_grid_s_calibration_samples_never_reach_a_held_out_value() {
+        let grid_of = |held_out_dz: f64| {
+            let csv = format!(
+                "t_s,T1,dz_um\n0,10,0\n1,11,1\n2,12,2\n3,13,\n4,14,\n5,15,{held_out_dz}\n6,16,6\n"
+            );
+            let runs = [run(&csv)];
+            let ds = Dataset::new(
+                &runs,
+                &[],
+                &names(&["T1"]),
+                &names(&["dz_um"]),
+                InputForm::Absolute,
+                Some(4.5),
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            ds.on_grid(1.0).unwrap_or_else(|e| panic!("{e}")).remove(0)
+        };
+        let (a, b) = (grid_of(5.0), grid_of(500.0));
+        assert_eq!(a.t_s, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        assert_eq!(a.calib_end, 3);
+        assert_eq!(a.y[0][..3], b.y[0][..3]);
+        assert_eq!(a.x[0][..3], b.x[0][..3]);
+        // On the rows' own times the samples are the rows' values.
+        assert_eq!(a.y[0][..3], [0.0, 1.0, 2.0]);
     }
 
     #[test]

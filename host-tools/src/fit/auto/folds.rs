@@ -112,28 +112,31 @@ impl Folds {
     }
 }
 
-/// The first block `f >= 1` before which every input has moved (taken
-/// two different values); 1 when some input never moves in the
-/// calibration (it then carries nothing any fold could learn).
+/// The first block `f >= 1` before which every input that moves in the
+/// calibration has moved (taken a value other than its first calibration
+/// sample's). An input that never moves is left out (it carries nothing
+/// any fold could learn, and must not switch the rule off for the
+/// others); 1 when some input first moves only in the last block (no
+/// block's past saw it move: every block but the first is scored).
 fn first_informative(grid: &[GridRun], of: &[Option<usize>], k: usize) -> usize {
     let n_inputs = grid.first().map_or(0, |g| g.x.len());
-    // moved_by[i]: the block in which input i first differs from its first value.
+    // moved_by[i]: the block in which input i first differs from its
+    // first calibration value.
     let mut moved_by = vec![None; n_inputs];
-    let mut row = 0;
-    for g in grid {
-        for s in 0..g.t_s.len() {
-            if let Some(f) = of.get(row).copied().flatten() {
-                for (i, m) in moved_by.iter_mut().enumerate() {
-                    let first = grid[0].x[i][0];
-                    if m.is_none() && g.x[i][s] != first {
-                        *m = Some(f);
-                    }
-                }
+    let mut first: Option<Vec<f64>> = None;
+    let samples = grid
+        .iter()
+        .flat_map(|g| (0..g.t_s.len()).map(move |s| (g, s)));
+    for ((g, s), f) in samples.zip(of) {
+        let Some(f) = *f else { continue };
+        let first = first.get_or_insert_with(|| g.x.iter().map(|c| c[s]).collect());
+        for (i, m) in moved_by.iter_mut().enumerate() {
+            if m.is_none() && g.x[i][s] != first[i] {
+                *m = Some(f);
             }
-            row += 1;
         }
     }
-    let latest = moved_by.iter().map(|m| m.unwrap_or(k)).max().unwrap_or(0);
+    let latest = moved_by.iter().flatten().copied().max().unwrap_or(0);
     if latest >= k - 1 {
         1
     } else {
@@ -180,7 +183,26 @@ mod tests {
         assert!(!f.scored(29) && f.scored(30));
         // Both inputs moving in block 0: every block but the first scored.
         let c: Vec<f64> = (0..60).map(|k| if k < 5 { 1.0 } else { 0.0 }).collect();
-        let f = Folds::of_grid(&[grid(vec![a, c])], 6);
+        let f = Folds::of_grid(&[grid(vec![a.clone(), c])], 6);
         assert_eq!(f.scheme, Scheme::Forward { first: 1 });
+        // A third input that never moves (a coolant held constant) leaves
+        // the rule to the others: still block 3 (it gave 1 before).
+        let b: Vec<f64> = (0..60).map(|k| if k < 25 { 2000.0 } else { 0.0 }).collect();
+        let f = Folds::of_grid(&[grid(vec![a, b, vec![18.0; 60]])], 6);
+        assert_eq!(f.scheme, Scheme::Forward { first: 3 });
+    }
+
+    #[test]
+    fn an_input_moves_against_its_first_calibration_sample() {
+        // Two runs, the first held out whole (calib_end 0, input 0 at 19):
+        // in the calibration run input 0 is 20 and moves to 19 in block 3,
+        // input 1 moves in block 2. Against the held-out run's first value
+        // input 0 would have "moved" in block 0 (first scored block 3).
+        let mut held = grid(vec![vec![19.0; 60], vec![0.0; 60]]);
+        held.calib_end = 0;
+        let a: Vec<f64> = (0..60).map(|k| if k < 35 { 20.0 } else { 19.0 }).collect();
+        let b: Vec<f64> = (0..60).map(|k| if k < 25 { 2000.0 } else { 0.0 }).collect();
+        let f = Folds::of_grid(&[held, grid(vec![a, b])], 6);
+        assert_eq!(f.scheme, Scheme::Forward { first: 4 });
     }
 }

@@ -238,6 +238,12 @@ impl Design {
             let Some(train) = self.train(i) else {
                 continue;
             };
+            // A fold whose training set cannot be solved (one row) is
+            // skipped, as one with no training rows is; a singular system
+            // (no penalty, collinear columns) refuses the candidate.
+            if train.n < 2.0 {
+                continue;
+            }
             let (b0, beta) = solve(&train, idx, lambda, intercept)?;
             per_fold.push((sse_on(f, idx, b0, &beta), f.n));
         }
@@ -269,6 +275,11 @@ impl Design {
     }
 }
 
+/// A column whose standard deviation on a training set is below this
+/// share of its root mean square counts as constant there (rounding leaves
+/// about 1e-8 of it; a temperature's 0.01 K resolution at 30 C is 3e-4).
+const CONSTANT_REL: f64 = 1e-6;
+
 /// Ridge on the standardised columns `idx` of `s`; `(intercept, beta)` in
 /// the scaled units of the sums.
 fn solve(s: &Sums, idx: &[usize], lambda: f64, intercept: bool) -> Option<(f64, DVector<f64>)> {
@@ -281,10 +292,18 @@ fn solve(s: &Sums, idx: &[usize], lambda: f64, intercept: bool) -> Option<(f64, 
     let ybar = if intercept { s.sy / n } else { 0.0 };
     let c = DMatrix::from_fn(m, m, |i, j| s.sxx[(idx[i], idx[j])] - n * mu[i] * mu[j]);
     let r = DVector::from_fn(m, |i, _| s.sxy[idx[i]] - n * mu[i] * ybar);
-    // Standard deviation of each column on this training set; a constant
-    // column (d = 0) gets weight 0.
+    // Standard deviation of each column on this training set; a column
+    // constant there gets weight 0. Constant is judged against the
+    // column's root mean square: `Σx² - n mu²` of a constant column is
+    // rounding error, about sqrt(eps) of its size, and a weight fitted to
+    // it would be noise that swings wherever the column moves.
     let d: Vec<f64> = (0..m).map(|i| (c[(i, i)].max(0.0) / n).sqrt()).collect();
-    let live: Vec<usize> = (0..m).filter(|&i| d[i] > 1e-12).collect();
+    let live: Vec<usize> = (0..m)
+        .filter(|&i| {
+            let rms = (s.sxx[(idx[i], idx[i])].max(0.0) / n).sqrt();
+            d[i] > 1e-12 && d[i] > CONSTANT_REL * rms
+        })
+        .collect();
     let k = live.len();
     let mut a = DMatrix::from_fn(k, k, |p, q| {
         let (i, j) = (live[p], live[q]);
@@ -405,6 +424,60 @@ mod tests {
         }
         let e = sse_on(fold_sums, &[0, 1, 2], c.intercept, &bv);
         assert!((e - sse).abs() < 1e-6 * sse.max(1.0), "{e} vs {sse}");
+    }
+
+    /// A column constant on a training set (a filtered speed held at
+    /// 3000 rpm, squared: ~9e6, with an intercept) gets weight 0 there:
+    /// its `Σx² - n mu²` is rounding error, and a weight fitted to it
+    /// used to be tens of um per unit of the column's spread.
+    #[test]
+    fn a_column_constant_in_training_gets_no_weight() {
+        let n = 2000;
+        let mut rng = SplitMix64::new(3);
+        let t: Vec<f64> = (0..n).map(|_| rng.symmetric()).collect();
+        // Constant in fold 0 (the training set of fold 1), moving in fold 1.
+        let speed: Vec<f64> = (0..n)
+            .map(|r| {
+                if r < n / 2 {
+                    9.0e6
+                } else {
+                    9.0e6 + 1.0e5 * rng.symmetric()
+                }
+            })
+            .collect();
+        let y: Vec<f64> = t.iter().map(|v| 50.0 + 2.0 * v).collect();
+        let folds = Folds {
+            of: (0..n).map(|r| Some(r * 2 / n)).collect(),
+            n: 2,
+            scheme: Scheme::Forward { first: 1 },
+            description: String::new(),
+        };
+        let d = Design::new(&[t, speed], &y, &folds);
+        let c = d.fit(&[0, 1], 1e-6, true, Some(1)).unwrap();
+        assert_eq!(c.beta[1], 0.0, "{:?}", c.beta);
+        assert!((c.beta[0] - 2.0).abs() < 1e-4, "{:?}", c.beta);
+    }
+
+    /// A scored fold with a single training row is skipped, not the end
+    /// of every candidate.
+    #[test]
+    fn a_fold_with_one_training_row_is_skipped() {
+        let n = 41;
+        let x: Vec<f64> = (0..n).map(|r| (r as f64 * 0.37).sin()).collect();
+        let y: Vec<f64> = x.iter().map(|v| 1.0 + 2.0 * v).collect();
+        // Block 0 is one row: fold 1 would train on it alone.
+        let of = (0..n)
+            .map(|r| Some(if r == 0 { 0 } else { 1 + (r - 1) * 2 / (n - 1) }))
+            .collect();
+        let folds = Folds {
+            of,
+            n: 3,
+            scheme: Scheme::Forward { first: 1 },
+            description: String::new(),
+        };
+        let d = Design::new(&[x], &y, &folds);
+        let cv = d.cv(&[0], 1e-6, true).expect("fold 2 still scores");
+        assert!(cv.mse < 1e-8, "{}", cv.mse);
     }
 
     #[test]
