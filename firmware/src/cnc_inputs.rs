@@ -50,7 +50,7 @@ use crate::can_frames::DecodeError;
 use crate::can_rx::{decode_rx, RxMessage};
 use crate::hub::Hub;
 use crate::offsets::MAX_INPUTS;
-use crate::pipeline::Reading;
+use crate::pipeline::{ChannelFault, Reading};
 
 /// Model input name of the spindle speed (a run-file column, CONTRACT section 2).
 pub const SPEED_INPUT: &str = "speed_rpm";
@@ -81,6 +81,19 @@ impl CncInput {
             Some(Self::Power)
         } else {
             None
+        }
+    }
+
+    /// The largest magnitude a value of this input has on a machine tool;
+    /// beyond it (the encoder's saturated code, a wrong scale on the CNC's
+    /// side) the value is a sensor fault, not a reading: 200,000 rpm (the
+    /// fastest micro-machining spindles run at 150,000), 300 kW (the DBC
+    /// encodes up to 327.66), 100 m of travel.
+    pub const fn limit(self) -> f64 {
+        match self {
+            Self::Speed => 200_000.0,
+            Self::Power => 300.0,
+            Self::Position => 100_000.0,
         }
     }
 
@@ -162,11 +175,19 @@ impl CncInputs {
     }
 
     /// `input` at `now_ms`: its last value if it arrived at most
-    /// `timeout_ms` ago, else [`Reading::Stale`]. Whether the value is
-    /// finite and in range is the pipeline's check.
+    /// `timeout_ms` ago, else [`Reading::Stale`]; a value beyond the
+    /// input's [`CncInput::limit`] is a fault ([`ChannelFault::OutOfRange`]:
+    /// held, flagged, ramped as a failed sensor). Frames decode to finite
+    /// values.
     pub fn reading(&self, input: CncInput, now_ms: u32) -> Reading {
         match self.values.get(input.index()).copied().flatten() {
-            Some(s) if now_ms.wrapping_sub(s.at_ms) <= self.timeout_ms => Reading::Direct(s.value),
+            Some(s) if age_ms(now_ms, s.at_ms) <= self.timeout_ms => {
+                if s.value.abs() <= input.limit() {
+                    Reading::Direct(s.value)
+                } else {
+                    Reading::Fault(ChannelFault::OutOfRange)
+                }
+            }
             _ => Reading::Stale,
         }
     }
@@ -176,10 +197,24 @@ impl CncInputs {
     /// days); the sampling task calls it every sample.
     pub fn expire(&mut self, now_ms: u32) {
         for slot in &mut self.values {
-            if slot.is_some_and(|s| now_ms.wrapping_sub(s.at_ms) > self.timeout_ms) {
+            if slot.is_some_and(|s| age_ms(now_ms, s.at_ms) > self.timeout_ms) {
                 *slot = None;
             }
         }
+    }
+}
+
+/// How long ago `at_ms` was at `now_ms` on the wrapping millisecond
+/// clock. A stamp up to half the clock's range *after* `now_ms` is 0 ms
+/// old: the receive interrupt can stamp a frame between the sampling
+/// task's clock read and its lock on the values, and such a frame is new,
+/// not 49.7 days old.
+fn age_ms(now_ms: u32, at_ms: u32) -> u32 {
+    let age = now_ms.wrapping_sub(at_ms);
+    if age > u32::MAX / 2 {
+        0
+    } else {
+        age
     }
 }
 
@@ -282,6 +317,43 @@ mod tests {
         let f = RawFrame::new(embedded_can::StandardId::new(0x181).unwrap(), &[0; 8]).unwrap();
         assert_eq!(cnc.on_frame(&f, 3_500), Err(DecodeError::UnknownId));
         assert_eq!(cnc, before);
+    }
+
+    /// The encoder's saturated codes and other values no machine has are
+    /// faults, not readings; the largest plausible ones pass.
+    #[test]
+    fn a_value_beyond_the_input_s_limit_is_a_fault() {
+        let mut cnc = CncInputs::new(5_000);
+        cnc.on_frame(&spindle(Some(21_474_836.46), Some(327.66)), 0)
+            .unwrap();
+        let fault = Reading::Fault(ChannelFault::OutOfRange);
+        assert_eq!(cnc.reading(CncInput::Speed, 0), fault);
+        assert_eq!(cnc.reading(CncInput::Power, 0), fault);
+        cnc.on_frame(&spindle(Some(-200_000.0), Some(300.0)), 0)
+            .unwrap();
+        assert_eq!(cnc.reading(CncInput::Speed, 0), Reading::Direct(-200_000.0));
+        assert_eq!(cnc.reading(CncInput::Power, 0), Reading::Direct(300.0));
+        cnc.on_frame(&tool(None, Some(-100_000.5)), 0).unwrap();
+        assert_eq!(cnc.reading(CncInput::Position, 0), fault);
+    }
+
+    /// A frame the receive interrupt stamped 1 ms after the clock the
+    /// sampling task read (between its read and its lock) is fresh: it
+    /// used to count as 2^32 - 1 ms old and be forgotten.
+    #[test]
+    fn a_frame_stamped_just_after_the_sample_s_clock_is_fresh() {
+        let mut cnc = CncInputs::new(5_000);
+        cnc.on_frame(&spindle(Some(7_000.0), None), 10_001).unwrap();
+        cnc.expire(10_000);
+        assert_eq!(
+            cnc.reading(CncInput::Speed, 10_000),
+            Reading::Direct(7_000.0)
+        );
+        assert_eq!(
+            cnc.reading(CncInput::Speed, 15_001),
+            Reading::Direct(7_000.0)
+        );
+        assert_eq!(cnc.reading(CncInput::Speed, 15_002), Reading::Stale);
     }
 
     #[test]

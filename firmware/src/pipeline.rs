@@ -444,6 +444,11 @@ pub struct Pipeline {
     deps: [u32; MAX_OUTPUTS],
     /// The offsets last reported, um (zero past the model's output count).
     offsets_um: [f64; MAX_OUTPUTS],
+    /// Samples each CNC input has been lost in a row (0: read good).
+    outage: [u32; MAX_INPUTS],
+    /// Samples each output still waits after a CNC input it remembers came
+    /// back ([`settle_samples`]).
+    settle: [u32; MAX_OUTPUTS],
     seq: u32,
     uploading: bool,
 }
@@ -480,6 +485,8 @@ impl Pipeline {
             tool_mm: None,
             supervisors: [Supervisor::NEW; MAX_OUTPUTS],
             offsets_um: [0.0; MAX_OUTPUTS],
+            outage: [0; MAX_INPUTS],
+            settle: [0; MAX_OUTPUTS],
             seq: 0,
             uploading: false,
         }
@@ -601,6 +608,9 @@ impl Pipeline {
         self.offsets_um = offsets_um;
         self.spike = spike;
         self.plausible = plausible;
+        // The new model's state starts afresh: nothing to wait for.
+        self.outage = [0; MAX_INPUTS];
+        self.settle = [0; MAX_OUTPUTS];
         core::mem::swap(&mut self.hub, hub);
         self.follow_hub();
         Ok(())
@@ -620,6 +630,8 @@ impl Pipeline {
         self.offsets_um = [0.0; MAX_OUTPUTS];
         self.spike = [SpikeState::NEW; MAX_INPUTS];
         self.plausible = [PlausibleState::NEW; MAX_INPUTS];
+        self.outage = [0; MAX_INPUTS];
+        self.settle = [0; MAX_OUTPUTS];
         self.follow_hub();
     }
 
@@ -688,10 +700,14 @@ impl Pipeline {
             .enumerate()
             .filter(|(_, p)| p.moving())
             .fold(0u32, |m, (j, _)| m | bit(j));
-        for (j, ((x, state), plaus)) in inputs
+        // Per CNC input back this sample after an outage in which its
+        // value moved: how many samples it was lost.
+        let mut lost = [0u32; MAX_INPUTS];
+        for (j, (((x, state), plaus), outage)) in inputs
             .iter_mut()
             .zip(self.spike.iter_mut())
             .zip(self.plausible.iter_mut())
+            .zip(self.outage.iter_mut())
             .take(n_in)
             .enumerate()
         {
@@ -728,6 +744,9 @@ impl Pipeline {
                     }
                 }
                 Reading::Direct(v) if v.is_finite() && v.abs() <= MAX_INPUT_MAGNITUDE => {
+                    if *outage > 0 && state.last().is_some_and(|u| moved(u, v)) {
+                        lost[j] = *outage;
+                    }
                     state.pass(v);
                     *x = v;
                     true
@@ -746,7 +765,11 @@ impl Pipeline {
             if !good {
                 faulty |= bit(j);
             }
+            if matches!(reading, Reading::Direct(_) | Reading::Stale) {
+                *outage = if good { 0 } else { outage.saturating_add(1) };
+            }
         }
+        settle_after_outages(&mut self.settle, &self.deps, model, &lost, self.timing.dt_s);
 
         // 2. Step the model on a fully good sample, or, once it has run,
         //    with the last good value standing in for each faulty input
@@ -786,6 +809,26 @@ impl Pipeline {
         } else {
             affected
         };
+        // An output still settling after a CNC input came back is held as
+        // one whose input is recovering.
+        let settling = self
+            .settle
+            .iter_mut()
+            .take(n_out)
+            .enumerate()
+            .fold(0u8, |m, (k, left)| {
+                let on = *left > 0;
+                *left = left.saturating_sub(1);
+                if on {
+                    m | bit8(k)
+                } else {
+                    m
+                }
+            });
+        if settling != 0 {
+            flags.set(StatusFlags::RECOVERING);
+        }
+        let affected = affected | settling;
 
         // 3. Per output: follow, hold or ramp (a failed input proving
         //    itself ramps). An output is good when the model ran and it
@@ -845,6 +888,61 @@ impl Pipeline {
             state: worst.hub_state(ramped_to_zero),
             flags,
             faulty_channels: faulty,
+        }
+    }
+}
+
+/// What a stand-in may leave in an output's state, as a share of the
+/// input's full effect, when the output follows again: 5 %.
+pub const SETTLE_SHARE: f64 = 0.05;
+
+/// Whether a CNC input came back at another value than the one that stood
+/// in for it (then it moved while it was lost; relative 1e-6, so 0 rpm
+/// before and after a night with the CNC off is no move).
+fn moved(before: f64, after: f64) -> bool {
+    libm::fabs(after - before) > 1e-6 * libm::fabs(before).max(libm::fabs(after))
+}
+
+/// Samples an output waits after an input it remembers for `tau_s`
+/// ([`model_core::ValidModel::memory_s`]) comes back from `lost_s` in
+/// which its last good value stood in. Through a first-order memory the
+/// stand-in leaves at most `min(lost / tau, 1)` of the input's full
+/// effect in the state, decaying as `exp(-t / tau)` once the true value
+/// is read again: the wait is until that is below [`SETTLE_SHARE`]. A
+/// static path (`tau_s` 0) and a short loss wait nothing; a loss of one
+/// time constant or more waits `tau ln 20`, three time constants.
+pub fn settle_samples(lost_s: f64, tau_s: f64, dt_s: f64) -> u32 {
+    if !(tau_s > 0.0 && dt_s > 0.0) {
+        return 0;
+    }
+    let share = (lost_s / tau_s).min(1.0);
+    if share <= SETTLE_SHARE {
+        return 0;
+    }
+    let samples = libm::ceil(tau_s * libm::log(share / SETTLE_SHARE) / dt_s);
+    if samples >= f64::from(u32::MAX) {
+        u32::MAX
+    } else {
+        samples as u32
+    }
+}
+
+/// Each output reading an input that came back after `lost[j]` samples
+/// (0: none) waits [`settle_samples`] more, on top of what it still waits.
+fn settle_after_outages(
+    settle: &mut [u32; MAX_OUTPUTS],
+    deps: &[u32; MAX_OUTPUTS],
+    model: &model_core::ValidModel,
+    lost: &[u32; MAX_INPUTS],
+    dt_s: f64,
+) {
+    for (j, &n) in lost.iter().enumerate().filter(|(_, n)| **n > 0) {
+        let lost_s = f64::from(n) * dt_s;
+        for (k, (left, d)) in settle.iter_mut().zip(deps).enumerate() {
+            if d & bit(j) != 0 {
+                let wait = settle_samples(lost_s, model.memory_s(k, j), dt_s);
+                *left = (*left).max(wait);
+            }
         }
     }
 }
@@ -967,6 +1065,94 @@ mod tests {
         assert_eq!(r.state, HubState::Running);
         assert!(r.flags.has(StatusFlags::SLEW_LIMITED));
         assert!((r.offsets[0] - 4.0).abs() < 1e-12, "{r:?}");
+    }
+
+    /// dx = T1 - 20 (static), dz = 1e-3 x speed_rpm through a 600 s
+    /// low-pass (the speed's memory), at 1 s samples.
+    fn speed_bank() -> ValidModel {
+        use model_core::fbank::{FbOutput, Feature, FilterBank};
+        let feature = |input, tau_s| Feature {
+            input,
+            power: 1,
+            tau_s,
+        };
+        Model {
+            inputs: vec(&[
+                Channel {
+                    name: name("T1"),
+                    reference: Reference::Value(20.0),
+                },
+                Channel {
+                    name: name(crate::cnc_inputs::SPEED_INPUT),
+                    reference: Reference::Absolute,
+                },
+            ]),
+            outputs: vec(&[name("dx_um"), name("dz_um")]),
+            dt_s: 1.0,
+            params: Params::Fbank(FilterBank {
+                features: vec(&[feature(0, 0.0), feature(1, 600.0)]),
+                outputs: vec(&[
+                    FbOutput {
+                        output: 0,
+                        intercept: 0.0,
+                        coef: vec(&[1.0, 0.0]),
+                    },
+                    FbOutput {
+                        output: 1,
+                        intercept: 0.0,
+                        coef: vec(&[0.0, 1e-3]),
+                    },
+                ]),
+            }),
+            bounds: None,
+            five_point: None,
+        }
+        .validate()
+        .unwrap()
+    }
+
+    /// Runs the speed bank: 3000 s at 12,000 rpm, the speed lost for
+    /// `lost` samples (its last value standing in for dx's sake), then
+    /// back at `back` rpm; the samples after its return until dz follows
+    /// the model again.
+    fn dz_follows_after(lost: u32, back: f64) -> u32 {
+        let mut p = Pipeline::new(hub(&speed_bank()), PipelineConfig::DEFAULT).unwrap();
+        let t1 = Reading::Value(20.0);
+        for _ in 0..3000 {
+            p.on_sample(&[t1, Reading::Direct(12_000.0)]);
+        }
+        for _ in 0..lost {
+            let r = p.on_sample(&[t1, Reading::Stale]);
+            assert_eq!(r.faulty_channels, 0b10);
+        }
+        for k in 0..20_000 {
+            let r = p.on_sample(&[t1, Reading::Direct(back)]);
+            if r.state == HubState::Running {
+                return k;
+            }
+            assert!(r.flags.has(StatusFlags::RECOVERING), "{k}: {r:?}");
+        }
+        panic!("dz never followed again");
+    }
+
+    /// A CNC input lost long enough that its stand-in may have left a
+    /// wrong state behind (20 min of a 10 min memory, the speed changed):
+    /// dz waits 600 ln 20 = 1798 s, then the usual recovery (dz follows on
+    /// its 10th good sample, the 9th after the first). Back at the value
+    /// that stood in: only the recovery. Lost for 60 s: 600 ln 2 = 416 s.
+    /// Lost for less than 5 % of the memory (29 s, also within the hold
+    /// time, so dz never ramped): it follows at once.
+    #[test]
+    fn an_output_waits_out_what_a_lost_cnc_input_may_have_left_in_its_state() {
+        assert_eq!(settle_samples(1200.0, 600.0, 1.0), 1798);
+        assert_eq!(settle_samples(29.0, 600.0, 1.0), 0);
+        assert_eq!(settle_samples(60.0, 600.0, 1.0), 416, "600 ln 2");
+        assert_eq!(settle_samples(1e9, 0.0, 1.0), 0, "a static path");
+        let recovered = 9;
+        assert_eq!(dz_follows_after(1200, 0.0), 1798 + recovered);
+        assert_eq!(dz_follows_after(1200, 12_000.0), recovered);
+        assert_eq!(dz_follows_after(60, 0.0), 416 + recovered);
+        assert_eq!(dz_follows_after(29, 0.0), 0);
     }
 
     #[test]

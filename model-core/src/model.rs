@@ -16,7 +16,7 @@
 
 use crate::arma::{Arma, ArmaState};
 use crate::bp::BpNet;
-use crate::fbank::{FilterBank, MAX_FB_FEATURES};
+use crate::fbank::{FilterBank, HOLD_TAU_S, MAX_FB_FEATURES};
 use crate::fivepoint::{FivePoint, TipMap};
 use crate::linear::Linear;
 use crate::pcr::Pcr;
@@ -647,6 +647,43 @@ impl ValidModel {
             }
             _ => &[],
         }
+    }
+
+    /// How long `output` remembers `input`, s: the slowest time constant
+    /// on a path from the input to the output (a filter-bank feature with
+    /// a weight on it, a TF entry's slowest pole); 0 for a static path
+    /// (linear, PCR, BP, an unfiltered feature) or none. The filter bank's
+    /// hold of the run's first sample does not count: it never follows the
+    /// input. An ARMA model reads its own series, not a machine input: 0.
+    /// What a wrong stretch of `input` (a stand-in while it was lost)
+    /// leaves in `output`'s state decays with this time constant.
+    pub fn memory_s(&self, output: usize, input: usize) -> f64 {
+        let mut tau: f64 = 0.0;
+        match &self.model.params {
+            Params::Fbank(bank) => {
+                let Some(out) = bank
+                    .outputs
+                    .iter()
+                    .find(|o| usize::from(o.output) == output)
+                else {
+                    return 0.0;
+                };
+                for (f, w) in bank.features.iter().zip(&out.coef) {
+                    if usize::from(f.input) == input && *w != 0.0 && f.tau_s < HOLD_TAU_S {
+                        tau = tau.max(f.tau_s);
+                    }
+                }
+            }
+            Params::Tf(entries) => {
+                for (e, r) in entries.iter().zip(self.realised_tfs()) {
+                    if usize::from(e.output) == output && usize::from(e.input) == input {
+                        tau = tau.max(r.time_constant_s(self.model.dt_s));
+                    }
+                }
+            }
+            Params::Linear(_) | Params::Pcr(_) | Params::Bp(_) | Params::Arma(_) => {}
+        }
+        tau
     }
 
     /// The calibration bounds, if the model carries them.

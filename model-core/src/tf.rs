@@ -120,6 +120,8 @@ pub struct RealisedTf {
     n_den: usize,
     /// Number of `(1 - q)`-type factors cancelled at build time.
     cancelled: u8,
+    /// The largest pole modulus (0 without poles), < 1.
+    radius: f64,
 }
 
 impl RealisedTf {
@@ -151,6 +153,7 @@ impl RealisedTf {
             n_num: a.len(),
             n_den: b.len(),
             cancelled: 0,
+            radius: 0.0,
         };
         tf.cancel_real_unit_roots();
         tf.check_poles()?;
@@ -238,10 +241,21 @@ impl RealisedTf {
                 break;
             }
             if !cancelled_pair {
+                self.radius = poles.as_slice().iter().map(|p| p.abs()).fold(0.0, f64::max);
                 return Ok(());
             }
         }
         Err(TfError::RootsNotFound)
+    }
+
+    /// The time constant of the slowest pole at sample time `dt_s`, s
+    /// (`-dt / ln r` of the largest pole modulus `r`; 0 without poles or
+    /// with `dt_s` 0): how long the TF remembers its input.
+    pub fn time_constant_s(&self, dt_s: f64) -> f64 {
+        if self.radius <= 0.0 || dt_s <= 0.0 {
+            return 0.0;
+        }
+        -dt_s / libm::log(self.radius)
     }
 
     /// Steady-state gain `sum(num) / sum(den)` (output units per input unit),

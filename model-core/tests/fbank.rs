@@ -379,3 +379,78 @@ fn wide_bank_settles_on_its_dc_gain() {
     assert!(vm.step(&mut state, &[f64::NAN; 32], &mut y).is_err());
     assert_eq!(state, before);
 }
+
+/// How long an output remembers an input: the slowest weighted filter of
+/// that input (not the hold of the run's first sample, not a filter with
+/// zero weight), a TF entry's slowest pole, nothing on a static path.
+#[test]
+fn memory_is_the_slowest_weighted_time_constant_from_the_input() {
+    use model_core::fbank::HOLD_TAU_S;
+    let dt_s = 30.0;
+    let fb = Model {
+        inputs: hv(&[
+            chan("T1", Reference::First),
+            chan("speed_rpm", Reference::Absolute),
+        ]),
+        outputs: outputs(&["dx_um", "dz_um"]),
+        dt_s,
+        params: Params::Fbank(FilterBank {
+            features: hv(&[
+                feature(0, 1, 0.0),
+                feature(0, 1, 900.0),
+                feature(0, 1, HOLD_TAU_S),
+                feature(1, 2, 2700.0),
+                feature(1, 1, 8100.0),
+            ]),
+            outputs: hv(&[
+                FbOutput {
+                    output: 0,
+                    intercept: 0.0,
+                    coef: hv(&[1.0, 0.5, -1.0, 0.0, 0.0]),
+                },
+                FbOutput {
+                    output: 1,
+                    intercept: 0.0,
+                    coef: hv(&[0.0, 0.0, 0.0, 1e-7, 2e-3]),
+                },
+            ]),
+        }),
+        bounds: None,
+        five_point: None,
+    }
+    .validate()
+    .unwrap();
+    assert_eq!(fb.memory_s(0, 0), 900.0);
+    assert_eq!(
+        fb.memory_s(0, 1),
+        0.0,
+        "zero weights: dx does not read speed"
+    );
+    assert_eq!(fb.memory_s(1, 1), 8100.0);
+    assert_eq!(fb.memory_s(1, 0), 0.0);
+    assert_eq!(fb.memory_s(2, 0), 0.0, "no such output");
+    // A TF bank: dz from T1 through poles 0.9 and 0.95, so -30 / ln 0.95 s.
+    let tf = Model {
+        outputs: outputs(&["dz_um"]),
+        params: Params::Tf(hv(&[TfEntry {
+            output: 0,
+            input: 0,
+            a: hv(&[1.0]),
+            b: hv(&[1.0, -1.85, 0.855]),
+        }])),
+        ..fb.model().clone()
+    }
+    .validate()
+    .unwrap();
+    // The roots come from an iteration: 1e-6 relative.
+    let expect = -dt_s / 0.95f64.ln();
+    assert!(
+        (tf.memory_s(0, 0) - expect).abs() < 1e-6 * expect,
+        "{}",
+        tf.memory_s(0, 0)
+    );
+    assert_eq!(tf.memory_s(0, 1), 0.0);
+    // A static model remembers nothing.
+    let lin = common::linear_seed002().validate().unwrap();
+    assert_eq!(lin.memory_s(0, 0), 0.0);
+}
