@@ -650,7 +650,9 @@ pub fn refit(b: &Bench, w: &Candidate) -> Result<Refit> {
         w.family,
         &cut_dataset(b.grid, x, &cuts, b.ds, &w.inputs, w.form),
     )?;
-    let d = cv_extrapolation(x, b.folds, &w.inputs);
+    // The family's blob reads exactly these inputs in this form.
+    let columns: Vec<(&[Vec<Vec<f64>>], usize)> = w.inputs.iter().map(|&i| (x, i)).collect();
+    let d = cv_extrapolation(&columns, b.folds);
     let residuals: Vec<Vec<f64>> = w
         .residuals
         .iter()

@@ -291,55 +291,53 @@ impl AutoReport {
     }
 }
 
-/// Dataset inputs the members read.
-fn used_inputs(members: &[Member]) -> Vec<usize> {
-    let mut used: Vec<usize> = members
-        .iter()
-        .flat_map(|m| m.features.iter().map(|f| f.input))
-        .collect();
-    used.sort_unstable();
-    used.dedup();
-    used
-}
-
 /// For each scored calibration sample (`Folds::scored`, grid order), how
-/// far its inputs `used` lie outside the envelope of the calibration
-/// samples its fold's model was fitted on, in envelope widths (model-core
-/// `Span::outside`, the hub's measure).
-fn cv_extrapolation(x: &[Vec<Vec<f64>>], folds: &Folds, used: &[usize]) -> Vec<f64> {
-    let rows = || {
-        x.iter()
-            .flat_map(|run| (0..run[0].len()).map(move |k| (run, k)))
+/// far it lies outside the envelope of the calibration samples its fold's
+/// model was fitted on, in envelope widths: the largest over `columns`
+/// (each a form's inputs `x[run][input][k]` and an input), as the hub
+/// takes the largest over the blob's channels (model-core
+/// `ValidModel::extrapolation`, `Span::outside`).
+fn cv_extrapolation(columns: &[(&[Vec<Vec<f64>>], usize)], folds: &Folds) -> Vec<f64> {
+    let Some((x0, _)) = columns.first() else {
+        return vec![0.0; (0..folds.of.len()).filter(|&k| folds.scored(k)).count()];
     };
+    let samples = || {
+        x0.iter()
+            .enumerate()
+            .flat_map(|(r, run)| (0..run[0].len()).map(move |k| (r, k)))
+    };
+    let value = |(x, i): &(&[Vec<Vec<f64>>], usize), (r, k): (usize, usize)| x[r][*i][k];
     let empty = Span {
         min: f64::INFINITY,
         max: f64::NEG_INFINITY,
     };
-    // env[f][j]: span of input used[j] over the samples fold f trains on.
-    let mut env = vec![vec![empty; used.len()]; folds.n];
-    for ((run, k), g) in rows().zip(&folds.of) {
+    // env[f][j]: span of column j over the samples fold f trains on.
+    let mut env = vec![vec![empty; columns.len()]; folds.n];
+    for (at, g) in samples().zip(&folds.of) {
         let Some(g) = *g else { continue };
         for (f, e) in env.iter_mut().enumerate() {
             if !folds.scheme.trains_on(f, g) {
                 continue;
             }
-            for (j, &i) in used.iter().enumerate() {
-                e[j].min = e[j].min.min(run[i][k]);
-                e[j].max = e[j].max.max(run[i][k]);
+            for (span, c) in e.iter_mut().zip(columns) {
+                let v = value(c, at);
+                span.min = span.min.min(v);
+                span.max = span.max.max(v);
             }
         }
     }
-    rows()
+    samples()
         .zip(&folds.of)
         .enumerate()
         .filter(|(k, _)| folds.scored(*k))
-        .map(|(_, ((run, k), f))| {
+        .map(|(_, (at, f))| {
             let e = f.and_then(|f| env.get(f));
             e.map_or(0.0, |e| {
-                used.iter()
+                columns
+                    .iter()
                     .zip(e)
                     .filter(|(_, s)| s.min <= s.max)
-                    .map(|(&i, s)| s.outside(run[i][k]))
+                    .map(|(c, s)| s.outside(value(c, at)))
                     .fold(0.0, f64::max)
             })
         })
@@ -417,20 +415,28 @@ fn ridge_targets(
     }
     let winners: Vec<&[Member]> = found.iter().map(|f| f.members.as_slice()).collect();
     let layout = Layout::of(roles, &winners)?;
+    // The blob's channels, each in the form of its envelope: the hub's
+    // extrapolation measure, which every target's band grows with.
+    let columns: Vec<(&[Vec<Vec<f64>>], usize)> = layout
+        .channels
+        .iter()
+        .map(|c| {
+            let x = forms
+                .iter()
+                .find(|f| f.form == c.form)
+                .expect("both forms")
+                .x;
+            (x, c.input)
+        })
+        .collect();
+    let d = cv_extrapolation(&columns, folds);
     let mut out = RidgeFit {
         choices: Vec::new(),
         residuals: Vec::new(),
         layout,
     };
     for (target, found) in ds.targets.iter().zip(found) {
-        let choice = target_choice(
-            target,
-            found.table,
-            &found.cv_residuals,
-            &found.members,
-            forms,
-            folds,
-        );
+        let choice = target_choice(target, found.table, &found.cv_residuals, &found.members, &d);
         out.choices.push(choice);
         out.residuals.push(found.cv_residuals);
     }
@@ -443,15 +449,11 @@ fn target_choice(
     cv_table: Vec<CvRow>,
     cv_residuals: &[Option<f64>],
     members: &[Member],
-    forms: &[FormData],
-    folds: &Folds,
+    d: &[f64],
 ) -> TargetChoice {
-    let form = members[0].form;
-    let x = forms.iter().find(|f| f.form == form).expect("both forms").x;
-    let d = cv_extrapolation(x, folds, &used_inputs(members));
     let (r, d): (Vec<f64>, Vec<f64>) = cv_residuals
         .iter()
-        .zip(d)
+        .zip(d.iter().copied())
         .filter_map(|(r, d)| Some(((*r)?, d)))
         .unzip();
     let band = Band::calibrate(&r, &d);
@@ -667,6 +669,40 @@ mod tests {
         assert_eq!(b.growth, 1.0);
         assert_eq!(b.extrapolating_samples, 0);
         assert!(!b.growth_measured());
+    }
+
+    /// The extrapolation the band grows with is the hub's: the largest
+    /// over the blob's channels, each in its envelope's form. Two runs
+    /// (leave one run out), one input logged at 20 then 25 C, its change
+    /// from each run's first sample 0..1 in both: as a change the second
+    /// run lies inside the first's envelope, as logged 4 widths above it.
+    #[test]
+    fn the_cv_extrapolation_is_the_largest_over_the_blob_s_channels() {
+        let logged: Vec<Vec<Vec<f64>>> = vec![
+            vec![(0..4).map(|k| 20.0 + f64::from(k) / 3.0).collect()],
+            vec![(0..4).map(|k| 25.0 + f64::from(k) / 3.0).collect()],
+        ];
+        let change: Vec<Vec<Vec<f64>>> = logged
+            .iter()
+            .map(|run| {
+                run.iter()
+                    .map(|c| c.iter().map(|v| v - c[0]).collect())
+                    .collect()
+            })
+            .collect();
+        let folds = Folds {
+            of: (0..8).map(|k| Some(k / 4)).collect(),
+            n: 2,
+            scheme: folds::Scheme::LeaveOut,
+            description: String::new(),
+        };
+        let d = |cols: &[(&[Vec<Vec<f64>>], usize)]| cv_extrapolation(cols, &folds);
+        assert_eq!(d(&[(&change, 0)]), [0.0; 8]);
+        let both = d(&[(&change, 0), (&logged, 0)]);
+        // Run 2's first sample, 25 C, is 4 widths (of 1 K) above 20..21 C.
+        assert!((both[4] - 4.0).abs() < 1e-12, "{both:?}");
+        assert_eq!(both, d(&[(&logged, 0)]));
+        assert_eq!(d(&[]), [0.0; 8]);
     }
 
     #[test]
