@@ -199,7 +199,7 @@ impl Node {
         } = self;
         let mut event = None;
         let resp = sdo.on_request(data, od, |od, pos, raw| {
-            let index = OBJECTS.get(pos).map_or(0, |o| o.index);
+            let (index, sub) = OBJECTS.get(pos).map_or((0, 0), |o| (o.index, o.sub));
             match index {
                 od::STORE if raw == od::SAVE_SIGNATURE => {
                     event = Some(Event::Store(Settings::from_od(od)));
@@ -223,7 +223,7 @@ impl Node {
             if index == od::HEARTBEAT_TIME {
                 heartbeat.set_period(raw as u16);
             }
-            if let Some(msg) = pdo::cnc_message(od, index) {
+            if let Some(msg) = pdo::cnc_message_sub(od, index, sub) {
                 event = Some(Event::Input(msg));
             }
             Ok(())

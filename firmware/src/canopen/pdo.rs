@@ -209,3 +209,27 @@ pub fn cnc_message(od: &Dictionary, index: u16) -> Option<RxMessage> {
         _ => None,
     }
 }
+
+/// [`cnc_message`] with the signal of subindex `sub` only (the other "not
+/// available"): an SDO write delivers what it wrote, and never re-delivers
+/// the record's other signal as if it had just arrived (an old axis
+/// position, refreshed by a tool-length write).
+pub fn cnc_message_sub(od: &Dictionary, index: u16, sub: u8) -> Option<RxMessage> {
+    let mut msg = cnc_message(od, index)?;
+    let keep = |v: &mut Option<f64>, own: u8| {
+        if sub != own {
+            *v = None;
+        }
+    };
+    match &mut msg {
+        RxMessage::Spindle(m) => {
+            keep(&mut m.speed_rpm, 1);
+            keep(&mut m.power_kw, 2);
+        }
+        RxMessage::ToolPosition(m) => {
+            keep(&mut m.tool_mm, 1);
+            keep(&mut m.position_mm, 2);
+        }
+    }
+    Some(msg)
+}

@@ -309,7 +309,22 @@ fn settings_over_sdo_checked_and_stored() {
         &[0x23, 0x11, 0x10, 0x01, b'l', b'o', b'a', b'd'],
     );
     assert_eq!(r.event, Some(Event::Store(Settings::DEFAULT)));
-    // The tool length by SDO: the same input as RPDO2.
+    // An axis position by RPDO2 (tool length "not available")...
+    let r = send(
+        &mut n,
+        0x301,
+        &[0xFF, 0xFF, 0xFF, 0x7F, 0xE8, 0x03, 0x00, 0x00],
+    );
+    assert_eq!(
+        r.event,
+        Some(Event::Input(RxMessage::ToolPosition(ToolPosition {
+            tool_mm: None,
+            position_mm: Some(1.0),
+        })))
+    );
+    // ...then the tool length by SDO: the same input as RPDO2, delivered
+    // alone (the position the dictionary still holds is not re-delivered
+    // as if it had just arrived).
     let r = send(
         &mut n,
         0x601,
