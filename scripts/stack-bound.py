@@ -36,6 +36,7 @@ usage: scripts/stack-bound.py ELF [--budget BYTES] [--json]
 Fails (exit 1) on a cycle, an unknown instruction touching sp, or a bound
 above --budget (default 65536, docs/design-card.md).
 """
+import argparse
 import json
 import os
 import re
@@ -267,17 +268,12 @@ def steps(path, frame, funcs, reach_bytes):
 
 
 def main():
-    args = sys.argv[1:]
-    budget = 65536
-    if "--budget" in args:
-        i = args.index("--budget")
-        budget = int(args[i + 1])
-        del args[i:i + 2]
-    as_json = "--json" in args
-    args = [a for a in args if a != "--json"]
-    if len(args) != 1:
-        sys.exit(__doc__)
-    elf = args[0]
+    ap = argparse.ArgumentParser(description="Static bound on the hub's stack.")
+    ap.add_argument("elf", help="the firmware ELF (scripts/firmware-size.sh builds it)")
+    ap.add_argument("--budget", type=int, default=65536, help="bytes (docs/design-card.md)")
+    ap.add_argument("--json", action="store_true", help="the report as JSON")
+    a = ap.parse_args()
+    elf, budget, as_json = a.elf, a.budget, a.json
     funcs = functions(elf)
     frame, calls, indirect, odd, pairs = scan(elf, funcs)
     handlers = vectors(elf, funcs)
