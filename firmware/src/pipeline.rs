@@ -444,10 +444,14 @@ pub struct Pipeline {
     deps: [u32; MAX_OUTPUTS],
     /// The offsets last reported, um (zero past the model's output count).
     offsets_um: [f64; MAX_OUTPUTS],
-    /// Samples each CNC input has been lost in a row (0: read good).
+    /// Inputs that have read a good direct value (a CNC input whose last
+    /// value can stand in for it).
+    direct: u32,
+    /// Samples each such input has been lost in a row while the model had
+    /// a state (0: read good).
     outage: [u32; MAX_INPUTS],
-    /// Samples each output still waits after a CNC input it remembers came
-    /// back ([`settle_samples`]).
+    /// Model steps each output still waits after a CNC input it remembers
+    /// came back ([`settle_after_outages`]).
     settle: [u32; MAX_OUTPUTS],
     seq: u32,
     uploading: bool,
@@ -485,6 +489,7 @@ impl Pipeline {
             tool_mm: None,
             supervisors: [Supervisor::NEW; MAX_OUTPUTS],
             offsets_um: [0.0; MAX_OUTPUTS],
+            direct: 0,
             outage: [0; MAX_INPUTS],
             settle: [0; MAX_OUTPUTS],
             seq: 0,
@@ -609,6 +614,7 @@ impl Pipeline {
         self.spike = spike;
         self.plausible = plausible;
         // The new model's state starts afresh: nothing to wait for.
+        self.direct = 0;
         self.outage = [0; MAX_INPUTS];
         self.settle = [0; MAX_OUTPUTS];
         core::mem::swap(&mut self.hub, hub);
@@ -630,6 +636,7 @@ impl Pipeline {
         self.offsets_um = [0.0; MAX_OUTPUTS];
         self.spike = [SpikeState::NEW; MAX_INPUTS];
         self.plausible = [PlausibleState::NEW; MAX_INPUTS];
+        self.direct = 0;
         self.outage = [0; MAX_INPUTS];
         self.settle = [0; MAX_OUTPUTS];
         self.follow_hub();
@@ -701,8 +708,12 @@ impl Pipeline {
             .filter(|(_, p)| p.moving())
             .fold(0u32, |m, (j, _)| m | bit(j));
         // Per CNC input back this sample after an outage in which its
-        // value moved: how many samples it was lost.
+        // value moved: how many samples it was lost while the model had a
+        // state (stood in for, or frozen; a model not yet started starts
+        // from the value that comes back).
         let mut lost = [0u32; MAX_INPUTS];
+        let started = self.hub.started();
+        let mut direct = self.direct;
         for (j, (((x, state), plaus), outage)) in inputs
             .iter_mut()
             .zip(self.spike.iter_mut())
@@ -747,6 +758,7 @@ impl Pipeline {
                     if *outage > 0 && state.last().is_some_and(|u| moved(u, v)) {
                         lost[j] = *outage;
                     }
+                    direct |= bit(j);
                     state.pass(v);
                     *x = v;
                     true
@@ -765,11 +777,21 @@ impl Pipeline {
             if !good {
                 faulty |= bit(j);
             }
-            if matches!(reading, Reading::Direct(_) | Reading::Stale) {
-                *outage = if good { 0 } else { outage.saturating_add(1) };
+            // Stale, out of range or absurd: lost alike.
+            if good {
+                *outage = 0;
+            } else if direct & bit(j) != 0 && started {
+                *outage = outage.saturating_add(1);
             }
         }
-        settle_after_outages(&mut self.settle, &self.deps, model, &lost, self.timing.dt_s);
+        self.direct = direct;
+        settle_after_outages(
+            &mut self.settle,
+            (&self.deps, self.tip.as_ref()),
+            model,
+            &lost,
+            self.timing.dt_s,
+        );
 
         // 2. Step the model on a fully good sample, or, once it has run,
         //    with the last good value standing in for each faulty input
@@ -786,7 +808,8 @@ impl Pipeline {
             && affected & n_mask != n_mask
             && self.fill_last_good(&mut inputs, faulty);
         let mut model_out = None;
-        if faulty == 0 || stand_in {
+        let stepped = faulty == 0 || stand_in;
+        if stepped {
             let mut out = self.hub.on_sample(inputs.get(..n_in).unwrap_or(&[]));
             if let Some(tip) = &self.tip {
                 out.fresh &= to_tool_tip(tip, &mut out.values, self.tool_mm);
@@ -810,7 +833,8 @@ impl Pipeline {
             affected
         };
         // An output still settling after a CNC input came back is held as
-        // one whose input is recovering.
+        // one whose input is recovering; the wait runs down only while the
+        // model steps (a frozen state does not forget).
         let settling = self
             .settle
             .iter_mut()
@@ -818,7 +842,9 @@ impl Pipeline {
             .enumerate()
             .fold(0u8, |m, (k, left)| {
                 let on = *left > 0;
-                *left = left.saturating_sub(1);
+                if stepped {
+                    *left = left.saturating_sub(1);
+                }
                 if on {
                     m | bit8(k)
                 } else {
@@ -900,38 +926,19 @@ pub const SETTLE_SHARE: f64 = 0.05;
 /// in for it (then it moved while it was lost; relative 1e-6, so 0 rpm
 /// before and after a night with the CNC off is no move).
 fn moved(before: f64, after: f64) -> bool {
-    libm::fabs(after - before) > 1e-6 * libm::fabs(before).max(libm::fabs(after))
-}
-
-/// Samples an output waits after an input it remembers for `tau_s`
-/// ([`model_core::ValidModel::memory_s`]) comes back from `lost_s` in
-/// which its last good value stood in. Through a first-order memory the
-/// stand-in leaves at most `min(lost / tau, 1)` of the input's full
-/// effect in the state, decaying as `exp(-t / tau)` once the true value
-/// is read again: the wait is until that is below [`SETTLE_SHARE`]. A
-/// static path (`tau_s` 0) and a short loss wait nothing; a loss of one
-/// time constant or more waits `tau ln 20`, three time constants.
-pub fn settle_samples(lost_s: f64, tau_s: f64, dt_s: f64) -> u32 {
-    if !(tau_s > 0.0 && dt_s > 0.0) {
-        return 0;
-    }
-    let share = (lost_s / tau_s).min(1.0);
-    if share <= SETTLE_SHARE {
-        return 0;
-    }
-    let samples = libm::ceil(tau_s * libm::log(share / SETTLE_SHARE) / dt_s);
-    if samples >= f64::from(u32::MAX) {
-        u32::MAX
-    } else {
-        samples as u32
-    }
+    (after - before).abs() > 1e-6 * before.abs().max(after.abs())
 }
 
 /// Each output reading an input that came back after `lost[j]` samples
-/// (0: none) waits [`settle_samples`] more, on top of what it still waits.
+/// (0: none) waits until what the stand-in can have left in its state is
+/// below [`SETTLE_SHARE`] of the input's full effect
+/// ([`model_core::ValidModel::settle_s`]), in whole samples of `dt_s`, on
+/// top of what it still waits. `deps` and the five-point `tip` map the
+/// hub's lanes to the model's outputs (a tip lane remembers what its source
+/// output does).
 fn settle_after_outages(
     settle: &mut [u32; MAX_OUTPUTS],
-    deps: &[u32; MAX_OUTPUTS],
+    (deps, tip): (&[u32; MAX_OUTPUTS], Option<&TipMap>),
     model: &model_core::ValidModel,
     lost: &[u32; MAX_INPUTS],
     dt_s: f64,
@@ -939,11 +946,32 @@ fn settle_after_outages(
     for (j, &n) in lost.iter().enumerate().filter(|(_, n)| **n > 0) {
         let lost_s = f64::from(n) * dt_s;
         for (k, (left, d)) in settle.iter_mut().zip(deps).enumerate() {
-            if d & bit(j) != 0 {
-                let wait = settle_samples(lost_s, model.memory_s(k, j), dt_s);
-                *left = (*left).max(wait);
+            if d & bit(j) == 0 {
+                continue;
             }
+            let output = tip.map_or(Some(k), |t| t.source_outputs().get(k).copied());
+            let Some(output) = output else { continue };
+            let wait_s = model.settle_s(output, j, lost_s, SETTLE_SHARE);
+            *left = (*left).max(whole_samples(wait_s, dt_s));
         }
+    }
+}
+
+/// `s` seconds in samples of `dt_s`, rounded up (0 for none; at most
+/// `u32::MAX`).
+fn whole_samples(s: f64, dt_s: f64) -> u32 {
+    let n = s / dt_s;
+    if n.is_nan() || n <= 0.0 {
+        return 0;
+    }
+    if n >= f64::from(u32::MAX) {
+        return u32::MAX;
+    }
+    let whole = n as u32;
+    if f64::from(whole) < n {
+        whole + 1
+    } else {
+        whole
     }
 }
 
@@ -1111,18 +1139,68 @@ mod tests {
         .unwrap()
     }
 
-    /// Runs the speed bank: 3000 s at 12,000 rpm, the speed lost for
-    /// `lost` samples (its last value standing in for dx's sake), then
-    /// back at `back` rpm; the samples after its return until dz follows
-    /// the model again.
-    fn dz_follows_after(lost: u32, back: f64) -> u32 {
-        let mut p = Pipeline::new(hub(&speed_bank()), PipelineConfig::DEFAULT).unwrap();
-        let t1 = Reading::Value(20.0);
-        for _ in 0..3000 {
-            p.on_sample(&[t1, Reading::Direct(12_000.0)]);
+    /// A five-point bank: outputs theta_y_urad = -(T1 - 20), e_um =
+    /// 10 (T1 - 20) + 1e-3 x speed through 600 s, theta_x_urad =
+    /// 2 (T1 - 20). Only e reads the speed, and e is the source of the
+    /// dz lane (lane 2), not of output 2.
+    fn five_point_speed_bank() -> ValidModel {
+        use model_core::fbank::{FbOutput, Feature, FilterBank};
+        use model_core::fivepoint::FivePoint;
+        let feature = |input, tau_s| Feature {
+            input,
+            power: 1,
+            tau_s,
+        };
+        let out = |output, coef: [f64; 2]| FbOutput {
+            output,
+            intercept: 0.0,
+            coef: vec(&coef),
+        };
+        Model {
+            five_point: Some(FivePoint { l_defl_mm: 300.0 }),
+            outputs: vec(&[name("theta_y_urad"), name("e_um"), name("theta_x_urad")]),
+            params: Params::Fbank(FilterBank {
+                features: vec(&[feature(0, 0.0), feature(1, 600.0)]),
+                outputs: vec(&[
+                    out(0, [-1.0, 0.0]),
+                    out(1, [10.0, 1e-3]),
+                    out(2, [2.0, 0.0]),
+                ]),
+            }),
+            ..speed_bank().model().clone()
         }
+        .validate()
+        .unwrap()
+    }
+
+    /// Runs the speed bank: 3000 s at 12,000 rpm, the speed lost for
+    /// `lost` samples (stale; its last value standing in for dx's sake),
+    /// then back at `back` rpm; the samples after its return until dz
+    /// follows the model again.
+    fn dz_follows_after(lost: u32, back: f64) -> u32 {
+        dz_follows_after_losing(lost, Reading::Stale, back)
+    }
+
+    /// [`dz_follows_after`] with the speed reading `while_lost`.
+    fn dz_follows_after_losing(lost: u32, while_lost: Reading, back: f64) -> u32 {
+        let p = Pipeline::new(hub(&speed_bank()), PipelineConfig::DEFAULT).unwrap();
+        follows_after(p, lost, while_lost, back)
+    }
+
+    /// [`dz_follows_after_losing`] on the pipeline `p`.
+    fn follows_after(mut p: Pipeline, lost: u32, while_lost: Reading, back: f64) -> u32 {
+        for _ in 0..3000 {
+            p.on_sample(&[Reading::Value(20.0), Reading::Direct(12_000.0)]);
+        }
+        lost_then_back(p, lost, while_lost, back)
+    }
+
+    /// The speed `while_lost` for `lost` samples, then back at `back`: the
+    /// samples after its return until every output follows again.
+    fn lost_then_back(mut p: Pipeline, lost: u32, while_lost: Reading, back: f64) -> u32 {
+        let t1 = Reading::Value(20.0);
         for _ in 0..lost {
-            let r = p.on_sample(&[t1, Reading::Stale]);
+            let r = p.on_sample(&[t1, while_lost]);
             assert_eq!(r.faulty_channels, 0b10);
         }
         for k in 0..20_000 {
@@ -1142,17 +1220,40 @@ mod tests {
     /// that stood in: only the recovery. Lost for 60 s: 600 ln 2 = 416 s.
     /// Lost for less than 5 % of the memory (29 s, also within the hold
     /// time, so dz never ramped): it follows at once.
+    /// Also when the value was lost by reading absurd (a sensor fault, not
+    /// stale): the count is of samples lost, whatever the reason.
     #[test]
     fn an_output_waits_out_what_a_lost_cnc_input_may_have_left_in_its_state() {
-        assert_eq!(settle_samples(1200.0, 600.0, 1.0), 1798);
-        assert_eq!(settle_samples(29.0, 600.0, 1.0), 0);
-        assert_eq!(settle_samples(60.0, 600.0, 1.0), 416, "600 ln 2");
-        assert_eq!(settle_samples(1e9, 0.0, 1.0), 0, "a static path");
         let recovered = 9;
         assert_eq!(dz_follows_after(1200, 0.0), 1798 + recovered);
         assert_eq!(dz_follows_after(1200, 12_000.0), recovered);
-        assert_eq!(dz_follows_after(60, 0.0), 416 + recovered);
+        assert_eq!(dz_follows_after(60, 0.0), 416 + recovered, "600 ln 2");
         assert_eq!(dz_follows_after(29, 0.0), 0);
+        let absurd = Reading::Direct(1e12);
+        assert_eq!(dz_follows_after_losing(1200, absurd, 0.0), 1798 + recovered);
+        // A model swapped in mid-outage never ran on the stand-in: it
+        // starts from the value that comes back, and dz waits nothing.
+        let mut p = Pipeline::new(hub(&speed_bank()), PipelineConfig::DEFAULT).unwrap();
+        for _ in 0..3000 {
+            p.on_sample(&[Reading::Value(20.0), Reading::Direct(12_000.0)]);
+        }
+        for _ in 0..600 {
+            p.on_sample(&[Reading::Value(20.0), Reading::Stale]);
+        }
+        p.swap_model(&mut hub(&speed_bank())).unwrap();
+        assert_eq!(lost_then_back(p, 600, Reading::Stale, 0.0), recovered);
+        // A five-point model: the dz lane waits for e's memory.
+        let mut p = Pipeline::new(hub(&five_point_speed_bank()), PipelineConfig::DEFAULT).unwrap();
+        p.set_tool_length_mm(100.0).unwrap();
+        assert_eq!(
+            follows_after(p, 1200, Reading::Stale, 0.0),
+            1798 + recovered
+        );
+        assert_eq!(whole_samples(1797.9, 1.0), 1798);
+        assert_eq!(whole_samples(6.0, 2.0), 3);
+        assert_eq!(whole_samples(0.0, 1.0), 0);
+        assert_eq!(whole_samples(f64::NAN, 1.0), 0);
+        assert_eq!(whole_samples(1e300, 1.0), u32::MAX);
     }
 
     #[test]

@@ -600,6 +600,18 @@ impl ModelState {
     }
 }
 
+/// [`ValidModel::settle_s`] through one first-order memory `tau_s`.
+fn settle_through(tau_s: f64, lost_s: f64, share: f64) -> f64 {
+    if !(tau_s > 0.0 && lost_s > 0.0 && share > 0.0) {
+        return 0.0;
+    }
+    let left = (lost_s / tau_s).min(1.0);
+    if left <= share {
+        return 0.0;
+    }
+    tau_s * libm::log(left / share)
+}
+
 fn to_u8(n: usize) -> u8 {
     u8::try_from(n).unwrap_or(u8::MAX)
 }
@@ -649,16 +661,20 @@ impl ValidModel {
         }
     }
 
-    /// How long `output` remembers `input`, s: the slowest time constant
-    /// on a path from the input to the output (a filter-bank feature with
-    /// a weight on it, a TF entry's slowest pole); 0 for a static path
-    /// (linear, PCR, BP, an unfiltered feature) or none. The filter bank's
-    /// hold of the run's first sample does not count: it never follows the
-    /// input. An ARMA model reads its own series, not a machine input: 0.
-    /// What a wrong stretch of `input` (a stand-in while it was lost)
-    /// leaves in `output`'s state decays with this time constant.
-    pub fn memory_s(&self, output: usize, input: usize) -> f64 {
-        let mut tau: f64 = 0.0;
+    /// How long, s, `output` takes to forget a wrong stretch of `lost_s` in
+    /// `input` (a stand-in while it was lost) down to `share` of the
+    /// input's full effect. Through a first-order memory of time constant
+    /// `tau` the stretch leaves at most `min(lost / tau, 1)` of the effect,
+    /// decaying as `exp(-t / tau)`: `tau ln(min(lost / tau, 1) / share)`,
+    /// 0 when that is not positive. A filter bank: the longest over the
+    /// weighted features of `input` (not the hold of the run's first
+    /// sample, which never follows the input). A TF entry, whose poles are
+    /// known here by the slowest only: the worst a pole anywhere up to it
+    /// can need (the wait peaks at `tau = lost / (share e)`). A static path
+    /// (linear, PCR, BP, an unfiltered feature): 0. An ARMA model reads its
+    /// own series, not a machine input: 0.
+    pub fn settle_s(&self, output: usize, input: usize, lost_s: f64, share: f64) -> f64 {
+        let mut wait: f64 = 0.0;
         match &self.model.params {
             Params::Fbank(bank) => {
                 let Some(out) = bank
@@ -670,20 +686,22 @@ impl ValidModel {
                 };
                 for (f, w) in bank.features.iter().zip(&out.coef) {
                     if usize::from(f.input) == input && *w != 0.0 && f.tau_s < HOLD_TAU_S {
-                        tau = tau.max(f.tau_s);
+                        wait = wait.max(settle_through(f.tau_s, lost_s, share));
                     }
                 }
             }
             Params::Tf(entries) => {
+                let worst_tau = lost_s / (share * core::f64::consts::E);
                 for (e, r) in entries.iter().zip(self.realised_tfs()) {
                     if usize::from(e.output) == output && usize::from(e.input) == input {
-                        tau = tau.max(r.time_constant_s(self.model.dt_s));
+                        let tau = r.memory_s(self.model.dt_s).min(worst_tau);
+                        wait = wait.max(settle_through(tau, lost_s, share));
                     }
                 }
             }
             Params::Linear(_) | Params::Pcr(_) | Params::Bp(_) | Params::Arma(_) => {}
         }
-        tau
+        wait
     }
 
     /// The calibration bounds, if the model carries them.

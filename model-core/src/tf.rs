@@ -248,14 +248,19 @@ impl RealisedTf {
         Err(TfError::RootsNotFound)
     }
 
-    /// The time constant of the slowest pole at sample time `dt_s`, s
-    /// (`-dt / ln r` of the largest pole modulus `r`; 0 without poles or
-    /// with `dt_s` 0): how long the TF remembers its input.
-    pub fn time_constant_s(&self, dt_s: f64) -> f64 {
-        if self.radius <= 0.0 || dt_s <= 0.0 {
+    /// How long the TF remembers its input at sample time `dt_s`, s: the
+    /// time constant of its slowest pole (`-dt / ln r` of the largest pole
+    /// modulus `r`), and at least its numerator's span (`n dt` for `n + 1`
+    /// input weights: an FIR part forgets exactly then); 0 with `dt_s` 0.
+    pub fn memory_s(&self, dt_s: f64) -> f64 {
+        if dt_s.is_nan() || dt_s <= 0.0 {
             return 0.0;
         }
-        -dt_s / libm::log(self.radius)
+        let fir = dt_s * self.n_num.saturating_sub(1) as f64;
+        if self.radius <= 0.0 {
+            return fir;
+        }
+        (-dt_s / libm::log(self.radius)).max(fir)
     }
 
     /// Steady-state gain `sum(num) / sum(den)` (output units per input unit),

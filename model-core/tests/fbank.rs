@@ -380,13 +380,16 @@ fn wide_bank_settles_on_its_dc_gain() {
     assert_eq!(state, before);
 }
 
-/// How long an output remembers an input: the slowest weighted filter of
-/// that input (not the hold of the run's first sample, not a filter with
-/// zero weight), a TF entry's slowest pole, nothing on a static path.
+/// How long an output takes to forget a wrong stretch of an input: per
+/// weighted filter of that input `tau ln(min(lost / tau, 1) / share)`, the
+/// longest of them (not the hold of the run's first sample, not a filter
+/// with zero weight); a TF entry known by its slowest pole: the worst a
+/// pole up to it can need; nothing on a static path.
 #[test]
-fn memory_is_the_slowest_weighted_time_constant_from_the_input() {
+fn settling_is_the_longest_wait_over_the_input_s_weighted_memories() {
     use model_core::fbank::HOLD_TAU_S;
-    let dt_s = 30.0;
+    let (dt_s, share) = (30.0, 0.05);
+    let w = |tau: f64, lost: f64| tau * ((lost / tau).min(1.0) / share).ln();
     let fb = Model {
         inputs: hv(&[
             chan("T1", Reference::First),
@@ -399,19 +402,20 @@ fn memory_is_the_slowest_weighted_time_constant_from_the_input() {
                 feature(0, 1, 0.0),
                 feature(0, 1, 900.0),
                 feature(0, 1, HOLD_TAU_S),
-                feature(1, 2, 2700.0),
-                feature(1, 1, 8100.0),
+                feature(1, 2, 600.0),
+                feature(1, 1, 14_400.0),
+                feature(1, 1, 3_600.0),
             ]),
             outputs: hv(&[
                 FbOutput {
                     output: 0,
                     intercept: 0.0,
-                    coef: hv(&[1.0, 0.5, -1.0, 0.0, 0.0]),
+                    coef: hv(&[1.0, 0.5, -1.0, 0.0, 0.0, 0.0]),
                 },
                 FbOutput {
                     output: 1,
                     intercept: 0.0,
-                    coef: hv(&[0.0, 0.0, 0.0, 1e-7, 2e-3]),
+                    coef: hv(&[0.0, 0.0, 0.0, 1e-7, 2e-3, 0.0]),
                 },
             ]),
         }),
@@ -420,16 +424,27 @@ fn memory_is_the_slowest_weighted_time_constant_from_the_input() {
     }
     .validate()
     .unwrap();
-    assert_eq!(fb.memory_s(0, 0), 900.0);
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
+    // 600 s lost: the 4 h filter keeps 4 % (under 5 %), the 10 min one
+    // all of it: 600 ln 20. The 1 h filter has no weight on dz.
+    assert!(close(fb.settle_s(1, 1, 600.0, share), w(600.0, 600.0)));
+    // 2 h lost: now the 4 h filter needs the longer wait.
+    let long = w(14_400.0, 7_200.0);
+    assert!(long > w(600.0, 7_200.0));
+    assert!(close(fb.settle_s(1, 1, 7_200.0, share), long));
+    assert!(close(fb.settle_s(0, 0, 900.0, share), w(900.0, 900.0)));
+    assert_eq!(fb.settle_s(0, 1, 1e6, share), 0.0, "dx does not read speed");
+    assert_eq!(fb.settle_s(1, 0, 1e6, share), 0.0);
+    assert_eq!(fb.settle_s(2, 0, 1e6, share), 0.0, "no such output");
     assert_eq!(
-        fb.memory_s(0, 1),
+        fb.settle_s(1, 1, 20.0, share),
         0.0,
-        "zero weights: dx does not read speed"
+        "under 5 % of every memory"
     );
-    assert_eq!(fb.memory_s(1, 1), 8100.0);
-    assert_eq!(fb.memory_s(1, 0), 0.0);
-    assert_eq!(fb.memory_s(2, 0), 0.0, "no such output");
-    // A TF bank: dz from T1 through poles 0.9 and 0.95, so -30 / ln 0.95 s.
+    // A TF bank: dz from T1 through poles 0.9 and 0.95 (slowest
+    // -30 / ln 0.95 = 585 s). Lost 1 h: a pole at 585 s is the worst one
+    // up to it. Lost 60 s: the worst pole would be at 60 / (0.05 e) =
+    // 441 s, below the slowest, so that one's wait (not the slowest's).
     let tf = Model {
         outputs: outputs(&["dz_um"]),
         params: Params::Tf(hv(&[TfEntry {
@@ -443,14 +458,14 @@ fn memory_is_the_slowest_weighted_time_constant_from_the_input() {
     .validate()
     .unwrap();
     // The roots come from an iteration: 1e-6 relative.
-    let expect = -dt_s / 0.95f64.ln();
-    assert!(
-        (tf.memory_s(0, 0) - expect).abs() < 1e-6 * expect,
-        "{}",
-        tf.memory_s(0, 0)
-    );
-    assert_eq!(tf.memory_s(0, 1), 0.0);
-    // A static model remembers nothing.
+    let slow = -dt_s / 0.95f64.ln();
+    let near = |a: f64, b: f64| (a - b).abs() < 1e-6 * b;
+    assert!(near(tf.settle_s(0, 0, 3_600.0, share), w(slow, 3_600.0)));
+    let worst = 60.0 / (share * std::f64::consts::E);
+    assert!(near(tf.settle_s(0, 0, 60.0, share), w(worst, 60.0)));
+    assert!(tf.settle_s(0, 0, 60.0, share) > w(slow, 60.0));
+    assert_eq!(tf.settle_s(0, 1, 3_600.0, share), 0.0);
+    // A static model forgets at once.
     let lin = common::linear_seed002().validate().unwrap();
-    assert_eq!(lin.memory_s(0, 0), 0.0);
+    assert_eq!(lin.settle_s(0, 0, 1e6, share), 0.0);
 }
