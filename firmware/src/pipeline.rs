@@ -444,11 +444,8 @@ pub struct Pipeline {
     deps: [u32; MAX_OUTPUTS],
     /// The offsets last reported, um (zero past the model's output count).
     offsets_um: [f64; MAX_OUTPUTS],
-    /// Inputs that have read a good direct value (a CNC input whose last
-    /// value can stand in for it).
-    direct: u32,
-    /// Samples each such input has been lost in a row while the model had
-    /// a state (0: read good).
+    /// Samples each input has been lost in a row while the model had a
+    /// state (0: read good); a CNC input's count decides its wait.
     outage: [u32; MAX_INPUTS],
     /// Model steps each output still waits after a CNC input it remembers
     /// came back ([`settle_after_outages`]).
@@ -489,7 +486,6 @@ impl Pipeline {
             tool_mm: None,
             supervisors: [Supervisor::NEW; MAX_OUTPUTS],
             offsets_um: [0.0; MAX_OUTPUTS],
-            direct: 0,
             outage: [0; MAX_INPUTS],
             settle: [0; MAX_OUTPUTS],
             seq: 0,
@@ -614,7 +610,6 @@ impl Pipeline {
         self.spike = spike;
         self.plausible = plausible;
         // The new model's state starts afresh: nothing to wait for.
-        self.direct = 0;
         self.outage = [0; MAX_INPUTS];
         self.settle = [0; MAX_OUTPUTS];
         core::mem::swap(&mut self.hub, hub);
@@ -636,7 +631,6 @@ impl Pipeline {
         self.offsets_um = [0.0; MAX_OUTPUTS];
         self.spike = [SpikeState::NEW; MAX_INPUTS];
         self.plausible = [PlausibleState::NEW; MAX_INPUTS];
-        self.direct = 0;
         self.outage = [0; MAX_INPUTS];
         self.settle = [0; MAX_OUTPUTS];
         self.follow_hub();
@@ -713,7 +707,6 @@ impl Pipeline {
         // from the value that comes back).
         let mut lost = [0u32; MAX_INPUTS];
         let started = self.hub.started();
-        let mut direct = self.direct;
         for (j, (((x, state), plaus), outage)) in inputs
             .iter_mut()
             .zip(self.spike.iter_mut())
@@ -755,10 +748,10 @@ impl Pipeline {
                     }
                 }
                 Reading::Direct(v) if v.is_finite() && v.abs() <= MAX_INPUT_MAGNITUDE => {
+                    // The last good value stood in for the lost stretch.
                     if *outage > 0 && state.last().is_some_and(|u| moved(u, v)) {
                         lost[j] = *outage;
                     }
-                    direct |= bit(j);
                     state.pass(v);
                     *x = v;
                     true
@@ -778,13 +771,12 @@ impl Pipeline {
                 faulty |= bit(j);
             }
             // Stale, out of range or absurd: lost alike.
-            if good {
-                *outage = 0;
-            } else if direct & bit(j) != 0 && started {
-                *outage = outage.saturating_add(1);
-            }
+            *outage = match (good, started) {
+                (true, _) => 0,
+                (false, true) => outage.saturating_add(1),
+                (false, false) => *outage,
+            };
         }
-        self.direct = direct;
         settle_after_outages(
             &mut self.settle,
             (&self.deps, self.tip.as_ref()),
@@ -835,22 +827,13 @@ impl Pipeline {
         // An output still settling after a CNC input came back is held as
         // one whose input is recovering; the wait runs down only while the
         // model steps (a frozen state does not forget).
-        let settling = self
-            .settle
-            .iter_mut()
-            .take(n_out)
-            .enumerate()
-            .fold(0u8, |m, (k, left)| {
-                let on = *left > 0;
-                if stepped {
-                    *left = left.saturating_sub(1);
-                }
-                if on {
-                    m | bit8(k)
-                } else {
-                    m
-                }
-            });
+        let mut settling = 0u8;
+        for (k, left) in self.settle.iter_mut().take(n_out).enumerate() {
+            if *left > 0 {
+                settling |= bit8(k);
+                *left -= u32::from(stepped);
+            }
+        }
         if settling != 0 {
             flags.set(StatusFlags::RECOVERING);
         }
@@ -982,14 +965,19 @@ mod tests {
     use model_core::linear::{Coef, Linear, LinearOutput};
     use model_core::{Channel, Model, Params, Reference, ValidModel};
 
+    /// T1, relative to 20 C.
+    fn t1_from_20() -> Channel {
+        Channel {
+            name: name("T1"),
+            reference: Reference::Value(20.0),
+        }
+    }
+
     /// dz_um = 10 * (T1 - 20) + 2 * tool_mm.
     fn tool_model() -> ValidModel {
         Model {
             inputs: vec(&[
-                Channel {
-                    name: name("T1"),
-                    reference: Reference::Value(20.0),
-                },
+                t1_from_20(),
                 Channel {
                     name: name(TOOL_INPUT),
                     reference: Reference::Absolute,
@@ -1106,10 +1094,7 @@ mod tests {
         };
         Model {
             inputs: vec(&[
-                Channel {
-                    name: name("T1"),
-                    reference: Reference::Value(20.0),
-                },
+                t1_from_20(),
                 Channel {
                     name: name(crate::cnc_inputs::SPEED_INPUT),
                     reference: Reference::Absolute,
