@@ -19,10 +19,11 @@
 //!    swaps that hub in between two samples (`commands`).
 //!
 //! At boot, the slot whose record and blob are both valid with the highest
-//! generation boots ([`select_boot_slot`]; `firmware::boot` tries the
-//! slots in [`boot_order`] and keeps the first that loads, the same slot). A power cut before the record is
-//! complete leaves a slot with no valid record (its CRC fails), so the old
-//! model boots; the running slot is never erased or written. A bare blob in
+//! generation boots ([`select_boot_slot`]: the first of [`boot_order`]
+//! that decodes; `firmware::boot` loads them in that order and keeps the
+//! first that loads). A power cut before the record is complete leaves a
+//! slot with no valid record (its CRC fails), so the old model boots; the
+//! running slot is never erased or written. A bare blob in
 //! slot A without a record (flashed by a debugger, as before uploads existed)
 //! counts as generation 0, so it boots until the first upload (an upload's
 //! blob gets its magic only once checked, so this never boots a half-written
@@ -173,8 +174,15 @@ impl SlotMap {
 /// (exactly as `Hub::load`); a bare valid blob in slot A is generation 0.
 pub fn slot_generation(slot: Slot, bytes: &[u8]) -> Option<u32> {
     let generation = record_generation(slot, bytes)?;
-    check_split(&[], bytes.get(..blob_len(bytes))?).ok()?;
-    Some(generation)
+    decodes(bytes).then_some(generation)
+}
+
+/// Whether the blob at the start of a slot's `bytes` decodes and validates
+/// (`check_split`, as `Hub::load` decodes it).
+fn decodes(bytes: &[u8]) -> bool {
+    bytes
+        .get(..blob_len(bytes))
+        .is_some_and(|blob| check_split(&[], blob).is_ok())
 }
 
 /// [`slot_generation`] without decoding the blob's body: the blob's frame
@@ -200,21 +208,16 @@ pub fn record_generation(slot: Slot, bytes: &[u8]) -> Option<u32> {
 
 /// The slot to boot from, given both slots' bytes (memory-mapped on the
 /// board): the bootable one with the highest generation, A on a tie;
-/// `None` if neither is bootable (run without a model).
+/// `None` if neither is bootable (run without a model). The first of
+/// [`boot_order`] whose blob decodes, which is what `firmware::boot`
+/// loads (without decoding twice).
 pub fn select_boot_slot(a: &[u8], b: &[u8]) -> Option<Slot> {
-    match (slot_generation(Slot::A, a), slot_generation(Slot::B, b)) {
-        (Some(ga), Some(gb)) if gb > ga => Some(Slot::B),
-        (Some(_), _) => Some(Slot::A),
-        (None, Some(_)) => Some(Slot::B),
-        (None, None) => None,
-    }
+    boot_order(a, b).find(|&s| decodes(if s == Slot::B { b } else { a }))
 }
 
 /// The slots worth loading at boot, by their records alone: the highest
-/// generation first, A on a tie. Loading each in turn and keeping the
-/// first that loads boots exactly [`select_boot_slot`]'s slot, while each
-/// blob is decoded at most once, into the hub's own model (no model on the
-/// stack: `firmware::boot`).
+/// generation first, A on a tie; those whose record does not allow
+/// booting are left out.
 pub fn boot_order(a: &[u8], b: &[u8]) -> impl Iterator<Item = Slot> {
     let (ga, gb) = (record_generation(Slot::A, a), record_generation(Slot::B, b));
     let order = match (ga, gb) {
