@@ -100,7 +100,7 @@ impl Hold {
     /// tie (the hold's weight minus its tied features' sum, within
     /// [`TIE_TOLERANCE`]). A hold the old model weighs freely (a bank not
     /// written in change form on a logged channel) stays a free column.
-    pub(crate) fn of(bank: &FilterBank, eq: &FbOutput, poles: &[f64]) -> Vec<Hold> {
+    fn of(bank: &FilterBank, eq: &FbOutput, poles: &[f64]) -> Vec<Hold> {
         let f = &bank.features;
         (0..f.len())
             .filter(|&h| poles.get(h) == Some(&1.0) && eq.coef.get(h).is_some_and(|c| *c != 0.0))
