@@ -37,6 +37,7 @@ Fails (exit 1) on a cycle, an unknown instruction touching sp, or a bound
 above --budget (default 65536, docs/design-card.md).
 """
 import argparse
+import functools
 import json
 import os
 import re
@@ -57,6 +58,7 @@ NOT_RUN = {"HardFault", "HardFault_", "HardFaultTrampoline", "DefaultHandler",
            "Reset"}
 
 
+@functools.lru_cache(maxsize=None)
 def tool(name):
     """An LLVM tool from the Rust toolchain's llvm-tools, else on PATH."""
     sysroot = subprocess.run(["rustc", "--print", "sysroot"], capture_output=True,
@@ -267,90 +269,111 @@ def steps(path, frame, funcs, reach_bytes):
             for f in path]
 
 
-def main():
-    ap = argparse.ArgumentParser(description="Static bound on the hub's stack.")
-    ap.add_argument("elf", help="the firmware ELF (scripts/firmware-size.sh builds it)")
-    ap.add_argument("--budget", type=int, default=65536, help="bytes (docs/design-card.md)")
-    ap.add_argument("--json", action="store_true", help="the report as JSON")
-    a = ap.parse_args()
-    elf, budget, as_json = a.elf, a.budget, a.json
+def indirect_cost(frame, calls, funcs, indirect, targets):
+    """What one call through a register costs at most: the deepest
+    address-taken function, itself allowed one more such call to the
+    deepest of them."""
+    direct = deepest(frame, calls, funcs)
+    leaf = max((direct(t)[0] for t in targets), default=0)
+    once = deepest(frame, calls, funcs, indirect, leaf)
+    return max((once(t)[0] for t in targets), default=0)
+
+
+def nested(handlers, depth, frame, by_name):
+    """Boot alone, and what stays under the handlers (Reset's and main's
+    frames, an idle task's path where there is one) with the deepest
+    handler of each priority level on top."""
+    boot = depth(handlers["Reset"])
+    idle = [a for n, a in by_name.items() if re.search(r"3app4idle", n)]
+    idle_path = max((depth(a) for a in idle), default=(0, []))
+    base = frame[handlers["Reset"]] + frame.get(by_name.get("main"), 0) + idle_path[0]
+    levels = {}
+    for n, a in handlers.items():
+        if n in NOT_RUN:
+            continue
+        d = depth(a)
+        lv = LEVELS.get(n, "other")
+        if lv not in levels or d[0] > levels[lv][1][0]:
+            levels[lv] = (n, d)
+    running = base + sum(d[0] + EXCEPTION_FRAME for _, d in levels.values())
+    return boot, base, levels, running
+
+
+def analyse(elf, budget):
+    """The bound and how it is made up, as the report prints it."""
     funcs = functions(elf)
     frame, calls, indirect, odd, pairs = scan(elf, funcs)
     handlers = vectors(elf, funcs)
     by_name = {n: a for a, (n, _) in funcs.items()}
     # Calls through a register may reach any address-taken function but a
     # vector's handler (the hardware calls those, counted by level).
-    # What one such call costs at most: the deepest target, itself allowed
-    # one more call through a register to the deepest target.
     targets = address_taken(elf, funcs, pairs) - set(handlers.values())
-    direct = deepest(frame, calls, funcs)
-    leaf = max((direct(t)[0] for t in targets), default=0)
-    reach_bytes = max((deepest(frame, calls, funcs, indirect, leaf)(t)[0] for t in targets),
-                      default=0)
-    depth = deepest(frame, calls, funcs, indirect, reach_bytes)
     try:
-        boot = depth(by_name["main"]) if "main" in by_name else depth(handlers["Reset"])
-        reset = depth(handlers["Reset"])
-        boot = max(boot, reset)
-        # Without an idle task RTIC's main sleeps in its own loop: what stays
-        # under the handlers is Reset's and main's frames (and an idle
-        # task's path where there is one).
-        idle = [a for n, a in by_name.items() if re.search(r"3app4idle", n)]
-        base_frames = frame[handlers["Reset"]] + frame.get(by_name.get("main"), 0)
-        idle_path = max((depth(a) for a in idle), default=(0, []))
-        base = (base_frames + idle_path[0], idle_path[1])
-        roots = {n: depth(a) for n, a in handlers.items() if n not in NOT_RUN}
+        reach_bytes = indirect_cost(frame, calls, funcs, indirect, targets)
+        depth = deepest(frame, calls, funcs, indirect, reach_bytes)
+        boot, base, levels, running = nested(handlers, depth, frame, by_name)
     except RecursionError as e:
         sys.exit(f"stack-bound: recursion ({e}): no static bound")
-    levels = {}
-    for n, d in roots.items():
-        lv = LEVELS.get(n, "other")
-        if lv not in levels or d[0] > levels[lv][1][0]:
-            levels[lv] = (n, d)
-    running = base[0] + sum(d[0] + EXCEPTION_FRAME for _, d in levels.values())
-    bound = max(boot[0], running)
     reached = set()
-    for a in [handlers["Reset"]] + [handlers[n] for n in roots]:
-        reached |= reach(calls, a)
+    for n, a in handlers.items():
+        if n == "Reset" or n not in NOT_RUN:
+            reached |= reach(calls, a)
     sites = [(funcs[f][0], s) for f in sorted(reached) for s in indirect[f]]
-    report = {
+    path = functools.partial(steps, frame=frame, funcs=funcs, reach_bytes=reach_bytes)
+    return {
         "boot_bytes": boot[0],
-        "idle_bytes": base[0],
-        "levels": {str(lv): {"root": n, "bytes": d[0],
-                             "path": steps(d[1], frame, funcs, reach_bytes)}
+        "idle_bytes": base,
+        "levels": {str(lv): {"root": n, "bytes": d[0], "path": path(d[1])}
                    for lv, (n, d) in sorted(levels.items(), key=lambda x: str(x[0]))},
         "exception_frame_bytes": EXCEPTION_FRAME,
         "running_bytes": running,
-        "bound_bytes": bound,
+        "bound_bytes": max(boot[0], running),
         "budget_bytes": budget,
-        "boot_path": steps(boot[1], frame, funcs, reach_bytes),
+        "boot_path": path(boot[1]),
         "call_through_register_bytes": reach_bytes,
+        "address_taken_functions": len(targets),
         "indirect_call_sites": [f"{demangle(n)}: {s}" for n, s in sites],
         "unrecognised_sp_writes": [f"{demangle(n)}: {s}" for n, s in odd],
     }
-    if as_json:
-        print(json.dumps(report, indent=1))
-    else:
-        print(f"boot (Reset -> main -> init, alone): {boot[0]} B")
-        for b, name in report["boot_path"]:
+
+
+def print_text(r):
+    print(f"boot (Reset -> main -> init, alone): {r['boot_bytes']} B")
+    for b, name in r["boot_path"]:
+        print(f"    {b:>7} {name[:100]}")
+    print(f"under the handlers (Reset, main, idle): {r['idle_bytes']} B")
+    for lv, v in r["levels"].items():
+        print(f"level {lv}: {v['root']} {v['bytes']} B "
+              f"(+{r['exception_frame_bytes']} B exception frame)")
+        for b, name in v["path"]:
             print(f"    {b:>7} {name[:100]}")
-        print(f"under the handlers (Reset, main, idle): {base[0]} B")
-        for lv, v in report["levels"].items():
-            print(f"level {lv}: {v['root']} {v['bytes']} B (+{EXCEPTION_FRAME} B exception frame)")
-            for b, name in v["path"]:
-                print(f"    {b:>7} {name[:100]}")
-        print(f"running (idle + every level preempting the one below): {running} B")
-        print(f"bound: {bound} B of the {budget} B budget ({100 * bound / budget:.1f} %)")
-        print(f"calls through a register on these paths ({len(sites)}), each counted as "
-              f"{reach_bytes} B (the deepest of {len(targets)} address-taken functions):")
-        for s in report["indirect_call_sites"]:
-            print(f"    {s[:140]}")
-        for s in report["unrecognised_sp_writes"]:
-            print(f"unrecognised write to sp: {s}")
-    if odd:
+    print(f"running (idle + every level preempting the one below): {r['running_bytes']} B")
+    bound, budget = r["bound_bytes"], r["budget_bytes"]
+    print(f"bound: {bound} B of the {budget} B budget ({100 * bound / budget:.1f} %)")
+    print(f"calls through a register on these paths ({len(r['indirect_call_sites'])}), "
+          f"each counted as {r['call_through_register_bytes']} B (the deepest of "
+          f"{r['address_taken_functions']} address-taken functions):")
+    for s in r["indirect_call_sites"]:
+        print(f"    {s[:140]}")
+    for s in r["unrecognised_sp_writes"]:
+        print(f"unrecognised write to sp: {s}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description="Static bound on the hub's stack.")
+    ap.add_argument("elf", help="the firmware ELF (scripts/firmware-size.sh builds it)")
+    ap.add_argument("--budget", type=int, default=65536, help="bytes (docs/design-card.md)")
+    ap.add_argument("--json", action="store_true", help="the report as JSON")
+    a = ap.parse_args()
+    r = analyse(a.elf, a.budget)
+    if a.json:
+        print(json.dumps(r, indent=1))
+    else:
+        print_text(r)
+    if r["unrecognised_sp_writes"]:
         sys.exit("stack-bound: an instruction writes sp in a way this script does not count")
-    if bound > budget:
-        sys.exit(f"stack-bound: {bound} B over the {budget} B budget")
+    if r["bound_bytes"] > a.budget:
+        sys.exit(f"stack-bound: {r['bound_bytes']} B over the {a.budget} B budget")
 
 
 if __name__ == "__main__":
