@@ -178,6 +178,17 @@ pub const RTD_RETRY_MS: u32 = 10_000;
 /// The tool length does not time out (it is sent on tool changes only).
 pub const CNC_INPUT_TIMEOUT_MS: u32 = 5_000;
 
+/// The slowest period at which the CNC may send its cyclic inputs, ms
+/// (docs/cnc-integration.md, "What the CNC must send").
+pub const CNC_FRAME_PERIOD_MAX_MS: u32 = 1_000;
+
+/// The shortest CNC input timeout a user may set (CANopen 0x2007): two of
+/// the slowest frame periods, so that one late or lost frame of a CNC
+/// sending at the documented rate never reads as a stopped sender (a
+/// shorter timeout would flag such a CNC stale between its frames, and at
+/// one sample per second it would not detect a real stop any sooner).
+pub const CNC_INPUT_TIMEOUT_MIN_MS: u32 = 2 * CNC_FRAME_PERIOD_MAX_MS;
+
 /// One MCU pin and what it is wired to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PinAssignment {
@@ -310,6 +321,7 @@ const _: () = {
     assert!(RTD_RETRY_MS >= SAMPLE_PERIOD_MS);
     // A CNC value must survive at least one sample period.
     assert!(CNC_INPUT_TIMEOUT_MS >= SAMPLE_PERIOD_MS);
+    assert!(CNC_INPUT_TIMEOUT_MS >= CNC_INPUT_TIMEOUT_MIN_MS);
     assert!(IWDG_TIMEOUT_MS < 32_768); // HAL limit
     assert!(CAN_HEARTBEAT_ID <= 0x7FF); // 11-bit standard id
     assert!(RTD_SPI_HZ <= 5_000_000);

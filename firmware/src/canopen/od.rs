@@ -706,8 +706,8 @@ pub const OBJECTS: &[Object] = &[
         "CNC input timeout ms",
         U32,
         Access::Rw,
-        Default::Raw(5000),
-        Limit::U(100, 600_000),
+        Default::Raw(crate::board::CNC_INPUT_TIMEOUT_MS),
+        Limit::U(crate::board::CNC_INPUT_TIMEOUT_MIN_MS, 600_000),
     ),
     var(
         AUTO_START,

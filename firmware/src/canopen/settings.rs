@@ -56,7 +56,7 @@ impl Settings {
         recover_time_s: 10.0,
         plausible_c: [-20.0, 120.0],
         node_id: 1,
-        cnc_timeout_ms: 5000,
+        cnc_timeout_ms: crate::board::CNC_INPUT_TIMEOUT_MS,
         auto_start: true,
         heartbeat_ms: 1000,
     };
@@ -246,8 +246,12 @@ mod tests {
         s.node_id = 0;
         assert_eq!(s.to_od(), Err(SdoAbort::InvalidValue));
         let mut s = Settings::DEFAULT;
-        s.cnc_timeout_ms = 50;
+        // One ms under two of the CNC's slowest frame periods: a CNC
+        // sending at the documented rate would read stale between frames.
+        s.cnc_timeout_ms = 1_999;
         assert_eq!(s.to_od(), Err(SdoAbort::ValueTooLow));
+        s.cnc_timeout_ms = 2_000;
+        assert!(s.to_od().is_ok());
     }
 
     #[cfg(feature = "model")]

@@ -94,7 +94,10 @@ pub fn parse(r: &[u8]) -> Option<(u32, Settings)> {
         .get(PAYLOAD_AT..PAYLOAD_AT + ENCODED_LEN)?
         .try_into()
         .ok()?;
-    let s = Settings::decode(payload);
+    let mut s = Settings::decode(payload);
+    // A record saved when 0x2007 went down to 100 ms keeps its other
+    // settings; its timeout becomes the shortest now allowed.
+    s.cnc_timeout_ms = s.cnc_timeout_ms.max(crate::board::CNC_INPUT_TIMEOUT_MIN_MS);
     s.to_od().ok()?;
     Some((u32::from_le_bytes([r[4], r[5], r[6], r[7]]), s))
 }
@@ -167,6 +170,16 @@ mod tests {
             bad[i] ^= 0x01;
             assert_eq!(parse(&bad), None, "byte {i}");
         }
+    }
+
+    #[test]
+    fn a_timeout_below_today_s_minimum_is_raised_not_the_record_dropped() {
+        let mut s = Settings::DEFAULT;
+        s.hold_time_s = 5.0;
+        s.cnc_timeout_ms = 500; // accepted before the minimum was 2 s
+        let (_, got) = parse(&record(3, &s)).unwrap();
+        assert_eq!(got.hold_time_s, 5.0);
+        assert_eq!(got.cnc_timeout_ms, crate::board::CNC_INPUT_TIMEOUT_MIN_MS);
     }
 
     #[test]
