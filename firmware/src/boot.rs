@@ -14,9 +14,12 @@ use crate::upload::{boot_order, Slot};
 /// ([`select_boot_slot`](crate::upload::select_boot_slot)), else `a`; the
 /// slots are tried in [`boot_order`] and the first that loads stays, so
 /// each blob is decoded once, where the model lies. When neither is
-/// bootable slot A's blob is what was loaded last, so that
-/// `hub().load_error()` says why. Returns the pipeline and the slot booted
-/// (`None`: neither was bootable).
+/// bootable the pipeline runs without a model: slot A's blob is what was
+/// loaded last, so that `hub().load_error()` says why, unless that blob
+/// loads (its record names another blob, or it is a bare blob in slot B's
+/// place): then nothing is (as an empty slot), since a model the records
+/// do not commit must not compensate. Returns the pipeline and the slot
+/// booted (`None`: neither was bootable, and no model runs).
 pub fn boot<'a>(
     slot: &'a mut MaybeUninit<Pipeline>,
     config: ValidConfig,
@@ -33,6 +36,9 @@ pub fn boot<'a>(
     }
     if last != Some(Slot::A) {
         pipeline.load(a);
+    }
+    if pipeline.hub().load_error().is_none() {
+        pipeline.load(&[]);
     }
     (pipeline, None)
 }
@@ -110,7 +116,8 @@ mod tests {
     /// `boot_order`, boots the slot `select_boot_slot` names (it decodes
     /// both to choose) and the pipeline `new` builds around that slot's
     /// hub, on every pair of contents; with nothing bootable, slot A's
-    /// refusal is kept. The two slots hold models with different sample
+    /// refusal is kept, or no model at all when slot A's blob loads but is
+    /// not committed. The two slots hold models with different sample
     /// times, so a hub loaded from the wrong one would show.
     #[test]
     fn boot_boots_the_slot_select_boot_slot_names_on_every_pair_of_contents() {
@@ -118,10 +125,25 @@ mod tests {
         for (i, a) in aa.iter().enumerate() {
             for (j, b) in bb.iter().enumerate() {
                 let expect = crate::upload::select_boot_slot(a, b);
-                let loaded = if expect == Some(Slot::B) { b } else { a };
-                assert_eq!(booted(a, b), (new(loaded), expect), "A {i}, B {j}");
+                let loaded: &[u8] = match expect {
+                    Some(Slot::B) => b,
+                    Some(Slot::A) => a,
+                    None if Hub::load(a).load_error().is_some() => a,
+                    None => &[],
+                };
+                let (pipeline, active) = booted(a, b);
+                assert_eq!((pipeline, active), (new(loaded), expect), "A {i}, B {j}");
+                if active.is_none() {
+                    assert!(
+                        Hub::load(loaded).model().is_none(),
+                        "A {i}, B {j}: a model runs"
+                    );
+                }
             }
         }
+        // A's blob loads but its record names another blob: no model runs.
+        let (pipeline, active) = booted(&aa[6], &bb[0]);
+        assert_eq!((pipeline, active), (new(&[]), None));
         // The cases where a record outranks a blob that does not load.
         assert_eq!(booted(&aa[3], &bb[4]).1, Some(Slot::A));
         assert_eq!(booted(&aa[4], &bb[2]).1, Some(Slot::B));
