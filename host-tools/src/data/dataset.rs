@@ -185,6 +185,11 @@ pub struct GridRun {
     pub t_s: Vec<f64>,
     /// `x[i][k]`.
     pub x: Vec<Vec<f64>>,
+    /// `x_lead[i][k]`: input `i` on the same grid before `t0`, from where
+    /// every input has a value (where the hub starts and takes its
+    /// references) to where the targets start; empty when they start
+    /// together. A model's state and a change's reference start here.
+    pub x_lead: Vec<Vec<f64>>,
     /// `y[j][k]`.
     pub y: Vec<Vec<f64>>,
     /// Samples `..calib_end` are calibration.
@@ -384,24 +389,35 @@ impl<'a> Dataset<'a> {
             let y: Vec<Vec<Option<f64>>> = (0..self.targets.len())
                 .map(|k| run.y_column(k).to_options())
                 .collect();
-            // Span where every column has at least started and not yet ended.
-            let mut lo = f64::NEG_INFINITY;
-            let mut hi = f64::INFINITY;
-            for c in x.iter().chain(&y) {
-                let first = c.iter().position(Option::is_some);
-                let last = c.iter().rposition(Option::is_some);
-                match (first, last) {
-                    (Some(a), Some(b)) => {
-                        lo = lo.max(run.t_s[a]);
-                        hi = hi.min(run.t_s[b]);
+            // Span where every column has at least started and not yet
+            // ended; the inputs' own start (`lo_x`) opens the lead.
+            let span = |cols: &[Vec<Option<f64>>]| -> Result<(f64, f64)> {
+                let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+                for c in cols {
+                    let first = c.iter().position(Option::is_some);
+                    let last = c.iter().rposition(Option::is_some);
+                    match (first, last) {
+                        (Some(a), Some(b)) => {
+                            lo = lo.max(run.t_s[a]);
+                            hi = hi.min(run.t_s[b]);
+                        }
+                        _ => bail!("{}: a column has no values", run.name),
                     }
-                    _ => bail!("{}: a column has no values", run.name),
                 }
-            }
+                Ok((lo, hi))
+            };
+            let (lo_x, hi_x) = span(&x)?;
+            let (lo_y, hi_y) = span(&y)?;
+            let (lo, hi) = (lo_x.max(lo_y), hi_x.min(hi_y));
             if hi <= lo {
                 continue;
             }
-            let grid = uniform_grid(lo, hi, dt_s).map_err(|e| anyhow!("{}: {e}", run.name))?;
+            let mut grid =
+                uniform_grid(lo_x, hi, dt_s).map_err(|e| anyhow!("{}: {e}", run.name))?;
+            let lead_t: Vec<f64> = grid.drain(..grid.partition_point(|t| *t < lo)).collect();
+            if grid.is_empty() {
+                continue;
+            }
             let fill = |c: &Vec<Option<f64>>| -> Vec<f64> {
                 resample_linear(&run.t_s, c.iter().copied(), &grid)
                     .into_iter()
@@ -420,9 +436,16 @@ impl<'a> Dataset<'a> {
                         .map_or(f64::NEG_INFINITY, |i| run.t_s[i])
                 })
                 .fold(f64::INFINITY, f64::min);
+            let lead = |c: &Vec<Option<f64>>| -> Vec<f64> {
+                resample_linear(&run.t_s, c.iter().copied(), &lead_t)
+                    .into_iter()
+                    .map(|v| v.unwrap_or(0.0))
+                    .collect()
+            };
             out.push(GridRun {
                 name: run.name.clone(),
                 calib_end: grid.partition_point(|t| *t <= calib_t),
+                x_lead: x.iter().map(lead).collect(),
                 x: x.iter().map(fill).collect(),
                 y: y.iter().map(fill).collect(),
                 t_s: grid,
@@ -531,6 +554,50 @@ mod tests {
         assert_eq!(a.x[0][..3], b.x[0][..3]);
         // On the rows' own times the samples are the rows' values.
         assert_eq!(a.y[0][..3], [0.0, 1.0, 2.0]);
+    }
+
+    /// The target starts 2.5 s after the inputs (T2 at t = 1): the grid
+    /// starts at the first sample of the hub's lattice (from t = 1, where
+    /// every input has a value) at which the target has one, t = 3, and the
+    /// inputs before it are the lead. Rows on the lattice: exact values.
+    #[test]
+    fn inputs_before_the_target_starts_are_the_grid_s_lead() {
+        let csv =
+            "t_s,T1,T2,dz_um\n0,10,,\n1,11,20,\n2,12,21,\n2.5,12.5,21.5,5\n3,13,22,6\n4,14,23,7\n";
+        let runs = [run(csv)];
+        let ds = Dataset::new(
+            &runs,
+            &[],
+            &names(&["T1", "T2"]),
+            &names(&["dz_um"]),
+            InputForm::Absolute,
+            None,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let g = ds.on_grid(1.0).unwrap_or_else(|e| panic!("{e}")).remove(0);
+        assert_eq!(g.t_s, [3.0, 4.0]);
+        assert_eq!(g.x_lead, [vec![11.0, 12.0], vec![20.0, 21.0]]);
+        assert_eq!(g.x, [vec![13.0, 14.0], vec![22.0, 23.0]]);
+        assert_eq!(g.y, [vec![6.0, 7.0]]);
+        assert_eq!(g.calib_end, 2);
+        // T1 as input, T2 as target: T1's row 0 is the lead; the other
+        // way round the input starts after the target: no lead.
+        let grid = |input: &str, target: &str| {
+            let ds = Dataset::new(
+                &runs,
+                &[],
+                &names(&[input]),
+                &names(&[target]),
+                InputForm::Absolute,
+                None,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            ds.on_grid(1.0).unwrap_or_else(|e| panic!("{e}")).remove(0)
+        };
+        let g = grid("T1", "T2");
+        assert_eq!((g.t_s[0], &g.x_lead[0][..]), (1.0, &[10.0][..]));
+        let g = grid("T2", "T1");
+        assert_eq!((g.t_s[0], g.x_lead[0].len()), (1.0, 0));
     }
 
     #[test]

@@ -734,6 +734,7 @@ mod tests {
             name: "r".into(),
             t_s: Vec::new(),
             x: vec![u],
+            x_lead: vec![Vec::new()],
             y: vec![y],
             calib_end: n,
         };

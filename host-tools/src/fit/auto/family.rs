@@ -695,6 +695,7 @@ mod tests {
             name: "r".into(),
             t_s: (0..n).map(|k| k as f64).collect(),
             x: vec![(0..n).map(|k| 20.0 + k as f64).collect()],
+            x_lead: vec![Vec::new()],
             y: vec![vec![0.0; n]],
             calib_end,
         }

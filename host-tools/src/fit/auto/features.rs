@@ -71,6 +71,20 @@ pub fn column(x: &[Vec<f64>], def: &FeatureDef, dt_s: f64) -> Vec<f64> {
     low_pass(&v, def.tau_s, dt_s)
 }
 
+/// [`column`] over `lead ++ x` with the lead's samples left out: the
+/// feature on a run's grid whose filters started before it (`lead`, the
+/// run's inputs from where the hub starts; empty inputs: [`column`]).
+pub fn column_after(lead: &[Vec<f64>], x: &[Vec<f64>], def: &FeatureDef, dt_s: f64) -> Vec<f64> {
+    let skip = lead.get(def.input).map_or(0, Vec::len);
+    if skip == 0 {
+        return column(x, def, dt_s);
+    }
+    let i = def.input;
+    let whole = [lead[i].iter().chain(&x[i]).copied().collect()];
+    let one = FeatureDef { input: 0, ..*def };
+    column(&whole, &one, dt_s).split_off(skip)
+}
+
 /// Every feature of a candidate's filter sets over `inputs` (their roles):
 /// temperatures raw and through `temp_taus`, heat sources to the powers 1
 /// and 2 through `heat_taus`.
@@ -119,6 +133,29 @@ mod tests {
         assert_eq!(s[0], 0.0);
         let expect = 1.0 - (-1.0f64).exp();
         assert!((s[50] - expect).abs() < 1e-12, "{}", s[50]);
+    }
+
+    /// A step at k = 1 of which the grid sees only k >= 3: the filter
+    /// started two samples before the grid is where the hub's stands (the
+    /// step's 1 - p^3 covered), not in steady state at the grid's value.
+    #[test]
+    fn a_lead_starts_the_filter_before_the_grid() {
+        let (dt, tau) = (1.0, 10.0);
+        let lead = [vec![0.0, 1.0, 1.0], vec![5.0, 5.0, 5.0]];
+        let x = [vec![1.0; 4], vec![5.0; 4]];
+        let def = FeatureDef {
+            input: 0,
+            power: 2,
+            tau_s: tau,
+        };
+        let got = column_after(&lead, &x, &def, dt);
+        let whole = low_pass(&[0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0], tau, dt);
+        assert_eq!(got, whole[3..]);
+        let p: f64 = (-dt / tau).exp();
+        assert!((got[0] - (1.0 - p.powi(3))).abs() < 1e-15, "{}", got[0]);
+        // Without a lead: the grid's first value, steady.
+        let none: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+        assert_eq!(column_after(&none, &x, &def, dt), [1.0; 4]);
     }
 
     #[test]

@@ -165,6 +165,7 @@ mod tests {
         GridRun {
             name: "r".into(),
             t_s: (0..n).map(|k| k as f64).collect(),
+            x_lead: vec![Vec::new(); x.len()],
             x,
             y: vec![vec![0.0; n]],
             calib_end: n,

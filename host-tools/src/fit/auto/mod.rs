@@ -363,15 +363,38 @@ pub struct AutoReport {
     pub families: FamilyChoice,
 }
 
-/// Reference-adjusted inputs of every grid run in `form`.
+/// Reference-adjusted inputs of every grid run in `form`, `[run][input][k]`.
 fn adjusted(grid: &[GridRun], roles: &[Role], form: Form) -> Vec<Vec<Vec<f64>>> {
+    adjust(grid, roles, form, |g| &g.x)
+}
+
+/// The same for each run's lead (`GridRun::x_lead`), with the same
+/// references: what the filters run through before the grid starts.
+fn adjusted_lead(grid: &[GridRun], roles: &[Role], form: Form) -> Vec<Vec<Vec<f64>>> {
+    adjust(grid, roles, form, |g| &g.x_lead)
+}
+
+/// `part` of every grid run less its input's reference in `form`: a
+/// temperature's change is taken from the run's first sample, the lead's
+/// if it has one (where the hub takes its reference), else the grid's.
+fn adjust(
+    grid: &[GridRun],
+    roles: &[Role],
+    form: Form,
+    part: impl Fn(&GridRun) -> &Vec<Vec<f64>>,
+) -> Vec<Vec<Vec<f64>>> {
     grid.iter()
         .map(|g| {
-            g.x.iter()
+            part(g)
+                .iter()
+                .enumerate()
                 .zip(roles)
-                .map(|(c, role)| {
+                .map(|((i, c), role)| {
                     let r0 = match (form, role) {
-                        (Form::Change, Role::Temperature) => c.first().copied().unwrap_or(0.0),
+                        (Form::Change, Role::Temperature) => {
+                            let first = g.x_lead.get(i).and_then(|l| l.first());
+                            first.or(g.x[i].first()).copied().unwrap_or(0.0)
+                        }
                         _ => 0.0,
                     };
                     c.iter().map(|v| v - r0).collect()
@@ -503,11 +526,17 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
         .iter()
         .map(|&f| (f, adjusted(&grid, &roles, f)))
         .collect();
+    let leads: Vec<Vec<Vec<Vec<f64>>>> = Form::ALL
+        .iter()
+        .map(|&f| adjusted_lead(&grid, &roles, f))
+        .collect();
     let forms: Vec<FormData> = xs
         .iter()
-        .map(|(form, x)| FormData {
+        .zip(&leads)
+        .map(|((form, x), lead)| FormData {
             form: *form,
             x,
+            lead,
             roles: &roles,
         })
         .collect();

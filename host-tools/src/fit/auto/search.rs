@@ -24,6 +24,9 @@ pub struct FormData<'a> {
     pub form: Form,
     /// `x[run][input][k]`: reference-adjusted inputs on the grid.
     pub x: &'a [Vec<Vec<f64>>],
+    /// `lead[run][input][k]`: the same before the grid starts
+    /// (`GridRun::x_lead`), which the filters run through first.
+    pub lead: &'a [Vec<Vec<f64>>],
     /// Input roles.
     pub roles: &'a [Role],
 }
@@ -80,7 +83,8 @@ fn columns(data: &FormData, defs: &[FeatureDef], dt_s: f64) -> Vec<Vec<f64>> {
         .map(|d| {
             data.x
                 .iter()
-                .flat_map(|run| features::column(run, d, dt_s))
+                .zip(data.lead)
+                .flat_map(|(run, lead)| features::column_after(lead, run, d, dt_s))
                 .collect()
         })
         .collect()
