@@ -14,12 +14,13 @@ use crate::upload::{boot_order, Slot};
 /// ([`select_boot_slot`](crate::upload::select_boot_slot)), else `a`; the
 /// slots are tried in [`boot_order`] and the first that loads stays, so
 /// each blob is decoded once, where the model lies. When neither is
-/// bootable the pipeline runs without a model: slot A's blob is what was
-/// loaded last, so that `hub().load_error()` says why, unless that blob
-/// loads (its record names another blob, or it is a bare blob in slot B's
-/// place): then nothing is (as an empty slot), since a model the records
-/// do not commit must not compensate. Returns the pipeline and the slot
-/// booted (`None`: neither was bootable, and no model runs).
+/// bootable the pipeline runs without a model, and `hub().load_error()`
+/// says why: the refusal of the last slot tried, or, when no record allowed
+/// trying one, slot A's blob's own refusal; a blob that loads although no
+/// record commits it (slot A's record names another blob) is not kept
+/// (`TooShort`, as an empty slot: a model the records do not commit must
+/// not compensate). Returns the pipeline and the slot booted (`None`:
+/// neither was bootable, and no model runs).
 pub fn boot<'a>(
     slot: &'a mut MaybeUninit<Pipeline>,
     config: ValidConfig,
@@ -34,7 +35,7 @@ pub fn boot<'a>(
         }
         last = Some(s);
     }
-    if last != Some(Slot::A) {
+    if last.is_none() {
         pipeline.load(a);
     }
     if pipeline.hub().load_error().is_none() {
@@ -125,25 +126,33 @@ mod tests {
         for (i, a) in aa.iter().enumerate() {
             for (j, b) in bb.iter().enumerate() {
                 let expect = crate::upload::select_boot_slot(a, b);
-                let loaded: &[u8] = match expect {
-                    Some(Slot::B) => b,
-                    Some(Slot::A) => a,
-                    None if Hub::load(a).load_error().is_some() => a,
-                    None => &[],
+                // With nothing bootable: the last slot tried (B after A)
+                // keeps its refusal; none tried, slot A's, unless it loads.
+                let tried: std::vec::Vec<Slot> = crate::upload::boot_order(a, b).collect();
+                let refused = |s: &[u8]| Hub::load(s).load_error().is_some();
+                let loaded: &[u8] = match (expect, tried.last()) {
+                    (Some(Slot::B), _) | (None, Some(Slot::B)) => b,
+                    (Some(Slot::A), _) | (None, Some(Slot::A)) => a,
+                    (None, None) if refused(a) => a,
+                    (None, None) => &[],
                 };
                 let (pipeline, active) = booted(a, b);
                 assert_eq!((pipeline, active), (new(loaded), expect), "A {i}, B {j}");
                 if active.is_none() {
-                    assert!(
-                        Hub::load(loaded).model().is_none(),
-                        "A {i}, B {j}: a model runs"
-                    );
+                    assert!(refused(loaded), "A {i}, B {j}: a model runs");
                 }
             }
         }
-        // A's blob loads but its record names another blob: no model runs.
+        // A's blob loads but its record names another blob: no model runs;
+        // with a committed B that does not validate, B's refusal is kept.
         let (pipeline, active) = booted(&aa[6], &bb[0]);
         assert_eq!((pipeline, active), (new(&[]), None));
+        let (pipeline, active) = booted(&aa[6], &bb[4]);
+        assert_eq!((pipeline, active), (new(&bb[4]), None));
+        assert!(matches!(
+            Hub::load(&bb[4]).load_error(),
+            Some(model_core::BlobError::Invalid(_))
+        ));
         // The cases where a record outranks a blob that does not load.
         assert_eq!(booted(&aa[3], &bb[4]).1, Some(Slot::A));
         assert_eq!(booted(&aa[4], &bb[2]).1, Some(Slot::B));
