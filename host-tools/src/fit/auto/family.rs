@@ -186,13 +186,15 @@ pub fn cut_dataset(
 
 /// Outputs `[target][k]` of `model` over the first `to` samples of grid run
 /// `g`, stepped by model-core from the run's start on the logged inputs
-/// (`inputs`: the names of `g.x`), as the hub runs it.
+/// (`inputs`: the names of `g.x`), as the hub runs it: through the run's
+/// lead first (`GridRun::x_lead`: references and state start there).
 fn run_model(
     model: &ValidModel,
     g: &GridRun,
     inputs: &[String],
     to: usize,
 ) -> Result<Vec<Vec<Option<f64>>>> {
+    let lead = g.x_lead.first().map_or(0, Vec::len);
     let cols = model
         .inputs()
         .iter()
@@ -201,10 +203,19 @@ fn run_model(
                 .iter()
                 .position(|n| n == ch.name.as_str())
                 .ok_or_else(|| anyhow!("auto: model input {} is not in the data", ch.name))?;
-            Ok(g.x[i][..to].iter().map(|&v| Some(v)).collect())
+            let lead_i = g.x_lead.get(i).map_or(&[][..], Vec::as_slice);
+            Ok(lead_i
+                .iter()
+                .chain(&g.x[i][..to])
+                .map(|&v| Some(v))
+                .collect())
         })
         .collect::<Result<Vec<Vec<Option<f64>>>>>()?;
-    Ok(crate::runner::step_all(model, &cols, to, &mut Vec::new()).0)
+    let mut out = crate::runner::step_all(model, &cols, lead + to, &mut Vec::new()).0;
+    for y in &mut out {
+        y.drain(..lead);
+    }
+    Ok(out)
 }
 
 /// CV residuals `[target][scored sample]`, scored samples in grid order

@@ -623,14 +623,25 @@ fn form_x(xs: &[(Form, Vec<Vec<Vec<f64>>>)], form: Form) -> &[Vec<Vec<f64>>] {
     &xs.iter().find(|(f, _)| *f == form).expect("both forms").1
 }
 
-/// Calibration range of input `i` of `x` (`[run][input][k]`) over every
-/// grid run.
+/// Calibration range of input `i` of `x` (`[run][input][k]`, a form's
+/// grid inputs) over every grid run, with the leads of the runs that
+/// calibrate (`GridRun::x_lead`, less the same reference): the hub meets
+/// those values too, from its first sample on.
 fn span(grid: &[GridRun], x: &[Vec<Vec<f64>>], i: usize) -> Span {
     let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (g, run) in grid.iter().zip(x) {
-        for v in &run[i][..g.calib_end] {
-            min = min.min(*v);
-            max = max.max(*v);
+    for (g, run) in grid.iter().zip(x).filter(|(g, _)| g.calib_end > 0) {
+        let r0 = g.x[i]
+            .first()
+            .zip(run[i].first())
+            .map_or(0.0, |(raw, adj)| raw - adj);
+        let lead = g.x_lead.get(i).map_or(&[][..], Vec::as_slice);
+        for v in lead
+            .iter()
+            .map(|v| v - r0)
+            .chain(run[i][..g.calib_end].iter().copied())
+        {
+            min = min.min(v);
+            max = max.max(v);
         }
     }
     if min > max {
@@ -732,6 +743,35 @@ mod tests {
         assert!((both[4] - 4.0).abs() < 1e-12, "{both:?}");
         assert_eq!(both, d(&[(&logged, 0)]));
         assert_eq!(d(&[]), [0.0; 8]);
+    }
+
+    /// A run whose target starts two samples late: its lead (20.0, 20.2 C)
+    /// is in the envelope as the hub meets it, in each form less the same
+    /// reference (a change from 20.0: 0 .. 1 K); a run held out whole adds
+    /// nothing.
+    #[test]
+    fn the_envelope_holds_the_lead_of_the_runs_that_calibrate() {
+        let run = |calib_end| GridRun {
+            name: "r".into(),
+            t_s: vec![2.0, 3.0],
+            x: vec![vec![20.5, 21.0]],
+            x_lead: vec![vec![20.0, 20.2]],
+            y: vec![vec![0.0, 0.0]],
+            calib_end,
+        };
+        let roles = [Role::Temperature];
+        let grid = [run(2)];
+        let change = adjusted(&grid, &roles, Form::Change);
+        assert_eq!(change[0][0], [0.5, 1.0]);
+        let s = span(&grid, &change, 0);
+        assert_eq!((s.min, s.max), (0.0, 1.0));
+        let s = span(&grid, &adjusted(&grid, &roles, Form::Absolute), 0);
+        assert_eq!((s.min, s.max), (20.0, 21.0));
+        let held = [run(2), run(0)];
+        let mut x = adjusted(&held, &roles, Form::Absolute);
+        x[1][0] = vec![90.0, 91.0];
+        let s = span(&held, &x, 0);
+        assert_eq!((s.min, s.max), (20.0, 21.0));
     }
 
     #[test]
