@@ -39,11 +39,13 @@
 //!    range and is not spike-filtered. Anything else makes the channel
 //!    faulty for this sample.
 //! 2. The model steps on a fully good sample. With faulty inputs it still
-//!    steps, each faulty input replaced by its last good value, if the
-//!    model has run before and some output reads none of them
-//!    (`ValidModel::output_inputs`): a broken X-side sensor must not stop
-//!    Z compensation. Otherwise it does not step: its state (and a dynamic
-//!    model's time base) freezes; see `supervisor` for what that costs.
+//!    steps, each faulty input replaced by its last good value, once the
+//!    model has run: a broken X-side sensor must not stop Z compensation
+//!    (`ValidModel::output_inputs` says which outputs read it), and the
+//!    memories of the inputs that are still good keep following them
+//!    even while every output is held. Before its first step it waits
+//!    for every input to have read good once; see `supervisor` for what a
+//!    stand-in costs.
 //! 3. Per output, a supervisor turns "good for this output or not" (the
 //!    model ran and the output reads no faulty input) into follow / hold /
 //!    ramp. The report's state is the worst output's: Holding, Ramping or
@@ -703,8 +705,8 @@ impl Pipeline {
             .fold(0u32, |m, (j, _)| m | bit(j));
         // Per CNC input back this sample after an outage in which its
         // value moved: how many samples it was lost while the model had a
-        // state (stood in for, or frozen; a model not yet started starts
-        // from the value that comes back).
+        // state (stood in for; a model not yet started starts from the
+        // value that comes back).
         let mut lost = [0u32; MAX_INPUTS];
         let started = self.hub.started();
         for (j, (((x, state), plaus), outage)) in inputs
@@ -786,19 +788,19 @@ impl Pipeline {
         );
 
         // 2. Step the model on a fully good sample, or, once it has run,
-        //    with the last good value standing in for each faulty input
-        //    while some output does not read any of them.
-        let n_mask = u8::try_from((1u32 << n_out) - 1).unwrap_or(u8::MAX);
+        //    with the last good value standing in for each faulty input:
+        //    the outputs that read none of them keep being compensated, and
+        //    every other input's memory keeps following its input even when
+        //    every output is held (a state frozen at the loss would come
+        //    back hours old in every input, not only in the lost one).
         let affected = self
             .deps
             .iter()
             .enumerate()
             .filter(|(_, d)| **d & faulty != 0)
             .fold(0u8, |m, (k, _)| m | bit8(k));
-        let stand_in = faulty != 0
-            && self.hub.started()
-            && affected & n_mask != n_mask
-            && self.fill_last_good(&mut inputs, faulty);
+        let stand_in =
+            faulty != 0 && self.hub.started() && self.fill_last_good(&mut inputs, faulty);
         let mut model_out = None;
         let stepped = faulty == 0 || stand_in;
         if stepped {
@@ -826,7 +828,7 @@ impl Pipeline {
         };
         // An output still settling after a CNC input came back is held as
         // one whose input is recovering; the wait runs down only while the
-        // model steps (a frozen state does not forget).
+        // model steps (a state that did not step does not forget).
         let mut settling = 0u8;
         for (k, left) in self.settle.iter_mut().take(n_out).enumerate() {
             if *left > 0 {
@@ -1239,6 +1241,69 @@ mod tests {
         assert_eq!(whole_samples(0.0, 1.0), 0);
         assert_eq!(whole_samples(f64::NAN, 1.0), 0);
         assert_eq!(whole_samples(1e300, 1.0), u32::MAX);
+    }
+
+    /// One output, dz = 10 (T1 - 20) through 3600 s + 1e-3 x speed
+    /// through 600 s: every output reads the speed.
+    fn all_read_speed_bank() -> ValidModel {
+        use model_core::fbank::{FbOutput, Feature, FilterBank};
+        let feature = |input, tau_s| Feature {
+            input,
+            power: 1,
+            tau_s,
+        };
+        Model {
+            outputs: vec(&[name("dz_um")]),
+            params: Params::Fbank(FilterBank {
+                features: vec(&[feature(0, 3600.0), feature(1, 600.0)]),
+                outputs: vec(&[FbOutput {
+                    output: 0,
+                    intercept: 0.0,
+                    coef: vec(&[10.0, 1e-3]),
+                }]),
+            }),
+            ..speed_bank().model().clone()
+        }
+        .validate()
+        .unwrap()
+    }
+
+    /// While the speed is stale every output is held, and the model still
+    /// steps with the speed's stand-in, so T1's memory follows T1's 5 K
+    /// rise over those 20 min. Back at the value that stood in, the hub's
+    /// model (state and outputs) is exactly that of a hub that never lost
+    /// the speed, and dz follows after the usual recovery. A state frozen
+    /// at the loss would be 20 min behind in T1: 7.5 um in dz
+    /// (10 x 5 K x (1 - 3 (1 - e^(-1/3)))), decaying over hours.
+    #[test]
+    fn every_input_s_memory_follows_while_every_output_is_held() {
+        let run = |speed_lost: bool| {
+            let mut p =
+                Pipeline::new(hub(&all_read_speed_bank()), PipelineConfig::DEFAULT).unwrap();
+            let speed = Reading::Direct(12_000.0);
+            for _ in 0..3000 {
+                p.on_sample(&[Reading::Value(20.0), speed]);
+            }
+            for k in 1..=1200 {
+                let t1 = Reading::Value(20.0 + 5.0 * f64::from(k) / 1200.0);
+                let r = p.on_sample(&[t1, if speed_lost { Reading::Stale } else { speed }]);
+                assert_eq!(r.faulty_channels, u32::from(speed_lost) << 1);
+            }
+            let back = p.on_sample(&[Reading::Value(25.0), speed]);
+            let hub = std::format!("{:?}", p.hub());
+            let mut after = 0;
+            while p.on_sample(&[Reading::Value(25.0), speed]).state != HubState::Running {
+                after += 1;
+                assert!(after < 100, "dz never followed again");
+            }
+            (hub, back.state == HubState::Running, after)
+        };
+        let (lost, kept) = (run(true), run(false));
+        assert_eq!(lost.0, kept.0);
+        assert!(kept.1 && !lost.1);
+        // The recovery alone: dz follows on its 10th good sample, the 9th
+        // after the first (`an_output_waits_out_...`).
+        assert_eq!(lost.2 + 1, 9);
     }
 
     #[test]

@@ -40,17 +40,15 @@
 //! for samples `k .. k + H - 1` with `H = ceil(hold_time_s / dt_s)`, and the
 //! first ramp step is taken at sample `k + H` (see `config::samples_for`).
 //!
-//! When every output lost an input, the model is not stepped (see
-//! `pipeline`): its state freezes, so a dynamic (TF/ARMA) model's time base
-//! stops for the length of the fault. After recovery it runs on as if the
-//! faulty samples had not happened: its response lags real time by the
-//! fault's length, and a temperature change during the fault enters as one
-//! step at recovery. When some outputs still have their inputs, the model
-//! steps with each failed input held at its last good value: the healthy
-//! outputs stay exact, the affected ones see that held value and take the
-//! change as one step at recovery, the same error as a freeze. For faults
-//! short against the thermal time constants (minutes to hours) that error
-//! is small, and the recovery time plus the slew limit smooth it.
+//! While an input is lost the model steps on with its last good value
+//! standing in (see `pipeline`), whether or not some output still reads
+//! only good inputs: the healthy outputs stay exact, the memories of the
+//! good inputs keep following them, and the outputs that read the lost
+//! input see the held value and take the change as one step at recovery.
+//! For faults short against the thermal time constants (minutes to hours)
+//! that error is small, and the recovery time plus the slew limit smooth
+//! it; a CNC input that comes back at another value also waits until its
+//! memories have forgotten the stand-in (`pipeline`, the settle wait).
 
 use crate::config::{non_negative, positive, samples_for, ConfigError};
 use crate::report::HubState;
