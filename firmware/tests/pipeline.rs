@@ -437,28 +437,36 @@ fn swap_to_a_dynamic_model_restarts_its_state_and_period() {
 }
 
 #[test]
-fn a_fault_freezes_a_dynamic_models_time_base() {
+fn a_fault_keeps_a_dynamic_models_time_base() {
     // y(k) = 0.2 u(k) + 0.8 y(k-1) with u = 1 K after the first sample:
     // 0.2, 0.36, 0.488, 0.5904, 0.67232 ...; all within one slew step,
     // so the offsets are the model's outputs (1e-12: a few roundings).
-    let expected = [0.0, 0.2, 0.36, 0.488, 0.5904, 0.67232];
+    let mut expected = vec![0.0];
+    for _ in 0..10 {
+        let last = expected[expected.len() - 1];
+        expected.push(0.2 + 0.8 * last);
+    }
     let mut p = pipeline(&tf_model());
     let mut got = Vec::new();
     got.push(p.on_sample(&[Reading::Value(25.0)]).offsets[0]);
     got.push(p.on_sample(&[Reading::Value(26.0)]).offsets[0]);
     got.push(p.on_sample(&[Reading::Value(26.0)]).offsets[0]);
-    // Five faulty samples: held, the model not stepped.
+    // Five faulty samples: the offset held, the model stepped with the
+    // last good value (26 C, the true value here) standing in.
     for _ in 0..5 {
         let r = p.on_sample(&[Reading::Fault(ChannelFault::Open)]);
         assert_eq!(r.offsets[0], got[2]);
     }
-    for _ in 0..3 {
-        got.push(p.on_sample(&[Reading::Value(26.0)]).offsets[0]);
-    }
-    // The sequence carries on where it stopped, as if the fault had not
-    // happened: the documented consequence (lag by the fault's length).
-    for (g, e) in got.iter().zip(&expected) {
+    // The sequence carries on in time, as if the fault had not happened
+    // (samples 8, 9, 10): no lag by the fault's length.
+    let after: Vec<f64> = (0..3)
+        .map(|_| p.on_sample(&[Reading::Value(26.0)]).offsets[0])
+        .collect();
+    for (g, e) in got.iter().zip(&expected[..3]) {
         assert!((g - e).abs() < 1e-12, "{got:?}");
+    }
+    for (g, e) in after.iter().zip(&expected[8..]) {
+        assert!((g - e).abs() < 1e-12, "{after:?} {expected:?}");
     }
     assert_eq!(p.hub().faults().total(), 0);
 }
