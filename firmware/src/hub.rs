@@ -202,6 +202,15 @@ impl Hub {
         self.run.extrapolation > model_core::model::EXTRAPOLATION_FLAG_AT
     }
 
+    /// Mends the memories of `input`, lost for `lost` samples with
+    /// `values.0` standing in and back at `values.1`
+    /// ([`model_core::ValidModel::bridge`]; nothing without a model).
+    pub fn bridge(&mut self, input: usize, values: (f64, f64), lost: u32) {
+        if let Ok(model) = self.model.model() {
+            model.bridge(&mut self.run.state, input, values, lost);
+        }
+    }
+
     /// Refused samples so far.
     pub fn faults(&self) -> Faults {
         self.run.faults

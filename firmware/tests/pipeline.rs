@@ -447,10 +447,7 @@ fn a_fault_keeps_a_dynamic_models_time_base() {
         expected.push(0.2 + 0.8 * last);
     }
     let mut p = pipeline(&tf_model());
-    let mut got = Vec::new();
-    got.push(p.on_sample(&[Reading::Value(25.0)]).offsets[0]);
-    got.push(p.on_sample(&[Reading::Value(26.0)]).offsets[0]);
-    got.push(p.on_sample(&[Reading::Value(26.0)]).offsets[0]);
+    let got = [25.0, 26.0, 26.0].map(|t| p.on_sample(&[Reading::Value(t)]).offsets[0]);
     // Five faulty samples: the offset held, the model stepped with the
     // last good value (26 C, the true value here) standing in.
     for _ in 0..5 {

@@ -101,6 +101,26 @@ pub fn pole(tau_s: f64, dt_s: f64) -> f64 {
     }
 }
 
+/// What a memory that saw `v0` for `n` steps lacks, per unit of
+/// `v1 - v0`, against one that saw the straight line
+/// `v0 + (v1 - v0) k / (n + 1)`, `k = 1..=n` (the input lost for `n`
+/// steps with `v0` standing in, back at `v1` on step `n + 1`): with
+/// `p = exp(-dt_s / tau_s)`, `sum_k (1 - p) p^(n - k) k / (n + 1)`
+/// `= (n - p (1 - p^n) / (1 - p)) / (n + 1)`, from 0 (`tau_s` far longer
+/// than the loss) to `n / (n + 1)` (no memory). Computed with `expm1`, so
+/// that a pole close to 1 loses no digits; 0 for a hold or unfiltered
+/// feature (`tau_s` 0, or a pole that rounds to 1).
+pub fn line_share(tau_s: f64, dt_s: f64, n: u32) -> f64 {
+    let a = dt_s / tau_s;
+    if n == 0 || !(tau_s > 0.0 && a > 0.0 && a.is_finite()) {
+        return 0.0;
+    }
+    let n = f64::from(n);
+    let p = libm::exp(-a);
+    let share = (n + p * libm::expm1(-n * a) / -libm::expm1(-a)) / (n + 1.0);
+    share.clamp(0.0, n / (n + 1.0))
+}
+
 impl Feature {
     /// `x^power` of the reference-adjusted inputs `x` (0 for a missing
     /// channel, which validation rules out).
@@ -193,6 +213,32 @@ impl FilterBank {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The closed form against the sum it stands for: a memory stepped
+    /// through the line and one stepped at `v0`, differenced, for poles
+    /// from no memory to a hold and losses of 1 to 5000 steps.
+    #[test]
+    fn line_share_is_the_memory_the_line_would_have_left() {
+        for tau in [0.5, 10.0, 600.0, 3600.0, 1e9] {
+            for n in [1u32, 2, 17, 600, 5000] {
+                let p = pole(tau, 1.0);
+                let (mut line, mut held) = (0.0, 0.0);
+                for k in 1..=n {
+                    line = filter_step(p, line, f64::from(k) / f64::from(n + 1), false);
+                    held = filter_step(p, held, 0.0, false);
+                }
+                let got = line_share(tau, 1.0, n);
+                // The sum rounds once per step: 1e-12 covers 5000 steps.
+                assert!(
+                    (got - (line - held)).abs() < 1e-12,
+                    "tau {tau} n {n}: {got} vs {line}"
+                );
+            }
+        }
+        assert_eq!(line_share(0.0, 1.0, 10), 0.0);
+        assert_eq!(line_share(HOLD_TAU_S, 1.0, 10), 0.0);
+        assert_eq!(line_share(600.0, 1.0, 0), 0.0);
+    }
 
     #[test]
     fn pole_of_an_hour_at_one_second() {

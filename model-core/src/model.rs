@@ -704,6 +704,56 @@ impl ValidModel {
         wait
     }
 
+    /// Mends the memories of `input` after it was lost for `lost` steps, in
+    /// which the model stepped with `stood_in` standing in for it, now that
+    /// it reads `back` (raw values, before this sample's step): they become
+    /// what they would be had the input moved along a straight line from
+    /// `stood_in` to `back` over the lost steps, which is how a temperature
+    /// moves. Each first-order memory of the input gains
+    /// `(v(back) - v(stood_in)) line_share` ([`crate::fbank::line_share`],
+    /// `v` the feature's power of the reference-adjusted input; a squared
+    /// feature follows a line in `v`). Filter-bank memories only: a TF's
+    /// state, a static path, a hold and ARMA's own series have no such
+    /// mend. Nothing before the run's first step.
+    pub fn bridge(
+        &self,
+        state: &mut ModelState,
+        input: usize,
+        (stood_in, back): (f64, f64),
+        lost: u32,
+    ) {
+        let (Params::Fbank(bank), Some(ch)) = (&self.model.params, self.model.inputs.get(input))
+        else {
+            return;
+        };
+        if !state.started {
+            return;
+        }
+        let r = match ch.reference {
+            Reference::Absolute => 0.0,
+            Reference::Value(v) => v,
+            Reference::First => state.references.get(input).copied().unwrap_or(0.0),
+        };
+        for (f, s) in bank.features.iter().zip(state.fbank.iter_mut()) {
+            if usize::from(f.input) != input {
+                continue;
+            }
+            let share = crate::fbank::line_share(f.tau_s, self.model.dt_s, lost);
+            let v = |raw: f64| {
+                let u = raw - r;
+                if f.power == 2 {
+                    u * u
+                } else {
+                    u
+                }
+            };
+            let mended = *s + (v(back) - v(stood_in)) * share;
+            if mended.is_finite() {
+                *s = mended;
+            }
+        }
+    }
+
     /// The calibration bounds, if the model carries them.
     pub fn bounds(&self) -> Option<&Bounds> {
         self.model.bounds.as_ref()
