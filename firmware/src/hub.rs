@@ -159,8 +159,9 @@ impl Hub {
         loaded
     }
 
-    /// Everything but the model as in a hub that just loaded it.
-    fn start_afresh(&mut self) {
+    /// Everything but the model as in a hub that just loaded it (the next
+    /// sample is the run's first).
+    pub fn start_afresh(&mut self) {
         self.positional = self.model().map_or(0, |m| m.positional_outputs());
         self.run = Run::new();
     }

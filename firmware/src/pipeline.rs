@@ -39,13 +39,19 @@
 //!    range and is not spike-filtered. Anything else makes the channel
 //!    faulty for this sample.
 //! 2. The model steps on a fully good sample. With faulty inputs it still
-//!    steps, each faulty input replaced by its last good value, once the
-//!    model has run: a broken X-side sensor must not stop Z compensation
-//!    (`ValidModel::output_inputs` says which outputs read it), and the
-//!    memories of the inputs that are still good keep following them
-//!    even while every output is held. Before its first step it waits
-//!    for every input to have read good once; see `supervisor` for what a
-//!    stand-in costs.
+//!    steps, each faulty input replaced by its last good value (the last
+//!    that passed every check), once the model has run: a broken X-side
+//!    sensor must not stop Z compensation (`ValidModel::output_inputs`
+//!    says which outputs read it), and the memories of the inputs that are
+//!    still good keep following them even while every output is held. Its
+//!    first step waits for a sample on which every input is good. A
+//!    temperature that comes back has its filter-bank memories mended
+//!    along a line from the stand-in (`ValidModel::bridge`); a CNC input
+//!    that comes back at another value makes the outputs that remember it
+//!    wait (`settle_after_outages`). A step on stand-ins may set
+//!    EXTRAPOLATING or, if the model refuses it, MODEL_FAULT (and count
+//!    in the hub's faults) while the outputs are held; see `supervisor`
+//!    for what a stand-in costs.
 //! 3. Per output, a supervisor turns "good for this output or not" (the
 //!    model ran and the output reads no faulty input) into follow / hold /
 //!    ramp. The report's state is the worst output's: Holding, Ramping or
@@ -626,6 +632,9 @@ impl Pipeline {
         self.has_good = 0;
         self.settle = [0; MAX_OUTPUTS];
         core::mem::swap(&mut self.hub, hub);
+        // Afresh even if the caller's hub had run: nothing stands in for
+        // the new model before its first fully good step.
+        self.hub.start_afresh();
         self.follow_hub();
         Ok(())
     }
@@ -1404,6 +1413,40 @@ mod tests {
         let (bridged, kept) = (run(true), run(false));
         assert!((bridged - kept).abs() < 0.05, "{bridged} vs {kept}");
         assert!(kept > 10.0, "{kept}");
+    }
+
+    /// T1 back 10 K higher after 20 min: the spike filter lets the new
+    /// level through on its third reading, the rate check (6 K a minute
+    /// from its anchor before the outage) refuses it for up to two
+    /// windows. While refused, 20 C (the last value that passed every
+    /// check) stands in, not the refused 30 C; once good, 30 C is the last
+    /// good value.
+    #[test]
+    fn a_reading_the_rate_check_refuses_never_stands_in() {
+        let mut p = Pipeline::new(hub(&speed_bank()), PipelineConfig::DEFAULT).unwrap();
+        let speed = Reading::Direct(0.0);
+        for _ in 0..600 {
+            p.on_sample(&[Reading::Value(20.0), speed]);
+        }
+        for _ in 0..1200 {
+            p.on_sample(&[Reading::Fault(ChannelFault::Open), speed]);
+        }
+        let mut refused = 0;
+        for k in 0..300 {
+            let r = p.on_sample(&[Reading::Value(30.0), speed]);
+            if r.faulty_channels & 1 == 0 {
+                assert!(refused > 0, "{k}: never refused");
+                break;
+            }
+            if r.flags.has(StatusFlags::RATE_OF_CHANGE) {
+                refused += 1;
+            }
+            let mut inputs = [0.0; MAX_INPUTS];
+            assert!(p.fill_last_good(&mut inputs, 1));
+            assert_eq!(inputs[0], 20.0, "{k}");
+        }
+        assert!((60..=120).contains(&refused), "{refused}");
+        assert_eq!(p.last_good[0], 30.0);
     }
 
     #[test]

@@ -44,11 +44,14 @@
 //! standing in (see `pipeline`), whether or not some output still reads
 //! only good inputs: the healthy outputs stay exact, the memories of the
 //! good inputs keep following them, and the outputs that read the lost
-//! input see the held value and take the change as one step at recovery.
-//! For faults short against the thermal time constants (minutes to hours)
-//! that error is small, and the recovery time plus the slew limit smooth
-//! it; a CNC input that comes back at another value also waits until its
-//! memories have forgotten the stand-in (`pipeline`, the settle wait).
+//! input see the held value. On its return a temperature's filter-bank
+//! memories are mended as if it had moved along a line meanwhile
+//! (`ValidModel::bridge`); a TF or ARX model takes the change as one step
+//! at recovery, an error that is small for faults short against the
+//! thermal time constants (minutes to hours), smoothed by the recovery
+//! time and the slew limit; a CNC input that comes back at another value
+//! makes its outputs wait until their memories have forgotten the
+//! stand-in (`pipeline`, the settle wait).
 
 use crate::config::{non_negative, positive, samples_for, ConfigError};
 use crate::report::HubState;

@@ -107,9 +107,11 @@ pub fn pole(tau_s: f64, dt_s: f64) -> f64 {
 /// steps with `v0` standing in, back at `v1` on step `n + 1`): with
 /// `p = exp(-dt_s / tau_s)`, `sum_k (1 - p) p^(n - k) k / (n + 1)`
 /// `= (n - p (1 - p^n) / (1 - p)) / (n + 1)`, from 0 (`tau_s` far longer
-/// than the loss) to `n / (n + 1)` (no memory). Computed with `expm1`, so
-/// that a pole close to 1 loses no digits; 0 for a hold or unfiltered
-/// feature (`tau_s` 0, or a pole that rounds to 1).
+/// than the loss) to `n / (n + 1)` (no memory). `1 - p` and `1 - p^n`
+/// come from `expm1`, so a pole close to 1 does not turn them into
+/// rounding; the difference from `n` still cancels, to an absolute error
+/// of a few ulps of `n`. 0 for an unfiltered feature (`tau_s` 0) or a
+/// loss of nothing; the caller skips holds (a pole of exactly 1).
 pub fn line_share(tau_s: f64, dt_s: f64, n: u32) -> f64 {
     let a = dt_s / tau_s;
     if n == 0 || !(tau_s > 0.0 && a > 0.0 && a.is_finite()) {

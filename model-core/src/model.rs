@@ -712,7 +712,9 @@ impl ValidModel {
     /// moves. Each first-order memory of the input gains
     /// `(v(back) - v(stood_in)) line_share` ([`crate::fbank::line_share`],
     /// `v` the feature's power of the reference-adjusted input; a squared
-    /// feature follows a line in `v`). Filter-bank memories only: a TF's
+    /// feature follows a line in `v`, not in the input, which the trainer
+    /// never asks for: it squares heat sources only, and those are CNC
+    /// inputs, which are not bridged). Filter-bank memories only: a TF's
     /// state, a static path, a hold and ARMA's own series have no such
     /// mend. Nothing before the run's first step.
     pub fn bridge(
@@ -734,8 +736,10 @@ impl ValidModel {
             Reference::Value(v) => v,
             Reference::First => state.references.get(input).copied().unwrap_or(0.0),
         };
-        for (f, s) in bank.features.iter().zip(state.fbank.iter_mut()) {
-            if usize::from(f.input) != input {
+        let poles = self.fbank_poles();
+        for ((f, p), s) in bank.features.iter().zip(poles).zip(state.fbank.iter_mut()) {
+            // Unfiltered (p = 0) or a hold (p = 1): no memory to mend.
+            if usize::from(f.input) != input || !(*p > 0.0 && *p < 1.0) {
                 continue;
             }
             let share = crate::fbank::line_share(f.tau_s, self.model.dt_s, lost);

@@ -442,6 +442,11 @@ fn a_bridged_memory_is_the_one_the_line_would_have_left() {
     let mut fresh = ModelState::new();
     fb.bridge(&mut fresh, 0, (20.0, 25.0), n);
     assert_eq!(fresh, ModelState::new());
+    let mut started = ModelState::new();
+    fb.step(&mut started, &[t1(0), t2(0)], &mut [0.0]).unwrap();
+    let before = started.clone();
+    fb.bridge(&mut started, 0, (20.0, 25.0), 0);
+    assert_eq!(started, before);
 }
 
 /// How long an output takes to forget a wrong stretch of an input: per
