@@ -87,7 +87,9 @@ impl Folds {
                 of,
                 n,
                 scheme: Scheme::LeaveOut,
-                description: format!("leave one run out ({n} calibration runs)"),
+                description: format!(
+                    "leave one run out ({n} calibration runs); averaged: the candidates with no more features than the fewest within one standard error of the best"
+                ),
             }
         } else {
             let first = first_informative(grid, &of, k);

@@ -13,7 +13,7 @@
 //! one of them by a noisy CV minimum leaves.
 
 use super::features::{self, FeatureDef, Role};
-use super::folds::Folds;
+use super::folds::{Folds, Scheme};
 use super::ridge::{Coefs, CvScore, Design};
 use super::table::{cv_columns, CvRow, Family, Form};
 use serde::Serialize;
@@ -94,6 +94,8 @@ struct Scored {
     row: CvRow,
     /// The ranking criterion (`CvScore::geo`).
     rank: f64,
+    /// Its standard error (`CvScore::geo_se`).
+    rank_se: f64,
     /// Index into the designs.
     design: usize,
     /// Feature columns of that design the candidate uses.
@@ -212,6 +214,7 @@ fn score_grid(
                     idx: (0..defs.len()).collect(),
                     row,
                     rank: cv.geo,
+                    rank_se: cv.geo_se,
                 });
                 out.designs.push((data.form, defs, design));
             }
@@ -251,6 +254,7 @@ fn add_eliminations(forms: &[FormData], sc: &mut Scoring, s: &SearchSettings, pr
         sc.scored.push(Scored {
             row,
             rank: cv.geo,
+            rank_se: cv.geo_se,
             design,
             idx,
         });
@@ -310,6 +314,30 @@ fn pick_members(
     members
 }
 
+/// The one-standard-error rule where the folds are whole runs: of the
+/// candidates whose CV error lies within one standard error of the best
+/// one's, the fewest features any of them has bounds what may be averaged
+/// (`order` kept otherwise). A run left out is an operating condition the
+/// others did not see, so candidates within that spread are alike for the
+/// next one, and the one with fewer filters has less to extrapolate with.
+fn simplest_within_noise(scored: &[Scored], order: &[usize]) -> Vec<usize> {
+    let Some(&best) = order.first() else {
+        return Vec::new();
+    };
+    let within = scored[best].rank + scored[best].rank_se;
+    let fewest = order
+        .iter()
+        .filter(|&&i| scored[i].rank <= within)
+        .map(|&i| scored[i].idx.len())
+        .min()
+        .unwrap_or(usize::MAX);
+    order
+        .iter()
+        .copied()
+        .filter(|&i| scored[i].idx.len() <= fewest)
+        .collect()
+}
+
 /// Scores every candidate of `forms` for target `y` (concatenated runs),
 /// calibration sample `k` in fold `folds.of[k]`, and averages the best.
 pub fn search(
@@ -322,7 +350,11 @@ pub fn search(
     let mut sc = score_grid(forms, y, folds, s, progress);
     add_eliminations(forms, &mut sc, s, progress);
     let order = ranked(&sc.scored);
-    let members = pick_members(&mut sc, &order, folds.n, s);
+    let eligible = match folds.scheme {
+        Scheme::LeaveOut => simplest_within_noise(&sc.scored, &order),
+        Scheme::Forward { .. } => order.clone(),
+    };
+    let members = pick_members(&mut sc, &eligible, folds.n, s);
     if members.is_empty() {
         return None;
     }
@@ -373,4 +405,45 @@ fn cv_residuals(
             (n > 0).then(|| y[k] - s / n as f64)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scored(rank: f64, rank_se: f64, features: usize) -> Scored {
+        Scored {
+            row: CvRow::new(Family::Ridge, Form::Change),
+            rank,
+            rank_se,
+            design: 0,
+            idx: (0..features).collect(),
+        }
+    }
+
+    /// The best (10 features) is 1.0 +- 0.2; a 4-feature candidate at 1.1
+    /// lies within that, a 2-feature one at 1.5 does not: the members may
+    /// have at most 4 features (the 2-feature one among them, below the
+    /// 4-feature one in rank), never the 10- or 6-feature ones. With a
+    /// spread of 0 only the best's own size and smaller remain.
+    #[test]
+    fn within_one_standard_error_the_fewest_features_bound_the_members() {
+        let sc = [
+            scored(1.5, 0.3, 2),
+            scored(1.0, 0.2, 10),
+            scored(1.1, 0.1, 4),
+            scored(1.15, 0.1, 6),
+        ];
+        let order = ranked(&sc);
+        assert_eq!(order, [1, 2, 3, 0]);
+        assert_eq!(simplest_within_noise(&sc, &order), [2, 0]);
+        let tight = [
+            scored(1.0, 0.0, 10),
+            scored(1.1, 0.0, 4),
+            scored(0.9, 0.0, 12),
+        ];
+        let order = ranked(&tight);
+        assert_eq!(simplest_within_noise(&tight, &order), [2, 0, 1]);
+        assert_eq!(simplest_within_noise(&tight, &[]), Vec::<usize>::new());
+    }
 }
