@@ -202,7 +202,7 @@ def main():
         cal_d = [read(p)[0] for p in cal]
         test_d = [read(p)[0] for p in test]
         print(f"{'target':8} {'auto':>8} {'ridge':>8} {'sd y':>8} {'cover%':>7} {'half':>7} {'flag%':>6}"
-              f" {'room2':>6} {'refit':>6} {'rcover':>6}  auto's best candidate")
+              f" {'room2':>6} {'refit':>6} {'rcover':>6}  auto's first member (of n)")
         for t in TARGETS:
             xs = [features(d, col, temps) for d in cal_d]
             ys = [d[:, col[t]] for d in cal_d]
@@ -216,10 +216,12 @@ def main():
             band = tj["band"]
             at_flag = band["half_width"] * (1 + band["growth"] * EXTRAPOLATION_FLAG_AT)
             flagged = 100.0 * np.mean((hi - lo) / 2 >= at_flag * (1 - 1e-9))
-            w = tj["cv_table"][0]
+            chosen = [r for r in tj["cv_table"] if r["chosen"]] or tj["cv_table"][:1]
+            w = chosen[0]
             print(f"{t:8} {ev_json[t]['rmse_um']:8.2f} {rmse(e):8.2f} {y.std():8.2f} {cover:7.1f} "
                   f"{half:7.2f} {flagged:6.1f} {refit[t][0]:6.2f} {refit[t][1]:6.2f} {refit[t][2]:6.1f}  "
-                  f"{tj['family']} {w['form']} temps {w['temp_taus_s']} lambda {w['lambda']:g}")
+                  f"{tj['family']} {w['form']} temps {w['temp_taus_s']} lambda {w['lambda']:g}"
+                  f" (of {len(chosen)})")
 
 
 if __name__ == "__main__":

@@ -25,7 +25,10 @@
 //! `cv_geo_rmse`, the ranking criterion, instead of the pooled `cv_rmse`
 //! (the same 50 rows in another order; every other byte, masked keys
 //! aside, unchanged), and once more when model-core's filter bank grew to
-//! 256 features (`settings.max_features` 128 -> 256, nothing else).
+//! 256 features (`settings.max_features` 128 -> 256, nothing else), and
+//! once more when every CV-table row gained `cv_geo_se` (2026-11-28; with
+//! that key removed the new capture equals the old, `out` and `seconds`
+//! aside).
 //!
 //! Every command runs in the repository root with the relative paths the
 //! fixtures were captured with (`eval` names each run's file). `fit --model

@@ -325,7 +325,9 @@ pub struct AutoArgs {
     pub auto_folds: usize,
     /// auto: how many of the best candidates the model averages (as many
     /// as fit the hub's 256 features; 20 won on the development split,
-    /// scripts/auto_dev_split.sh).
+    /// scripts/auto_dev_split.sh). With several calibration runs, at most
+    /// this many of the simplest candidates within one standard error of
+    /// the best.
     #[arg(long, default_value_t = 20)]
     pub auto_ensemble: usize,
     /// auto: how many of the best candidates also try dropping temperature

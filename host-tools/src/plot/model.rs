@@ -95,7 +95,8 @@ fn cv_html(auto: &AutoReport) -> String {
     for t in &auto.targets {
         // The best CV_ROWS, and every member of the model below them (the
         // members are the best candidates of the winner's form that fit the
-        // hub together, so one can rank lower).
+        // hub together, or with several runs the simplest within one
+        // standard error of the best, so one can rank lower).
         let bars: Vec<(String, f64)> = t
             .cv_table
             .iter()

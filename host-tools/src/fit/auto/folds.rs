@@ -88,7 +88,7 @@ impl Folds {
                 n,
                 scheme: Scheme::LeaveOut,
                 description: format!(
-                    "leave one run out ({n} calibration runs); averaged: the candidates with no more features than the fewest within one standard error of the best"
+                    "leave one run out ({n} calibration runs); the ridge averages the candidates within one standard error of the best that have the fewest features"
                 ),
             }
         } else {

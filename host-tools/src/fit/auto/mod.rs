@@ -461,7 +461,7 @@ fn ridge_targets(
     for (target, found) in ds.targets.iter().zip(found) {
         let choice = target_choice(target, found.table, &found.cv_residuals, &found.members, &d);
         out.choices.push(choice);
-        out.residuals.push(found.cv_residuals);
+        out.residuals.push(found.best_residuals);
     }
     Ok(out)
 }
@@ -508,8 +508,9 @@ fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&f
             c.band = r.bands[t].clone();
         }
         c.cv_table.extend(cmp.rows[t].iter().cloned());
-        // By the ranking criterion (the ridge's members were picked by it);
-        // unscored rows (NaN) last.
+        // By the ranking criterion (the ridge's members were picked by it,
+        // or with several runs the simplest within its noise); unscored
+        // rows (NaN) last.
         c.cv_table
             .sort_by(|a, b| a.cv_geo_rmse.total_cmp(&b.cv_geo_rmse));
     }

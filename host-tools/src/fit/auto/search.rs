@@ -10,7 +10,10 @@
 //! filter-bank regressions is one again, so it runs on the hub as it is):
 //! on real runs the CV errors of the leading candidates lie within each
 //! other's noise, and averaging them halves the held-out spread that picking
-//! one of them by a noisy CV minimum leaves.
+//! one of them by a noisy CV minimum leaves. Where the folds are whole runs
+//! the average is of the candidates within one standard error of the best
+//! that have the fewest features ([`simplest_within_noise`]): usually one
+//! to three.
 
 use super::features::{self, FeatureDef, Role};
 use super::folds::{Folds, Scheme};
@@ -75,6 +78,11 @@ pub struct TargetSearch {
     /// calibration sample (`Folds::scored`), in grid order; `None` where
     /// no member could be fitted for the sample's fold.
     pub cv_residuals: Vec<Option<f64>>,
+    /// The same for the average of the best candidates whatever their
+    /// size (`cv_residuals` itself within one run): what another family
+    /// must beat to replace the ridge, so that preferring the simpler
+    /// ridge never hands the choice to a family the best ridge beats.
+    pub best_residuals: Vec<Option<f64>>,
 }
 
 /// Feature columns of `defs` over every run, concatenated.
@@ -261,18 +269,20 @@ fn add_eliminations(forms: &[FormData], sc: &mut Scoring, s: &SearchSettings, pr
     }
 }
 
-/// Step 3: the members of the winner, in `order`: candidates of the best
-/// one's form (one set of model input channels) that together fit the
-/// hub's feature capacity, up to `s.ensemble`; marks them chosen.
+/// Step 3: the members of the winner, in `order`: candidates of the
+/// first one's form (one set of model input channels) that together fit
+/// the hub's feature capacity, up to `s.ensemble`; with the indices of
+/// the candidates they are.
 fn pick_members(
-    sc: &mut Scoring,
+    sc: &Scoring,
     order: &[usize],
     n_folds: usize,
     s: &SearchSettings,
-) -> Vec<Member> {
+) -> (Vec<Member>, Vec<usize>) {
     let Some(best_form) = order.first().map(|&i| sc.scored[i].row.form) else {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     };
+    let mut picked = Vec::new();
     let mut members: Vec<Member> = Vec::new();
     let mut union: Vec<FeatureDef> = Vec::new();
     for &i in order {
@@ -302,7 +312,7 @@ fn pick_members(
             .map(|f| design.fit(idx, lambda, form.intercept(), Some(f)))
             .collect();
         union = grown;
-        sc.scored[i].row.chosen = true;
+        picked.push(i);
         members.push(Member {
             form: *form,
             features: defs,
@@ -311,30 +321,32 @@ fn pick_members(
             fold_coefs,
         });
     }
-    members
+    (members, picked)
 }
 
 /// The one-standard-error rule where the folds are whole runs: of the
 /// candidates whose CV error lies within one standard error of the best
-/// one's, the fewest features any of them has bounds what may be averaged
-/// (`order` kept otherwise). A run left out is an operating condition the
-/// others did not see, so candidates within that spread are alike for the
-/// next one, and the one with fewer filters has less to extrapolate with.
+/// one's (`rank <= best + se`, both on the mse scale), those with the
+/// fewest features, in `order`. A run left out is an operating condition
+/// the others did not see, so candidates within that spread are alike for
+/// the next one, and the one with fewer filters has less to extrapolate
+/// with. A best that is not finite leaves `order` as it is.
 fn simplest_within_noise(scored: &[Scored], order: &[usize]) -> Vec<usize> {
     let Some(&best) = order.first() else {
         return Vec::new();
     };
     let within = scored[best].rank + scored[best].rank_se;
-    let fewest = order
-        .iter()
-        .filter(|&&i| scored[i].rank <= within)
-        .map(|&i| scored[i].idx.len())
-        .min()
-        .unwrap_or(usize::MAX);
-    order
+    if !within.is_finite() {
+        return order.to_vec();
+    }
+    let near: Vec<usize> = order
         .iter()
         .copied()
-        .filter(|&i| scored[i].idx.len() <= fewest)
+        .filter(|&i| scored[i].rank <= within)
+        .collect();
+    let fewest = near.iter().map(|&i| scored[i].idx.len()).min().unwrap_or(0);
+    near.into_iter()
+        .filter(|&i| scored[i].idx.len() == fewest)
         .collect()
 }
 
@@ -350,15 +362,25 @@ pub fn search(
     let mut sc = score_grid(forms, y, folds, s, progress);
     add_eliminations(forms, &mut sc, s, progress);
     let order = ranked(&sc.scored);
-    let eligible = match folds.scheme {
-        Scheme::LeaveOut => simplest_within_noise(&sc.scored, &order),
-        Scheme::Forward { .. } => order.clone(),
+    let (best_members, best_picked) = pick_members(&sc, &order, folds.n, s);
+    let (members, picked) = match folds.scheme {
+        Scheme::LeaveOut => {
+            let near = simplest_within_noise(&sc.scored, &order);
+            pick_members(&sc, &near, folds.n, s)
+        }
+        Scheme::Forward { .. } => (best_members.clone(), best_picked),
     };
-    let members = pick_members(&mut sc, &eligible, folds.n, s);
     if members.is_empty() {
         return None;
     }
+    for &i in &picked {
+        sc.scored[i].row.chosen = true;
+    }
     let cv_residuals = cv_residuals(forms, &members, y, folds, s.dt_s);
+    let best_residuals = match folds.scheme {
+        Scheme::LeaveOut => self::cv_residuals(forms, &best_members, y, folds, s.dt_s),
+        Scheme::Forward { .. } => cv_residuals.clone(),
+    };
     let table = order
         .into_iter()
         .map(|i| sc.scored[i].row.clone())
@@ -367,6 +389,7 @@ pub fn search(
         table,
         members,
         cv_residuals,
+        best_residuals,
     })
 }
 
@@ -421,29 +444,38 @@ mod tests {
         }
     }
 
-    /// The best (10 features) is 1.0 +- 0.2; a 4-feature candidate at 1.1
-    /// lies within that, a 2-feature one at 1.5 does not: the members may
-    /// have at most 4 features (the 2-feature one among them, below the
-    /// 4-feature one in rank), never the 10- or 6-feature ones. With a
-    /// spread of 0 only the best's own size and smaller remain.
+    /// The best (10 features) is 1.0 +- 0.25; candidates of 4 features at
+    /// 1.1 and exactly 1.25 lie within that (the bound is inclusive), one
+    /// of 4 at 1.26 and one of 2 at 1.5 do not: the members are the two
+    /// 4-feature candidates within the noise, in rank order, never the
+    /// 10- or 6-feature ones nor the worse small ones. With a spread of 0
+    /// only the best remains, though smaller ones rank below it. A best
+    /// that is not finite leaves the order.
     #[test]
-    fn within_one_standard_error_the_fewest_features_bound_the_members() {
+    fn within_one_standard_error_the_fewest_features_are_the_members() {
         let sc = [
             scored(1.5, 0.3, 2),
-            scored(1.0, 0.2, 10),
-            scored(1.1, 0.1, 4),
+            scored(1.0, 0.25, 10),
+            scored(1.25, 0.1, 4),
             scored(1.15, 0.1, 6),
+            scored(1.1, 0.1, 4),
+            scored(1.26, 0.1, 4),
         ];
         let order = ranked(&sc);
-        assert_eq!(order, [1, 2, 3, 0]);
-        assert_eq!(simplest_within_noise(&sc, &order), [2, 0]);
+        assert_eq!(order, [1, 4, 3, 2, 5, 0]);
+        assert_eq!(simplest_within_noise(&sc, &order), [4, 2]);
         let tight = [
             scored(1.0, 0.0, 10),
             scored(1.1, 0.0, 4),
             scored(0.9, 0.0, 12),
         ];
         let order = ranked(&tight);
-        assert_eq!(simplest_within_noise(&tight, &order), [2, 0, 1]);
+        assert_eq!(simplest_within_noise(&tight, &order), [2]);
         assert_eq!(simplest_within_noise(&tight, &[]), Vec::<usize>::new());
+        let lost = [
+            scored(f64::INFINITY, 0.0, 10),
+            scored(f64::INFINITY, 0.0, 4),
+        ];
+        assert_eq!(simplest_within_noise(&lost, &[0, 1]), [0, 1]);
     }
 }

@@ -139,6 +139,11 @@ pub struct CvRow {
     /// errors: the criterion ridge candidates are ranked by (ridge.rs
     /// `CvScore`), in the target's unit.
     pub cv_geo_rmse: f64,
+    /// Its standard error as an rmse spread: with several runs, the ridge
+    /// candidates within this of the best's `cv_geo_rmse` (on the mse
+    /// scale) are the ones the simplest are averaged from (search.rs
+    /// `simplest_within_noise`).
+    pub cv_geo_se: f64,
     /// Inputs left out (indices into the fit's `inputs`): temperatures
     /// dropped by the sensor elimination; for other families the inputs
     /// that never move in calibration and (arx, tf) the heat sources when
@@ -189,6 +194,7 @@ impl CvRow {
             cv_rmse: f64::NAN,
             cv_se: f64::NAN,
             cv_geo_rmse: f64::NAN,
+            cv_geo_se: f64::NAN,
             dropped_inputs: Vec::new(),
             chosen: false,
             note: None,
@@ -203,6 +209,7 @@ pub fn cv_columns(row: &mut CvRow, lambda: f64, features: usize, cv: &CvScore) {
     row.cv_rmse = cv.mse.sqrt();
     row.cv_se = cv.se / (2.0 * cv.mse.sqrt().max(f64::MIN_POSITIVE));
     row.cv_geo_rmse = cv.geo.sqrt();
+    row.cv_geo_se = cv.geo_se / (2.0 * cv.geo.sqrt().max(f64::MIN_POSITIVE));
 }
 
 #[cfg(test)]
