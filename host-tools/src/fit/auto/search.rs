@@ -363,13 +363,15 @@ pub fn search(
     add_eliminations(forms, &mut sc, s, progress);
     let order = ranked(&sc.scored);
     let (best_members, best_picked) = pick_members(&sc, &order, folds.n, s);
-    let (members, picked) = match folds.scheme {
+    let simplest = match folds.scheme {
         Scheme::LeaveOut => {
             let near = simplest_within_noise(&sc.scored, &order);
-            pick_members(&sc, &near, folds.n, s)
+            Some(pick_members(&sc, &near, folds.n, s)).filter(|(m, _)| !m.is_empty())
         }
-        Scheme::Forward { .. } => (best_members.clone(), best_picked),
+        Scheme::Forward { .. } => None,
     };
+    // Without a simplest set that fits (none could be fitted), the best.
+    let (members, picked) = simplest.unwrap_or_else(|| (best_members.clone(), best_picked));
     if members.is_empty() {
         return None;
     }
