@@ -175,7 +175,8 @@ impl SpikeState {
     }
 
     /// A direct (not spike-filtered) input's good value becomes the
-    /// reference, so it can stand in while the input is faulty.
+    /// reference (the pipeline's own `last_good` is what stands in while
+    /// the input is faulty).
     pub fn pass(&mut self, value: f64) {
         self.accept(value);
     }

@@ -16,8 +16,9 @@
 //!
 //! Decision ([`compare`]): one blob holds one kind, so the family is chosen
 //! for every target together, on the sum over targets of CV mse over the
-//! target's calibration variance. The ridge winner (its averaged ensemble)
-//! stays unless the best other (family, form) has a lower sum by more than
+//! target's calibration variance. The ridge winner (its averaged ensemble;
+//! with several runs the average of its best candidates, before the
+//! one-standard-error rule picks the simplest) stays unless the best other (family, form) has a lower sum by more than
 //! one standard error of the paired per-fold difference: within noise the
 //! simpler, hub-exact model with the tame extrapolation is kept.
 
@@ -194,7 +195,11 @@ fn run_model(
     inputs: &[String],
     to: usize,
 ) -> Result<Vec<Vec<Option<f64>>>> {
-    let lead = g.x_lead.first().map_or(0, Vec::len);
+    // A lead only when every input has one (the grid gives all or none).
+    let lead = match g.x_lead.first() {
+        Some(l) if g.x_lead.len() == g.x.len() => l.len(),
+        _ => 0,
+    };
     let cols = model
         .inputs()
         .iter()
@@ -203,7 +208,11 @@ fn run_model(
                 .iter()
                 .position(|n| n == ch.name.as_str())
                 .ok_or_else(|| anyhow!("auto: model input {} is not in the data", ch.name))?;
-            let lead_i = g.x_lead.get(i).map_or(&[][..], Vec::as_slice);
+            let lead_i = g
+                .x_lead
+                .get(i)
+                .filter(|_| lead > 0)
+                .map_or(&[][..], Vec::as_slice);
             Ok(lead_i
                 .iter()
                 .chain(&g.x[i][..to])
@@ -506,7 +515,9 @@ pub struct FamilyChoice {
     pub compared: Vec<Family>,
     /// The rule.
     pub rule: &'static str,
-    /// The ridge winner's score (from its averaged ensemble's residuals).
+    /// The ridge winner's score (from its averaged ensemble's residuals;
+    /// with several runs the best candidates' average, before the
+    /// one-standard-error rule picks the simplest).
     pub ridge_score: Option<f64>,
     /// Every other (family, form), best score first.
     pub candidates: Vec<Candidate>,

@@ -408,7 +408,9 @@ fn adjust(
 struct RidgeFit {
     /// Per target, for the JSON (with its band).
     choices: Vec<TargetChoice>,
-    /// The averaged winners' CV residuals on the scored samples.
+    /// The CV residuals on the scored samples that other families must
+    /// beat: the averaged winners', with several runs the average of the
+    /// best candidates (`TargetSearch::best_residuals`).
     residuals: Residuals,
     /// The winners on the hub (layout.rs).
     layout: Layout,

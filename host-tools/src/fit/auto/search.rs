@@ -12,8 +12,9 @@
 //! other's noise, and averaging them halves the held-out spread that picking
 //! one of them by a noisy CV minimum leaves. Where the folds are whole runs
 //! the average is of the candidates within one standard error of the best
-//! that have the fewest features ([`simplest_within_noise`]): usually one
-//! to three.
+//! that have the fewest features ([`simplest_within_noise`]): a few (the
+//! filter grid has at most three candidates of one size per form when the
+//! inputs are temperatures only).
 
 use super::features::{self, FeatureDef, Role};
 use super::folds::{Folds, Scheme};

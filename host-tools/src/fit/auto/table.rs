@@ -139,10 +139,10 @@ pub struct CvRow {
     /// errors: the criterion ridge candidates are ranked by (ridge.rs
     /// `CvScore`), in the target's unit.
     pub cv_geo_rmse: f64,
-    /// Its standard error as an rmse spread: with several runs, the ridge
-    /// candidates within this of the best's `cv_geo_rmse` (on the mse
-    /// scale) are the ones the simplest are averaged from (search.rs
-    /// `simplest_within_noise`).
+    /// Its standard error as an rmse spread (`geo_se / (2 sqrt(geo))`):
+    /// with several runs, the ridge candidates whose `cv_geo_rmse^2` lies
+    /// within `2 cv_geo_rmse cv_geo_se` of the best's square are the ones
+    /// the simplest are averaged from (search.rs `simplest_within_noise`).
     pub cv_geo_se: f64,
     /// Inputs left out (indices into the fit's `inputs`): temperatures
     /// dropped by the sensor elimination; for other families the inputs

@@ -20,7 +20,10 @@ pub fn sub_grid(grid: &[GridRun], idx: &[usize]) -> Vec<GridRun> {
             name: g.name.clone(),
             t_s: Vec::new(),
             x: idx.iter().map(|&i| g.x[i].clone()).collect(),
-            x_lead: idx.iter().map(|&i| g.x_lead[i].clone()).collect(),
+            x_lead: idx
+                .iter()
+                .map(|&i| g.x_lead.get(i).cloned().unwrap_or_default())
+                .collect(),
             y: g.y.clone(),
             calib_end: g.calib_end,
         })
