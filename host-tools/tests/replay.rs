@@ -5,6 +5,7 @@ mod common;
 
 use common::{ok, ok_json, p, write};
 use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 
 const SPEC: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -18,6 +19,25 @@ const RUN: &str = concat!(
 /// Frame resolution: offsets go out in 0.1 um steps, so a sent value is
 /// within half a step of what the pipeline computed.
 const HALF_LSB_UM: f64 = 0.05;
+
+/// `replay --json` of the blob `blob` over `run`, its candump log and its
+/// trace written to `dir` (out.log, trace.csv): the JSON and the trace.
+fn replay_json(dir: &Path, blob: &str, run: &str) -> (serde_json::Value, PathBuf) {
+    let (log, trace) = (dir.join("out.log"), dir.join("trace.csv"));
+    let j = ok_json(&[
+        "replay",
+        "--model",
+        blob,
+        "--data",
+        run,
+        "--candump",
+        p(&log),
+        "--trace",
+        p(&trace),
+        "--json",
+    ]);
+    (j, trace)
+}
 
 /// A CSV as a map column -> values (empty cells NaN).
 fn read_csv(path: &str) -> HashMap<String, Vec<f64>> {
@@ -51,23 +71,8 @@ fn build_model(dir: &std::path::Path) -> String {
 fn replay_agrees_with_predict_within_the_frame_resolution() {
     let dir = tempfile::tempdir().unwrap();
     let blob = build_model(dir.path());
-    let (log, trace, pred) = (
-        dir.path().join("out.log"),
-        dir.path().join("trace.csv"),
-        dir.path().join("pred.csv"),
-    );
-    let j = ok_json(&[
-        "replay",
-        "--model",
-        &blob,
-        "--data",
-        RUN,
-        "--candump",
-        p(&log),
-        "--trace",
-        p(&trace),
-        "--json",
-    ]);
+    let pred = dir.path().join("pred.csv");
+    let (j, trace) = replay_json(dir.path(), &blob, RUN);
     let run = &j["runs"][0];
     // 1340 rows 60 s apart, replayed at the hub's 1 s period.
     assert_eq!(run["samples"], 80281);
@@ -306,19 +311,7 @@ fn positional_model_replays_as_slopes_that_reproduce_predict() {
             .map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n")
             .collect::<String>(),
     );
-    let (log, trace) = (dir.path().join("out.log"), dir.path().join("trace.csv"));
-    let j = ok_json(&[
-        "replay",
-        "--model",
-        p(&blob),
-        "--data",
-        &no_position,
-        "--candump",
-        p(&log),
-        "--trace",
-        p(&trace),
-        "--json",
-    ]);
+    let (j, trace) = replay_json(dir.path(), p(&blob), &no_position);
     let r = &j["runs"][0];
     assert_eq!(r["samples"], 7200);
     // OFFSETS + STATUS + SLOPE every sample, HEARTBEAT every 1 s from one
@@ -407,19 +400,8 @@ fn speed_from_can_frames_follows_then_times_out_holds_and_ramps() {
         run.push_str(&format!("{k},20.0,{speed},{tool}\n"));
     }
     let run = write(dir.path(), "run.csv", &run);
-    let (log, trace) = (dir.path().join("out.log"), dir.path().join("trace.csv"));
-    let j = ok_json(&[
-        "replay",
-        "--model",
-        p(&blob),
-        "--data",
-        &run,
-        "--candump",
-        p(&log),
-        "--trace",
-        p(&trace),
-        "--json",
-    ]);
+    let (j, trace) = replay_json(dir.path(), p(&blob), &run);
+    let log = dir.path().join("out.log");
     let r = &j["runs"][0];
     assert_eq!(r["samples"], 420);
     assert_eq!(
@@ -521,19 +503,7 @@ fn replay_gap(dir: &std::path::Path, run: &str) -> (serde_json::Value, HashMap<S
     let blob = dir.join("gap.bin");
     ok(&["model", "build", "--spec", &spec, "--out", p(&blob)]);
     let run = write(dir, "gap.csv", run);
-    let (log, trace) = (dir.join("gap.log"), dir.join("gap_trace.csv"));
-    let j = ok_json(&[
-        "replay",
-        "--model",
-        p(&blob),
-        "--data",
-        &run,
-        "--candump",
-        p(&log),
-        "--trace",
-        p(&trace),
-        "--json",
-    ]);
+    let (j, trace) = replay_json(dir, p(&blob), &run);
     (j, read_csv(p(&trace)))
 }
 
@@ -692,23 +662,8 @@ fn a_temperature_gap_replays_as_predict_bridges_it() {
         }
     }
     let run = write(dir.path(), "bridge.csv", &text);
-    let (log, trace, pred) = (
-        dir.path().join("bridge.log"),
-        dir.path().join("bridge_trace.csv"),
-        dir.path().join("bridge_pred.csv"),
-    );
-    let j = ok_json(&[
-        "replay",
-        "--model",
-        p(&blob),
-        "--data",
-        &run,
-        "--candump",
-        p(&log),
-        "--trace",
-        p(&trace),
-        "--json",
-    ]);
+    let pred = dir.path().join("bridge_pred.csv");
+    let (j, trace) = replay_json(dir.path(), p(&blob), &run);
     assert_eq!(j["runs"][0]["stale_samples"], 1200);
     ok(&[
         "predict",
