@@ -39,6 +39,38 @@ fn feature(input: u8, power: u8, tau_s: f64) -> Feature {
     }
 }
 
+/// A filter bank over `inputs` at `dt_s` without bounds: output `j`
+/// (`names[j]`) is `coefs[j]` over `features`, without intercept.
+fn bank(
+    inputs: &[model_core::Channel],
+    names: &[&str],
+    dt_s: f64,
+    features: &[Feature],
+    coefs: &[&[f64]],
+) -> ValidModel {
+    Model {
+        inputs: hv(inputs),
+        outputs: outputs(names),
+        dt_s,
+        params: Params::Fbank(FilterBank {
+            features: hv(features),
+            outputs: coefs
+                .iter()
+                .enumerate()
+                .map(|(j, c)| FbOutput {
+                    output: j as u8,
+                    intercept: 0.0,
+                    coef: hv(c),
+                })
+                .collect(),
+        }),
+        bounds: None,
+        five_point: None,
+    }
+    .validate()
+    .unwrap()
+}
+
 /// Two inputs (T1 relative to its first sample, T2 absolute), three
 /// features: T1 raw, T1 low-passed with pole 1/2, T2 squared;
 /// `y = 1 + 2 s1 + 4 s2 + 0.5 s3`.
@@ -390,30 +422,20 @@ fn wide_bank_settles_on_its_dc_gain() {
 #[test]
 fn a_bridged_memory_is_the_one_the_line_would_have_left() {
     use model_core::fbank::HOLD_TAU_S;
-    let fb = Model {
-        inputs: hv(&[chan("T1", Reference::First), chan("T2", Reference::First)]),
-        outputs: outputs(&["dz_um"]),
-        dt_s: 1.0,
-        params: Params::Fbank(FilterBank {
-            features: hv(&[
-                feature(0, 1, 0.0),
-                feature(0, 1, 10.0),
-                feature(0, 1, 3_600.0),
-                feature(0, 1, 14_400.0),
-                feature(0, 1, HOLD_TAU_S),
-                feature(1, 1, 600.0),
-            ]),
-            outputs: hv(&[FbOutput {
-                output: 0,
-                intercept: 0.0,
-                coef: hv(&[1.0, 2.0, 10.0, 4.0, -1.0, 3.0]),
-            }]),
-        }),
-        bounds: None,
-        five_point: None,
-    }
-    .validate()
-    .unwrap();
+    let fb = bank(
+        &[chan("T1", Reference::First), chan("T2", Reference::First)],
+        &["dz_um"],
+        1.0,
+        &[
+            feature(0, 1, 0.0),
+            feature(0, 1, 10.0),
+            feature(0, 1, 3_600.0),
+            feature(0, 1, 14_400.0),
+            feature(0, 1, HOLD_TAU_S),
+            feature(1, 1, 600.0),
+        ],
+        &[&[1.0, 2.0, 10.0, 4.0, -1.0, 3.0]],
+    );
     let n = 1200u32;
     let t1 = |k: u32| 20.0 + 5.0 * f64::from(k) / f64::from(n + 1);
     let t2 = |k: u32| 18.0 + 0.001 * f64::from(k);
@@ -459,40 +481,26 @@ fn settling_is_the_longest_wait_over_the_input_s_weighted_memories() {
     use model_core::fbank::HOLD_TAU_S;
     let (dt_s, share) = (30.0, 0.05);
     let w = |tau: f64, lost: f64| tau * ((lost / tau).min(1.0) / share).ln();
-    let fb = Model {
-        inputs: hv(&[
+    let fb = bank(
+        &[
             chan("T1", Reference::First),
             chan("speed_rpm", Reference::Absolute),
-        ]),
-        outputs: outputs(&["dx_um", "dz_um"]),
+        ],
+        &["dx_um", "dz_um"],
         dt_s,
-        params: Params::Fbank(FilterBank {
-            features: hv(&[
-                feature(0, 1, 0.0),
-                feature(0, 1, 900.0),
-                feature(0, 1, HOLD_TAU_S),
-                feature(1, 2, 600.0),
-                feature(1, 1, 14_400.0),
-                feature(1, 1, 3_600.0),
-            ]),
-            outputs: hv(&[
-                FbOutput {
-                    output: 0,
-                    intercept: 0.0,
-                    coef: hv(&[1.0, 0.5, -1.0, 0.0, 0.0, 0.0]),
-                },
-                FbOutput {
-                    output: 1,
-                    intercept: 0.0,
-                    coef: hv(&[0.0, 0.0, 0.0, 1e-7, 2e-3, 0.0]),
-                },
-            ]),
-        }),
-        bounds: None,
-        five_point: None,
-    }
-    .validate()
-    .unwrap();
+        &[
+            feature(0, 1, 0.0),
+            feature(0, 1, 900.0),
+            feature(0, 1, HOLD_TAU_S),
+            feature(1, 2, 600.0),
+            feature(1, 1, 14_400.0),
+            feature(1, 1, 3_600.0),
+        ],
+        &[
+            &[1.0, 0.5, -1.0, 0.0, 0.0, 0.0],
+            &[0.0, 0.0, 0.0, 1e-7, 2e-3, 0.0],
+        ],
+    );
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
     // 600 s lost: the 4 h filter keeps 4 % (under 5 %), the 10 min one
     // all of it: 600 ln 20. The 1 h filter has no weight on dz.
