@@ -452,20 +452,35 @@ pub struct Pipeline {
     deps: [u32; MAX_OUTPUTS],
     /// The offsets last reported, um (zero past the model's output count).
     offsets_um: [f64; MAX_OUTPUTS],
+    /// Lost inputs and what they left behind, afresh with every model.
+    outages: Outages,
+    seq: u32,
+    uploading: bool,
+}
+
+/// What the pipeline remembers of lost inputs; afresh with every model
+/// (its state starts afresh too).
+#[derive(Clone, Copy, Debug)]
+struct Outages {
     /// Samples each input has been lost in a row while the model had a
     /// state (0: read good); a CNC input's count decides its wait, a
     /// temperature's its bridge.
-    outage: [u32; MAX_INPUTS],
+    lost: [u32; MAX_INPUTS],
     /// Each input's last value that passed every check: what stands in
-    /// for it while it is lost (valid where `has_good` has its bit).
+    /// for it while it is lost. Valid for every input once the model has
+    /// started (its first step needs every input good).
     last_good: [f64; MAX_INPUTS],
-    /// Bit `j`: input `j` has read good since the model was loaded.
-    has_good: u32,
     /// Model steps each output still waits after a CNC input it remembers
     /// came back ([`settle_after_outages`]).
     settle: [u32; MAX_OUTPUTS],
-    seq: u32,
-    uploading: bool,
+}
+
+impl Outages {
+    const NEW: Self = Self {
+        lost: [0; MAX_INPUTS],
+        last_good: [0.0; MAX_INPUTS],
+        settle: [0; MAX_OUTPUTS],
+    };
 }
 
 impl Pipeline {
@@ -475,6 +490,9 @@ impl Pipeline {
     pub fn new(hub: Hub, config: PipelineConfig) -> Result<Self, ConfigError> {
         let mut p = Self::without_model(config.checked()?);
         p.hub = hub;
+        // Afresh even if the hub had run: nothing stands in before the
+        // model's first fully good step.
+        p.hub.start_afresh();
         p.follow_hub();
         Ok(p)
     }
@@ -500,10 +518,7 @@ impl Pipeline {
             tool_mm: None,
             supervisors: [Supervisor::NEW; MAX_OUTPUTS],
             offsets_um: [0.0; MAX_OUTPUTS],
-            outage: [0; MAX_INPUTS],
-            last_good: [0.0; MAX_INPUTS],
-            has_good: 0,
-            settle: [0; MAX_OUTPUTS],
+            outages: Outages::NEW,
             seq: 0,
             uploading: false,
         }
@@ -627,10 +642,7 @@ impl Pipeline {
         self.plausible = plausible;
         // The new model's state starts afresh: nothing to wait for, and
         // nothing stands in before its first fully good step.
-        self.outage = [0; MAX_INPUTS];
-        self.last_good = [0.0; MAX_INPUTS];
-        self.has_good = 0;
-        self.settle = [0; MAX_OUTPUTS];
+        self.outages = Outages::NEW;
         core::mem::swap(&mut self.hub, hub);
         // Afresh even if the caller's hub had run: nothing stands in for
         // the new model before its first fully good step.
@@ -653,10 +665,7 @@ impl Pipeline {
         self.offsets_um = [0.0; MAX_OUTPUTS];
         self.spike = [SpikeState::NEW; MAX_INPUTS];
         self.plausible = [PlausibleState::NEW; MAX_INPUTS];
-        self.outage = [0; MAX_INPUTS];
-        self.last_good = [0.0; MAX_INPUTS];
-        self.has_good = 0;
-        self.settle = [0; MAX_OUTPUTS];
+        self.outages = Outages::NEW;
         self.follow_hub();
     }
 
@@ -671,18 +680,14 @@ impl Pipeline {
         self.deps = output_deps(hub, self.tip.as_ref());
     }
 
-    /// Puts each faulty input's last good value into `inputs`; false if
-    /// one has none (never read good), and the model must not step.
-    fn fill_last_good(&self, inputs: &mut [f64; MAX_INPUTS], faulty: u32) -> bool {
-        if faulty & !self.has_good != 0 {
-            return false;
-        }
-        for (j, (x, good)) in inputs.iter_mut().zip(&self.last_good).enumerate() {
+    /// Puts each faulty input's last good value into `inputs` (once the
+    /// model has started, every input has one).
+    fn fill_last_good(&self, inputs: &mut [f64; MAX_INPUTS], faulty: u32) {
+        for (j, (x, good)) in inputs.iter_mut().zip(&self.outages.last_good).enumerate() {
             if faulty & bit(j) != 0 {
                 *x = *good;
             }
         }
-        true
     }
 
     /// Each temperature back after `back[j]` lost samples has its memories
@@ -696,15 +701,20 @@ impl Pipeline {
         faulty: u32,
         n_in: usize,
     ) {
-        for (j, (&n, &x)) in back.iter().zip(inputs).enumerate().take(n_in) {
-            if n > 0 && self.has_good & bit(j) != 0 {
-                self.hub.bridge(j, (self.last_good[j], x), n);
+        let last_good = &mut self.outages.last_good;
+        for (j, ((&n, &x), good)) in back
+            .iter()
+            .zip(inputs)
+            .zip(last_good.iter_mut())
+            .enumerate()
+            .take(n_in)
+        {
+            // A count only once started, when every input has a last good value.
+            if n > 0 {
+                self.hub.bridge(j, (*good, x), n);
             }
-        }
-        for (j, (good, &x)) in self.last_good.iter_mut().zip(inputs).enumerate().take(n_in) {
             if faulty & bit(j) == 0 {
                 *good = x;
-                self.has_good |= bit(j);
             }
         }
     }
@@ -761,12 +771,12 @@ impl Pipeline {
             .iter_mut()
             .zip(self.spike.iter_mut())
             .zip(self.plausible.iter_mut())
-            .zip(self.outage.iter_mut())
+            .zip(self.outages.lost.iter_mut())
             .zip(back.iter_mut())
             .take(n_in)
             .enumerate()
         {
-            let stood_in = (self.has_good & bit(j) != 0).then(|| self.last_good[j]);
+            let stood_in = self.outages.last_good[j];
             let reading = if self.tool_mask & bit(j) != 0 {
                 self.tool_mm.map_or(Reading::Stale, Reading::Direct)
             } else if self.position_mask & bit(j) != 0 {
@@ -804,10 +814,10 @@ impl Pipeline {
                 }
                 Reading::Direct(v) if v.is_finite() && v.abs() <= MAX_INPUT_MAGNITUDE => {
                     // The last good value stood in for the lost stretch.
-                    if *outage > 0 && stood_in.is_some_and(|u| moved(u, v)) {
+                    // A count only once started, when `stood_in` is valid.
+                    if *outage > 0 && moved(stood_in, v) {
                         lost[j] = *outage;
                     }
-                    state.pass(v);
                     *x = v;
                     true
                 }
@@ -833,7 +843,7 @@ impl Pipeline {
             };
         }
         settle_after_outages(
-            &mut self.settle,
+            &mut self.outages.settle,
             (&self.deps, self.tip.as_ref()),
             model,
             &lost,
@@ -853,8 +863,10 @@ impl Pipeline {
             .enumerate()
             .filter(|(_, d)| **d & faulty != 0)
             .fold(0u8, |m, (k, _)| m | bit8(k));
-        let stand_in =
-            faulty != 0 && self.hub.started() && self.fill_last_good(&mut inputs, faulty);
+        let stand_in = faulty != 0 && self.hub.started();
+        if stand_in {
+            self.fill_last_good(&mut inputs, faulty);
+        }
         let mut model_out = None;
         let stepped = faulty == 0 || stand_in;
         if stepped {
@@ -884,7 +896,7 @@ impl Pipeline {
         // one whose input is recovering; the wait runs down only while the
         // model steps (a state that did not step does not forget).
         let mut settling = 0u8;
-        for (k, left) in self.settle.iter_mut().take(n_out).enumerate() {
+        for (k, left) in self.outages.settle.iter_mut().take(n_out).enumerate() {
             if *left > 0 {
                 settling |= bit8(k);
                 *left -= u32::from(stepped);
@@ -1442,11 +1454,11 @@ mod tests {
                 refused += 1;
             }
             let mut inputs = [0.0; MAX_INPUTS];
-            assert!(p.fill_last_good(&mut inputs, 1));
+            p.fill_last_good(&mut inputs, 1);
             assert_eq!(inputs[0], 20.0, "{k}");
         }
         assert!((60..=120).contains(&refused), "{refused}");
-        assert_eq!(p.last_good[0], 30.0);
+        assert_eq!(p.outages.last_good[0], 30.0);
     }
 
     #[test]

@@ -174,13 +174,6 @@ impl SpikeState {
         self.run = 0;
     }
 
-    /// A direct (not spike-filtered) input's good value becomes the
-    /// reference (the pipeline's own `last_good` is what stands in while
-    /// the input is faulty).
-    pub fn pass(&mut self, value: f64) {
-        self.accept(value);
-    }
-
     fn accept(&mut self, value: f64) {
         self.last = Some(value);
         self.candidate = None;
