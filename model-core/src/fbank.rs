@@ -127,7 +127,11 @@ impl Feature {
     /// `x^power` of the reference-adjusted inputs `x` (0 for a missing
     /// channel, which validation rules out).
     pub fn value(&self, x: &[f64]) -> f64 {
-        let u = x.get(usize::from(self.input)).copied().unwrap_or(0.0);
+        self.of(x.get(usize::from(self.input)).copied().unwrap_or(0.0))
+    }
+
+    /// `u^power` of the feature's input's reference-adjusted value `u`.
+    pub fn of(&self, u: f64) -> f64 {
         if self.power == 2 {
             u * u
         } else {

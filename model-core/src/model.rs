@@ -612,6 +612,18 @@ fn settle_through(tau_s: f64, lost_s: f64, share: f64) -> f64 {
     tau_s * libm::log(left / share)
 }
 
+/// `raw` relative to `reference` (`first`: the run's first sample, taken
+/// once the run has `started`; before that the sample is its own
+/// reference, 0).
+fn adjust(reference: Reference, raw: f64, first: f64, started: bool) -> f64 {
+    match reference {
+        Reference::Absolute => raw,
+        Reference::Value(v) => raw - v,
+        Reference::First if !started => 0.0,
+        Reference::First => raw - first,
+    }
+}
+
 fn to_u8(n: usize) -> u8 {
     u8::try_from(n).unwrap_or(u8::MAX)
 }
@@ -724,18 +736,17 @@ impl ValidModel {
         (stood_in, back): (f64, f64),
         lost: u32,
     ) {
-        let (Params::Fbank(bank), Some(ch)) = (&self.model.params, self.model.inputs.get(input))
-        else {
+        let (Params::Fbank(bank), Some(ch), Some(r)) = (
+            &self.model.params,
+            self.model.inputs.get(input),
+            state.references.get(input),
+        ) else {
             return;
         };
         if !state.started {
             return;
         }
-        let r = match ch.reference {
-            Reference::Absolute => 0.0,
-            Reference::Value(v) => v,
-            Reference::First => state.references.get(input).copied().unwrap_or(0.0),
-        };
+        let u = |raw: f64| adjust(ch.reference, raw, *r, true);
         let poles = self.fbank_poles();
         for ((f, p), s) in bank.features.iter().zip(poles).zip(state.fbank.iter_mut()) {
             // Unfiltered (p = 0) or a hold (p = 1): no memory to mend.
@@ -743,15 +754,7 @@ impl ValidModel {
                 continue;
             }
             let share = crate::fbank::line_share(f.tau_s, self.model.dt_s, lost);
-            let v = |raw: f64| {
-                let u = raw - r;
-                if f.power == 2 {
-                    u * u
-                } else {
-                    u
-                }
-            };
-            let mended = *s + (v(back) - v(stood_in)) * share;
+            let mended = *s + (f.of(u(back)) - f.of(u(stood_in))) * share;
             if mended.is_finite() {
                 *s = mended;
             }
@@ -835,12 +838,7 @@ impl ValidModel {
             .zip(&self.model.inputs)
             .zip(&state.references)
         {
-            *xi = match ch.reference {
-                Reference::Absolute => *raw,
-                Reference::Value(v) => raw - v,
-                Reference::First if !state.started => 0.0,
-                Reference::First => raw - r,
-            };
+            *xi = adjust(ch.reference, *raw, *r, state.started);
         }
         x
     }
