@@ -1154,12 +1154,43 @@ mod tests {
     /// dx = T1 - 20 (static), dz = 1e-3 x speed_rpm through a 600 s
     /// low-pass (the speed's memory), at 1 s samples.
     fn speed_bank() -> ValidModel {
+        speed_bank_with(
+            &["dx_um", "dz_um"],
+            &[(0, 0.0), (1, 600.0)],
+            &[&[1.0, 0.0], &[0.0, 1e-3]],
+            None,
+        )
+    }
+
+    /// A bank over T1 (from 20 C) and the speed at 1 s samples: output `j`
+    /// (`outputs[j]`) is `coefs[j]` over the linear `features` (input,
+    /// tau_s), without intercept; a five-point model with `five_point`.
+    fn speed_bank_with(
+        outputs: &[&str],
+        features: &[(u8, f64)],
+        coefs: &[&[f64]],
+        five_point: Option<model_core::fivepoint::FivePoint>,
+    ) -> ValidModel {
         use model_core::fbank::{FbOutput, Feature, FilterBank};
-        let feature = |input, tau_s| Feature {
-            input,
-            power: 1,
-            tau_s,
-        };
+        let names: std::vec::Vec<model_core::model::Name> =
+            outputs.iter().map(|o| name(o)).collect();
+        let features: std::vec::Vec<Feature> = features
+            .iter()
+            .map(|&(input, tau_s)| Feature {
+                input,
+                power: 1,
+                tau_s,
+            })
+            .collect();
+        let equations: std::vec::Vec<FbOutput> = coefs
+            .iter()
+            .enumerate()
+            .map(|(j, c)| FbOutput {
+                output: j as u8,
+                intercept: 0.0,
+                coef: vec(c),
+            })
+            .collect();
         Model {
             inputs: vec(&[
                 t1_from_20(),
@@ -1168,25 +1199,14 @@ mod tests {
                     reference: Reference::Absolute,
                 },
             ]),
-            outputs: vec(&[name("dx_um"), name("dz_um")]),
+            outputs: vec(&names),
             dt_s: 1.0,
             params: Params::Fbank(FilterBank {
-                features: vec(&[feature(0, 0.0), feature(1, 600.0)]),
-                outputs: vec(&[
-                    FbOutput {
-                        output: 0,
-                        intercept: 0.0,
-                        coef: vec(&[1.0, 0.0]),
-                    },
-                    FbOutput {
-                        output: 1,
-                        intercept: 0.0,
-                        coef: vec(&[0.0, 1e-3]),
-                    },
-                ]),
+                features: vec(&features),
+                outputs: vec(&equations),
             }),
             bounds: None,
-            five_point: None,
+            five_point,
         }
         .validate()
         .unwrap()
@@ -1197,33 +1217,13 @@ mod tests {
     /// 2 (T1 - 20). Only e reads the speed, and e is the source of the
     /// dz lane (lane 2), not of output 2.
     fn five_point_speed_bank() -> ValidModel {
-        use model_core::fbank::{FbOutput, Feature, FilterBank};
         use model_core::fivepoint::FivePoint;
-        let feature = |input, tau_s| Feature {
-            input,
-            power: 1,
-            tau_s,
-        };
-        let out = |output, coef: [f64; 2]| FbOutput {
-            output,
-            intercept: 0.0,
-            coef: vec(&coef),
-        };
-        Model {
-            five_point: Some(FivePoint { l_defl_mm: 300.0 }),
-            outputs: vec(&[name("theta_y_urad"), name("e_um"), name("theta_x_urad")]),
-            params: Params::Fbank(FilterBank {
-                features: vec(&[feature(0, 0.0), feature(1, 600.0)]),
-                outputs: vec(&[
-                    out(0, [-1.0, 0.0]),
-                    out(1, [10.0, 1e-3]),
-                    out(2, [2.0, 0.0]),
-                ]),
-            }),
-            ..speed_bank().model().clone()
-        }
-        .validate()
-        .unwrap()
+        speed_bank_with(
+            &["theta_y_urad", "e_um", "theta_x_urad"],
+            &[(0, 0.0), (1, 600.0)],
+            &[&[-1.0, 0.0], &[10.0, 1e-3], &[2.0, 0.0]],
+            Some(FivePoint { l_defl_mm: 300.0 }),
+        )
     }
 
     /// Runs the speed bank: 3000 s at 12,000 rpm, the speed lost for
@@ -1312,26 +1312,12 @@ mod tests {
     /// One output, dz = 10 (T1 - 20) through 3600 s + 1e-3 x speed
     /// through 600 s: every output reads the speed.
     fn all_read_speed_bank() -> ValidModel {
-        use model_core::fbank::{FbOutput, Feature, FilterBank};
-        let feature = |input, tau_s| Feature {
-            input,
-            power: 1,
-            tau_s,
-        };
-        Model {
-            outputs: vec(&[name("dz_um")]),
-            params: Params::Fbank(FilterBank {
-                features: vec(&[feature(0, 3600.0), feature(1, 600.0)]),
-                outputs: vec(&[FbOutput {
-                    output: 0,
-                    intercept: 0.0,
-                    coef: vec(&[10.0, 1e-3]),
-                }]),
-            }),
-            ..speed_bank().model().clone()
-        }
-        .validate()
-        .unwrap()
+        speed_bank_with(
+            &["dz_um"],
+            &[(0, 3600.0), (1, 600.0)],
+            &[&[10.0, 1e-3]],
+            None,
+        )
     }
 
     /// While the speed is stale every output is held, and the model still
@@ -1383,24 +1369,7 @@ mod tests {
     /// 10 min later (both measured).
     #[test]
     fn a_temperature_back_from_an_outage_is_bridged_along_a_line() {
-        let bank = Model {
-            outputs: vec(&[name("dz_um")]),
-            params: Params::Fbank(model_core::fbank::FilterBank {
-                features: vec(&[model_core::fbank::Feature {
-                    input: 0,
-                    power: 1,
-                    tau_s: 3600.0,
-                }]),
-                outputs: vec(&[model_core::fbank::FbOutput {
-                    output: 0,
-                    intercept: 0.0,
-                    coef: vec(&[10.0]),
-                }]),
-            }),
-            ..speed_bank().model().clone()
-        }
-        .validate()
-        .unwrap();
+        let bank = speed_bank_with(&["dz_um"], &[(0, 3600.0)], &[&[10.0]], None);
         let speed = Reading::Direct(0.0);
         let run = |lost: bool| {
             let mut p = Pipeline::new(hub(&bank), PipelineConfig::DEFAULT).unwrap();
