@@ -189,6 +189,7 @@ pub struct GridRun {
     /// every input has a value (where the hub starts and takes its
     /// references) to where the targets start; empty when they start
     /// together. A model's state and a change's reference start here.
+    /// One per input, all of the same length (or every one empty).
     pub x_lead: Vec<Vec<f64>>,
     /// `y[j][k]`.
     pub y: Vec<Vec<f64>>,

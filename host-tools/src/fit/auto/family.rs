@@ -195,11 +195,7 @@ fn run_model(
     inputs: &[String],
     to: usize,
 ) -> Result<Vec<Vec<Option<f64>>>> {
-    // A lead only when every input has one (the grid gives all or none).
-    let lead = match g.x_lead.first() {
-        Some(l) if g.x_lead.len() == g.x.len() => l.len(),
-        _ => 0,
-    };
+    let lead = g.x_lead.first().map_or(0, Vec::len);
     let cols = model
         .inputs()
         .iter()
@@ -208,11 +204,7 @@ fn run_model(
                 .iter()
                 .position(|n| n == ch.name.as_str())
                 .ok_or_else(|| anyhow!("auto: model input {} is not in the data", ch.name))?;
-            let lead_i = g
-                .x_lead
-                .get(i)
-                .filter(|_| lead > 0)
-                .map_or(&[][..], Vec::as_slice);
+            let lead_i = g.x_lead.get(i).map_or(&[][..], Vec::as_slice);
             Ok(lead_i
                 .iter()
                 .chain(&g.x[i][..to])
@@ -240,6 +232,8 @@ pub struct Bench<'a> {
     trainers: &'a Trainers,
     /// The grid's inputs in each form, every input referenced alike.
     xs: Vec<(Form, GridX)>,
+    /// Their leads (`GridRun::x_lead`), alike.
+    leads: Vec<(Form, GridX)>,
     /// Per grid sample, its place among the scored samples.
     scored_pos: Vec<Option<usize>>,
     /// Fold of each scored sample.
@@ -267,6 +261,10 @@ impl<'a> Bench<'a> {
             .iter()
             .map(|&f| (f, super::adjusted(grid, &alike, f)))
             .collect();
+        let leads = Form::ALL
+            .iter()
+            .map(|&f| (f, super::adjusted_lead(grid, &alike, f)))
+            .collect();
         let mut scored_pos = vec![None; folds.of.len()];
         let mut scored_fold = Vec::new();
         for (k, pos) in scored_pos.iter_mut().enumerate() {
@@ -291,6 +289,7 @@ impl<'a> Bench<'a> {
             ds,
             trainers,
             xs,
+            leads,
             scored_pos,
             scored_fold,
             offsets,
@@ -688,7 +687,7 @@ pub fn refit(b: &Bench, w: &Candidate) -> Result<Refit> {
         .iter()
         .map(|ch| {
             let i = b.ds.inputs.iter().position(|n| n == ch.name.as_str());
-            i.map(|i| super::span(b.grid, x, i))
+            i.map(|i| super::span(b.grid, x, super::form_x(&b.leads, w.form), i))
                 .ok_or_else(|| anyhow!("auto: model input {} is not in the data", ch.name))
         })
         .collect::<Result<Vec<_>>>()?;

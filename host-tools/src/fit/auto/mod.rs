@@ -529,14 +529,14 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
         .iter()
         .map(|&f| (f, adjusted(&grid, &roles, f)))
         .collect();
-    let leads: Vec<Vec<Vec<Vec<f64>>>> = Form::ALL
+    let leads: Vec<(Form, Vec<Vec<Vec<f64>>>)> = Form::ALL
         .iter()
-        .map(|&f| adjusted_lead(&grid, &roles, f))
+        .map(|&f| (f, adjusted_lead(&grid, &roles, f)))
         .collect();
     let forms: Vec<FormData> = xs
         .iter()
         .zip(&leads)
-        .map(|((form, x), lead)| FormData {
+        .map(|((form, x), (_, lead))| FormData {
             form: *form,
             x,
             lead,
@@ -567,7 +567,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
         }
         None => {
             let bands: Vec<Band> = ridge.choices.iter().map(|c| c.band.clone()).collect();
-            assemble(ds, &grid, &xs, &ridge.layout, &bands, s.dt_s)?
+            assemble(ds, &grid, (&xs, &leads), &ridge.layout, &bands, s.dt_s)?
         }
     };
     let report = AutoReport {
@@ -589,7 +589,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
 fn assemble(
     ds: &Dataset,
     grid: &[GridRun],
-    xs: &[(Form, Vec<Vec<Vec<f64>>>)],
+    (xs, leads): (&[(Form, Vec<Vec<Vec<f64>>>)], &[(Form, Vec<Vec<Vec<f64>>>)]),
     layout: &Layout,
     bands: &[Band],
     dt_s: f64,
@@ -606,7 +606,8 @@ fn assemble(
                 reference: c.reference,
             })
             .map_err(|_| anyhow!("auto: too many inputs"))?;
-        envelope.push(span(grid, form_x(xs, c.form), c.input));
+        let (x, lead) = (form_x(xs, c.form), form_x(leads, c.form));
+        envelope.push(span(grid, x, lead, c.input));
     }
     let model = Model {
         inputs: channels,
@@ -621,28 +622,21 @@ fn assemble(
         .map_err(|e| anyhow!("auto: the fitted model is invalid: {e}"))
 }
 
-/// The grid inputs of `form` among `xs`.
+/// The grid inputs (or their leads) of `form` among `xs`.
 fn form_x(xs: &[(Form, Vec<Vec<Vec<f64>>>)], form: Form) -> &[Vec<Vec<f64>>] {
     &xs.iter().find(|(f, _)| *f == form).expect("both forms").1
 }
 
 /// Calibration range of input `i` of `x` (`[run][input][k]`, a form's
-/// grid inputs) over every grid run, with the leads of the runs that
-/// calibrate (`GridRun::x_lead`, less the same reference): the hub meets
-/// those values too, from its first sample on.
-fn span(grid: &[GridRun], x: &[Vec<Vec<f64>>], i: usize) -> Span {
+/// grid inputs) over every grid run, with `lead` (the same form's
+/// `GridRun::x_lead`) of the runs that calibrate: the hub meets those
+/// values too, from its first sample on.
+fn span(grid: &[GridRun], x: &[Vec<Vec<f64>>], lead: &[Vec<Vec<f64>>], i: usize) -> Span {
     let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (g, run) in grid.iter().zip(x).filter(|(g, _)| g.calib_end > 0) {
-        let r0 = g.x[i]
-            .first()
-            .zip(run[i].first())
-            .map_or(0.0, |(raw, adj)| raw - adj);
-        let lead = g.x_lead.get(i).map_or(&[][..], Vec::as_slice);
-        for v in lead
-            .iter()
-            .map(|v| v - r0)
-            .chain(run[i][..g.calib_end].iter().copied())
-        {
+    let runs = grid.iter().zip(x).zip(lead);
+    for ((g, run), lead) in runs.filter(|((g, _), _)| g.calib_end > 0) {
+        let lead = lead.get(i).map_or(&[][..], Vec::as_slice);
+        for &v in lead.iter().chain(&run[i][..g.calib_end]) {
             min = min.min(v);
             max = max.max(v);
         }
@@ -766,14 +760,16 @@ mod tests {
         let grid = [run(2)];
         let change = adjusted(&grid, &roles, Form::Change);
         assert_eq!(change[0][0], [0.5, 1.0]);
-        let s = span(&grid, &change, 0);
+        let lead = |g: &[GridRun], f| adjusted_lead(g, &roles, f);
+        let s = span(&grid, &change, &lead(&grid, Form::Change), 0);
         assert_eq!((s.min, s.max), (0.0, 1.0));
-        let s = span(&grid, &adjusted(&grid, &roles, Form::Absolute), 0);
+        let absolute = adjusted(&grid, &roles, Form::Absolute);
+        let s = span(&grid, &absolute, &lead(&grid, Form::Absolute), 0);
         assert_eq!((s.min, s.max), (20.0, 21.0));
         let held = [run(2), run(0)];
         let mut x = adjusted(&held, &roles, Form::Absolute);
         x[1][0] = vec![90.0, 91.0];
-        let s = span(&held, &x, 0);
+        let s = span(&held, &x, &lead(&held, Form::Absolute), 0);
         assert_eq!((s.min, s.max), (20.0, 21.0));
     }
 

@@ -371,6 +371,9 @@ pub fn search(
         }
         Scheme::Forward { .. } => None,
     };
+    // The simplest set is another than the best one's: the best's CV
+    // residuals are needed apart (what other families must beat).
+    let other = matches!(&simplest, Some((_, p)) if *p != best_picked);
     // Without a simplest set that fits (none could be fitted), the best.
     let (members, picked) = simplest.unwrap_or_else(|| (best_members.clone(), best_picked));
     if members.is_empty() {
@@ -380,9 +383,10 @@ pub fn search(
         sc.scored[i].row.chosen = true;
     }
     let cv_residuals = cv_residuals(forms, &members, y, folds, s.dt_s);
-    let best_residuals = match folds.scheme {
-        Scheme::LeaveOut => self::cv_residuals(forms, &best_members, y, folds, s.dt_s),
-        Scheme::Forward { .. } => cv_residuals.clone(),
+    let best_residuals = if other {
+        self::cv_residuals(forms, &best_members, y, folds, s.dt_s)
+    } else {
+        cv_residuals.clone()
     };
     let table = order
         .into_iter()
