@@ -231,9 +231,9 @@ pub struct Bench<'a> {
     ds: &'a Dataset<'a>,
     trainers: &'a Trainers,
     /// The grid's inputs in each form, every input referenced alike.
-    xs: Vec<(Form, GridX)>,
+    xs: Vec<super::FormX>,
     /// Their leads (`GridRun::x_lead`), alike.
-    leads: Vec<(Form, GridX)>,
+    leads: Vec<super::FormX>,
     /// Per grid sample, its place among the scored samples.
     scored_pos: Vec<Option<usize>>,
     /// Fold of each scored sample.

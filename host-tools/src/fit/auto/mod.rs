@@ -525,11 +525,11 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
     let grid = super::dynamic::grid::grid_runs(ds, s.dt_s, "auto")?;
     let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
     let folds = Folds::of_grid(&grid, params.folds);
-    let xs: Vec<(Form, Vec<Vec<Vec<f64>>>)> = Form::ALL
+    let xs: Vec<FormX> = Form::ALL
         .iter()
         .map(|&f| (f, adjusted(&grid, &roles, f)))
         .collect();
-    let leads: Vec<(Form, Vec<Vec<Vec<f64>>>)> = Form::ALL
+    let leads: Vec<FormX> = Form::ALL
         .iter()
         .map(|&f| (f, adjusted_lead(&grid, &roles, f)))
         .collect();
@@ -589,7 +589,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
 fn assemble(
     ds: &Dataset,
     grid: &[GridRun],
-    (xs, leads): (&[(Form, Vec<Vec<Vec<f64>>>)], &[(Form, Vec<Vec<Vec<f64>>>)]),
+    (xs, leads): (&[FormX], &[FormX]),
     layout: &Layout,
     bands: &[Band],
     dt_s: f64,
@@ -622,8 +622,11 @@ fn assemble(
         .map_err(|e| anyhow!("auto: the fitted model is invalid: {e}"))
 }
 
+/// A form and the grid's inputs (or their leads) in it, `[run][input][k]`.
+type FormX = (Form, Vec<Vec<Vec<f64>>>);
+
 /// The grid inputs (or their leads) of `form` among `xs`.
-fn form_x(xs: &[(Form, Vec<Vec<Vec<f64>>>)], form: Form) -> &[Vec<Vec<f64>>] {
+fn form_x(xs: &[FormX], form: Form) -> &[Vec<Vec<f64>>] {
     &xs.iter().find(|(f, _)| *f == form).expect("both forms").1
 }
 
