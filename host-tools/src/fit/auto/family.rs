@@ -146,9 +146,6 @@ pub fn calibration_cuts(grid: &[GridRun]) -> Vec<Cut> {
         .collect()
 }
 
-/// Grid inputs `[run][input][k]`, reference-adjusted.
-type GridX = Vec<Vec<Vec<f64>>>;
-
 /// The dataset of `cuts` on the grid's times: inputs `idx` of `x` (the
 /// grid's inputs in `form`, every input referenced alike as the trainers'
 /// channels are), every target of `names`.
@@ -782,7 +779,7 @@ mod tests {
             form: InputForm::Absolute,
             runs: Vec::new(),
         };
-        let x: GridX = g.iter().map(|r| r.x.clone()).collect();
+        let x: Vec<Vec<Vec<f64>>> = g.iter().map(|r| r.x.clone()).collect();
         let ds = cut_dataset(&g, &x, &cuts, &names, &[0], Form::Change);
         assert_eq!(ds.calibration_len(), 30);
         assert_eq!(ds.holdout_len(), 25);
