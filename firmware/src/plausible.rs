@@ -20,7 +20,16 @@
 //!   faulty until one whole window passes without that (then its anchor is
 //!   the reading at the window's end). A drift of 0.4 K/s is caught after
 //!   `6 K / 0.4 K/s` = 15 s, a drift just over the limit at the end of its
-//!   first window.
+//!   first window. The window runs on time, not on readings: a sample
+//!   without a reading the check could judge (stale, faulty, refused by
+//!   an earlier check) ages it as well ([`PlausibleState::idle`]), and a
+//!   window that ends without one leaves no anchor, so after an outage of
+//!   a window or more the first reading anchors afresh, as the first
+//!   reading of the channel did. The check bounds a *rate*: a sensor back
+//!   after twenty minutes 10 K higher has moved 0.5 K/min, which a
+//!   window's limit measured from the value before the outage would take
+//!   for a drift and refuse for up to two windows. The jump itself is the
+//!   spike filter's to judge (its persistence count).
 //! * **Stuck**: a temperature whose value (hence its raw converter code:
 //!   the conversion is a pure function of it) has not changed at all for
 //!   `stuck_time_s`, while another temperature input moved by at least
@@ -215,6 +224,21 @@ impl PlausibleState {
         self.rate_fault
     }
 
+    /// A sample without a reading for [`PlausibleState::rate_fault`] to
+    /// judge: the rate window ages all the same. A window that ends here
+    /// latches its verdict as one ending on a reading does, and leaves no
+    /// anchor (the next reading takes it); the stuck check counts readings
+    /// and is left as it was.
+    pub fn idle(&mut self, n: &PlausibleSamples) {
+        self.age = self.age.saturating_add(1);
+        if self.age >= n.rate_window {
+            self.rate_fault = self.hit;
+            self.hit = false;
+            self.anchor = f32::NAN;
+            self.age = 0;
+        }
+    }
+
     /// Whether the value has not changed for `n.stuck` samples (the
     /// caller checks that another input moved: [`PlausibleState::moving`]).
     pub fn unchanged(&self, n: &PlausibleSamples) -> bool {
@@ -273,6 +297,48 @@ mod tests {
             assert!(s.rate_fault(26.4, &n), "{k}");
         }
         assert!(!s.rate_fault(26.4, &n));
+    }
+
+    /// Samples without a reading age the window: a gap shorter than the
+    /// window keeps the anchor (the change is still judged from it), a gap
+    /// that ends a window drops it, and a hit before the gap stays latched
+    /// until a whole window passes without one.
+    #[test]
+    fn the_window_runs_on_time_through_a_gap() {
+        let n = PlausibleSamples::new(&PlausibilityConfig::DEFAULT, 1.0);
+        let mut short = PlausibleState::NEW;
+        assert!(!short.rate_fault(20.0, &n));
+        for _ in 0..30 {
+            short.idle(&n);
+        }
+        assert!(short.rate_fault(26.5, &n), "31 s after the anchor: 6.5 K");
+        let mut long = PlausibleState::NEW;
+        assert!(!long.rate_fault(20.0, &n));
+        for _ in 0..59 {
+            long.idle(&n);
+        }
+        assert!(long.anchor.is_nan(), "the window ended in the gap");
+        assert!(!long.rate_fault(30.0, &n), "anchored afresh");
+        assert!(!long.rate_fault(30.1, &n));
+        let mut hit = PlausibleState::NEW;
+        assert!(!hit.rate_fault(20.0, &n));
+        assert!(hit.rate_fault(27.0, &n));
+        // The 58th idle sample closes the first window (the anchor, the
+        // hit and 58 gaps: 60 samples), which had the hit: still faulty,
+        // no anchor. The next window, all gap, is clean and its 60th
+        // sample clears the fault.
+        for k in 0..58 {
+            hit.idle(&n);
+            assert!(hit.rate_fault, "{k}");
+        }
+        assert!(hit.anchor.is_nan());
+        for k in 0..59 {
+            hit.idle(&n);
+            assert!(hit.rate_fault, "{k}");
+        }
+        hit.idle(&n);
+        assert!(!hit.rate_fault);
+        assert!(!hit.rate_fault(31.0, &n));
     }
 
     #[test]
