@@ -194,6 +194,17 @@ fn bench_kind(clock: &Clock, overhead: &Cost, kind: ModelKind, buf: &mut [u8; MA
     });
     row(name, "**whole update**", &update);
 
+    // Every input back at once after a 20 min outage (the bus that carries
+    // them was down): one bridge per input, added to that sample's update.
+    // A no-op for every kind but the filter bank.
+    let bridge = time(clock, overhead, REPS, || {
+        for (i, (v0, v1)) in ta.iter().zip(&tb).take(n_in).enumerate() {
+            valid.bridge(&mut state, i, (*v0, *v1), black_box(1200));
+        }
+        black_box(&state);
+    });
+    row(name, "bridge, every input back", &bridge);
+
     // Once per model load.
     let decode = time(clock, overhead, DECODE_REPS, || {
         black_box(blob::decode(black_box(bytes)).is_ok());
