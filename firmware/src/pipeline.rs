@@ -1420,13 +1420,14 @@ mod tests {
 
     /// T1 back 10 K higher after 20 min: 0.5 K/min, a twelfth of the rate
     /// check's limit, but more than its 6 K a window from the value before
-    /// the outage. The window runs on time, so the gap ended it and the
-    /// return anchors afresh: only the spike filter's two samples refuse
-    /// the new level, never the rate check, and the bridge ends where the
-    /// line does: dz 0.032 um from the hub that never lost T1 (measured;
-    /// asserted within 0.1, twice the 5 K case's bound for twice the
-    /// rise). With the window counted in readings, the rate check refused
-    /// 121 samples and dz was 1.30 um off (measured).
+    /// the outage. The window runs on time, so whole windows without a
+    /// reading passed and the return anchors afresh: only the spike
+    /// filter's two samples refuse the new level, never the rate check,
+    /// and the bridge ends where the line does: dz 0.032 um from the hub
+    /// that never lost T1 (measured; asserted within 0.1, twice the 5 K
+    /// case's bound for twice the rise). With the window counted in
+    /// readings, 121 samples were refused (the spike filter's 2, then the
+    /// rate check's 119) and dz was 1.30 um off (measured).
     #[test]
     fn a_temperature_back_after_a_long_outage_is_judged_afresh() {
         let (bridged, kept, refused, rate) = back_from_an_outage(10.0);

@@ -22,14 +22,18 @@
 //!   `6 K / 0.4 K/s` = 15 s, a drift just over the limit at the end of its
 //!   first window. The window runs on time, not on readings: a sample
 //!   without a reading the check could judge (stale, faulty, refused by
-//!   an earlier check) ages it as well ([`PlausibleState::idle`]), and a
-//!   window that ends without one leaves no anchor, so after an outage of
-//!   a window or more the first reading anchors afresh, as the first
-//!   reading of the channel did. The check bounds a *rate*: a sensor back
-//!   after twenty minutes 10 K higher has moved 0.5 K/min, which a
-//!   window's limit measured from the value before the outage would take
-//!   for a drift and refuse for up to two windows. The jump itself is the
-//!   spike filter's to judge (its persistence count).
+//!   an earlier check) ages it as well ([`PlausibleState::idle`]). A
+//!   window that ends on such a sample passes its last judged reading on
+//!   as the next anchor; a whole window without a judged reading leaves
+//!   none, so after an outage of two windows at most the first reading
+//!   anchors afresh, as the first reading of the channel did. The check
+//!   bounds a *rate*: a sensor back after twenty minutes 10 K higher has
+//!   moved 0.5 K/min, which a window's limit measured from the value
+//!   before the outage would take for a drift and refuse for up to two
+//!   windows. The jump itself is the spike filter's to judge (its
+//!   persistence count). A rate fault is cleared only by a whole window
+//!   of readings without a hit: a gap neither clears it nor lets a sensor
+//!   caught drifting come back unjudged.
 //! * **Stuck**: a temperature whose value (hence its raw converter code:
 //!   the conversion is a pure function of it) has not changed at all for
 //!   `stuck_time_s`, while another temperature input moved by at least
@@ -155,6 +159,9 @@ pub struct PlausibleState {
     hit: bool,
     /// Faulty for its rate.
     rate_fault: bool,
+    /// This window judged a reading; a sample of it had none.
+    seen: bool,
+    gap: bool,
     /// The last value, and how many samples in a row repeated it.
     last: f32,
     same: u32,
@@ -173,6 +180,8 @@ impl PlausibleState {
         age: 0,
         hit: false,
         rate_fault: false,
+        seen: false,
+        gap: false,
         last: f32::NAN,
         same: 0,
         win_anchor: f32::NAN,
@@ -209,33 +218,43 @@ impl PlausibleState {
         if self.anchor.is_nan() {
             self.anchor = t_c;
             self.age = 0;
+            self.gap = false;
         }
         self.age = self.age.saturating_add(1);
+        self.seen = true;
         if f64::from((t_c - self.anchor).abs()) > n.rate_limit_k {
             self.hit = true;
             self.rate_fault = true;
         }
         if self.age >= n.rate_window {
-            self.rate_fault = self.hit;
-            self.hit = false;
-            self.anchor = t_c;
-            self.age = 0;
+            // Cleared only by a whole window of readings without a hit.
+            self.rate_fault = self.hit || (self.rate_fault && self.gap);
+            self.close(t_c);
         }
         self.rate_fault
     }
 
+    /// Starts the next window from `anchor`.
+    fn close(&mut self, anchor: f32) {
+        self.hit = false;
+        self.seen = false;
+        self.gap = false;
+        self.anchor = anchor;
+        self.age = 0;
+    }
+
     /// A sample without a reading for [`PlausibleState::rate_fault`] to
     /// judge: the rate window ages all the same. A window that ends here
-    /// latches its verdict as one ending on a reading does, and leaves no
-    /// anchor (the next reading takes it); the stuck check counts readings
-    /// and is left as it was.
+    /// latches a hit and clears nothing (it was not a whole window of
+    /// readings); the next one is anchored on the last reading judged, or,
+    /// when this window judged none, on the next reading. The stuck check
+    /// counts readings and is left as it was.
     pub fn idle(&mut self, n: &PlausibleSamples) {
         self.age = self.age.saturating_add(1);
+        self.gap = true;
         if self.age >= n.rate_window {
-            self.rate_fault = self.hit;
-            self.hit = false;
-            self.anchor = f32::NAN;
-            self.age = 0;
+            self.rate_fault |= self.hit;
+            self.close(if self.seen { self.last } else { f32::NAN });
         }
     }
 
@@ -300,9 +319,9 @@ mod tests {
     }
 
     /// Samples without a reading age the window: a gap shorter than the
-    /// window keeps the anchor (the change is still judged from it), a gap
-    /// that ends a window drops it, and a hit before the gap stays latched
-    /// until a whole window passes without one.
+    /// window keeps the anchor (the change is still judged from it); one
+    /// unjudged sample that ends a window passes the last reading on as
+    /// the anchor; only a whole window without a reading drops it.
     #[test]
     fn the_window_runs_on_time_through_a_gap() {
         let n = PlausibleSamples::new(&PlausibilityConfig::DEFAULT, 1.0);
@@ -312,33 +331,55 @@ mod tests {
             short.idle(&n);
         }
         assert!(short.rate_fault(26.5, &n), "31 s after the anchor: 6.5 K");
+        let mut edge = PlausibleState::NEW;
+        for _ in 0..59 {
+            assert!(!edge.rate_fault(20.0, &n));
+        }
+        edge.idle(&n);
+        assert_eq!(edge.anchor, 20.0, "the window's last reading");
+        assert!(
+            edge.rate_fault(30.0, &n),
+            "a step after one unjudged sample"
+        );
         let mut long = PlausibleState::NEW;
         assert!(!long.rate_fault(20.0, &n));
         for _ in 0..59 {
             long.idle(&n);
         }
-        assert!(long.anchor.is_nan(), "the window ended in the gap");
+        assert_eq!(long.anchor, 20.0, "the window had a reading");
+        for _ in 0..60 {
+            long.idle(&n);
+        }
+        assert!(long.anchor.is_nan(), "a whole window without one");
         assert!(!long.rate_fault(30.0, &n), "anchored afresh");
         assert!(!long.rate_fault(30.1, &n));
-        let mut hit = PlausibleState::NEW;
-        assert!(!hit.rate_fault(20.0, &n));
-        assert!(hit.rate_fault(27.0, &n));
+    }
+
+    /// A hit latches through a gap of any length: the latch clears only at
+    /// the end of a whole window of readings without a hit.
+    #[test]
+    fn a_rate_fault_outlasts_a_gap() {
+        let n = PlausibleSamples::new(&PlausibilityConfig::DEFAULT, 1.0);
+        let mut s = PlausibleState::NEW;
+        assert!(!s.rate_fault(20.0, &n));
+        assert!(s.rate_fault(27.0, &n));
         // The 58th idle sample closes the first window (the anchor, the
-        // hit and 58 gaps: 60 samples), which had the hit: still faulty,
-        // no anchor. The next window, all gap, is clean and its 60th
-        // sample clears the fault.
-        for k in 0..58 {
-            hit.idle(&n);
-            assert!(hit.rate_fault, "{k}");
+        // hit and 58 gaps: 60 samples); its last reading, 27 C, anchors the
+        // next, which is all gap and drops the anchor.
+        for _ in 0..58 {
+            s.idle(&n);
         }
-        assert!(hit.anchor.is_nan());
+        assert_eq!((s.rate_fault, s.anchor), (true, 27.0));
+        for _ in 0..600 {
+            s.idle(&n);
+        }
+        assert!(s.rate_fault && s.anchor.is_nan());
+        // Back at 31 C: anchored afresh but still faulty until the 60th
+        // reading of that window.
         for k in 0..59 {
-            hit.idle(&n);
-            assert!(hit.rate_fault, "{k}");
+            assert!(s.rate_fault(31.0, &n), "{k}");
         }
-        hit.idle(&n);
-        assert!(!hit.rate_fault);
-        assert!(!hit.rate_fault(31.0, &n));
+        assert!(!s.rate_fault(31.0, &n));
     }
 
     #[test]
