@@ -30,7 +30,9 @@ frame, the largest):
            priority 1 (UART4: command, store, emit), 2 (UART5: sample),
            3 (USART2, CAN1_RX0), SysTick (the monotonic, priority 0, the
            highest) and any other vector bound (listed with level "other",
-           counted as one more level).
+           counted as one more level). The levels are read from the RTIC
+           app, firmware/src/main.rs (`rtic_levels`), so a task moved to
+           another priority moves in the bound too.
 
 usage: scripts/stack-bound.py ELF [--budget BYTES] [--json]
 Fails (exit 1) on a cycle, an unknown instruction touching sp, or a bound
@@ -46,10 +48,8 @@ import subprocess
 import sys
 
 EXCEPTION_FRAME = 104
-# RTIC priorities (firmware/src/main.rs: dispatchers = [UART4, UART5];
-# `binds` of the hardware tasks); SysTick is left at priority 0 by
-# rtic-monotonics (the highest).
-LEVELS = {"UART4": 1, "UART5": 2, "USART2": 3, "CAN1_RX0": 3, "SysTick": 4}
+# The RTIC app whose priorities nest (read by `rtic_levels`).
+APP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "firmware", "src", "main.rs")
 # Vector entries that do not run on the hub's paths (the core stops, the
 # watchdog resets it).
 NOT_RUN = {"HardFault", "HardFault_", "HardFaultTrampoline", "DefaultHandler",
@@ -279,7 +279,45 @@ def indirect_cost(frame, calls, funcs, indirect, targets):
     return max((once(t)[0] for t in targets), default=0)
 
 
-def nested(handlers, depth, frame, by_name):
+def rtic_levels(main_rs):
+    """{vector: priority level} of the RTIC app in `main_rs`: each hardware
+    task's `binds` at its `priority`, and the dispatchers of the software
+    tasks' levels as rtic-macros assigns them (the levels from the highest
+    down take the `dispatchers` list from its end); SysTick, which
+    rtic-monotonics leaves at hardware priority 0 (the highest), one level
+    above every task. One `#[task(...)]` attribute per line, as rustfmt
+    leaves them."""
+    with open(main_rs) as f:
+        src = f.read()
+    app = re.search(r"#\[rtic::app\(.*dispatchers\s*=\s*\[([^\]]*)\]", src)
+    if not app:
+        sys.exit(f"stack-bound: no `#[rtic::app(.., dispatchers = [..])]` in {main_rs}")
+    dispatchers = [d.strip() for d in app.group(1).split(",") if d.strip()]
+    levels, soft = {}, set()
+    for line in src.splitlines():
+        line = line.strip()
+        if not line.startswith("#[task("):
+            continue
+        prio = re.search(r"\bpriority\s*=\s*(\d+)", line)
+        if not prio:
+            sys.exit(f"stack-bound: a task without a priority in {main_rs}: {line}")
+        binds = re.search(r"\bbinds\s*=\s*(\w+)", line)
+        if binds:
+            levels[binds.group(1)] = int(prio.group(1))
+        else:
+            soft.add(int(prio.group(1)))
+    soft = sorted(p for p in soft if p > 0)
+    if len(soft) > len(dispatchers):
+        sys.exit(f"stack-bound: {len(soft)} software priority levels, {len(dispatchers)} dispatchers")
+    for p in reversed(soft):
+        levels[dispatchers.pop()] = p
+    if not levels:
+        sys.exit(f"stack-bound: no tasks found in {main_rs}")
+    levels["SysTick"] = max(levels.values()) + 1
+    return levels
+
+
+def nested(handlers, depth, frame, by_name, levels_of):
     """Boot alone, and what stays under the handlers (Reset's and main's
     frames, an idle task's path where there is one) with the deepest
     handler of each priority level on top."""
@@ -292,14 +330,14 @@ def nested(handlers, depth, frame, by_name):
         if n in NOT_RUN:
             continue
         d = depth(a)
-        lv = LEVELS.get(n, "other")
+        lv = levels_of.get(n, "other")
         if lv not in levels or d[0] > levels[lv][1][0]:
             levels[lv] = (n, d)
     running = base + sum(d[0] + EXCEPTION_FRAME for _, d in levels.values())
     return boot, base, levels, running
 
 
-def analyse(elf, budget):
+def analyse(elf, budget, app=APP):
     """The bound and how it is made up, as the report prints it."""
     funcs = functions(elf)
     frame, calls, indirect, odd, pairs = scan(elf, funcs)
@@ -311,7 +349,7 @@ def analyse(elf, budget):
     try:
         reach_bytes = indirect_cost(frame, calls, funcs, indirect, targets)
         depth = deepest(frame, calls, funcs, indirect, reach_bytes)
-        boot, base, levels, running = nested(handlers, depth, frame, by_name)
+        boot, base, levels, running = nested(handlers, depth, frame, by_name, rtic_levels(app))
     except RecursionError as e:
         sys.exit(f"stack-bound: recursion ({e}): no static bound")
     reached = set()
