@@ -121,6 +121,8 @@ pub struct RowStepper<'m> {
     rows: usize,
     missing: usize,
     overflow: usize,
+    /// Samples refused for an input beyond the hub's magnitude limit.
+    out_of_range: usize,
     /// Rows the hub would flag "extrapolating" (model-core
     /// `EXTRAPOLATION_FLAG_AT`).
     extrapolating: usize,
@@ -137,6 +139,7 @@ impl<'m> RowStepper<'m> {
             rows: 0,
             missing: 0,
             overflow: 0,
+            out_of_range: 0,
             extrapolating: 0,
         }
     }
@@ -179,6 +182,7 @@ impl<'m> RowStepper<'m> {
                 }
             }
             Err(StepError::NonFiniteOutput) => self.overflow += 1,
+            Err(StepError::InputOutOfRange { .. }) => self.out_of_range += 1,
             // Inputs are finite (the reader rejects the rest) and sized by
             // construction; count anything else with the overflows.
             Err(_) => self.overflow += 1,
@@ -196,6 +200,14 @@ impl<'m> RowStepper<'m> {
         if overflow > 0 {
             notes.push(format!(
                 "{overflow} samples gave a non-finite output and were held out"
+            ));
+        }
+        if self.out_of_range > 0 {
+            notes.push(format!(
+                "{} of {len} samples have an input beyond {:e} in magnitude, which the hub \
+                 refuses as a broken reading: no prediction there",
+                self.out_of_range,
+                model_core::model::MAX_INPUT_MAGNITUDE
             ));
         }
         if self.extrapolating > 0 {
@@ -329,12 +341,17 @@ pub struct ModelGrid {
 }
 
 impl ModelGrid {
-    /// The grid over a run's first and last times `span` (`None`: no rows).
-    pub fn new(span: Option<(f64, f64)>, dt: f64) -> Result<Self> {
+    /// The grid over a run's first and last times `span` (`None`: no rows),
+    /// refused when it would be mostly interpolation between the run's
+    /// rows (`sampling`; [`Sampling::check_grid`]).
+    pub fn new(span: Option<(f64, f64)>, dt: f64, sampling: &Sampling) -> Result<Self> {
         let Some((t0, t_end)) = span else {
             bail!("no rows");
         };
         let whole = uniform_grid_len(t0, t_end, dt).map_err(|e| anyhow::anyhow!("{e}"))?;
+        sampling
+            .check_grid(whole, dt)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
         let last = (t0 + (whole - 1) as f64 * dt).min(t_end);
         Ok(Self {
             t0,
@@ -432,8 +449,8 @@ fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result
         run.t_s.clone()
     } else {
         let span = run.t_s.first().copied().zip(run.t_s.last().copied());
-        let grid =
-            ModelGrid::new(span, dt).map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?;
+        let grid = ModelGrid::new(span, dt, &sampling)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", run.path.display()))?;
         notes.push(resampled_note(&sampling, dt, n));
         if let Some(last) = grid.last_whole_step() {
             let tail = run.t_s.iter().filter(|&&t| t > last).count();

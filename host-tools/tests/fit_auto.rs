@@ -566,6 +566,29 @@ fn more_inputs_than_the_hub_reads_are_refused_before_the_search() {
         "{e}"
     );
     assert!(!out.exists(), "no blob written");
+    // The static kinds say the same, before training (they used to say
+    // "too many inputs", or "more than 32 inputs" after training).
+    for kind in ["mlr", "pcr", "bp", "gabp"] {
+        let e = common::fails_one_line(&[
+            "fit",
+            "--model",
+            kind,
+            "--target",
+            "dz_um",
+            "--data",
+            &data,
+            "--out",
+            p(&out),
+        ]);
+        assert_eq!(
+            e,
+            format!(
+                "error: {kind}: 33 inputs, but the hub reads at most 32: name at most 32 \
+                 with --inputs (`thermcomp select` ranks the temperatures)\n"
+            )
+        );
+        assert!(!out.exists(), "no blob written");
+    }
 }
 
 /// One 8 h run at 60 s with 17 temperatures: T1 warms with the spindle
@@ -686,5 +709,44 @@ fn targets_of_different_forms_share_one_logged_channel_per_sensor_when_both_woul
     for t in ["dx_um", "dz_um"] {
         let r = v["targets"][t]["holdout"]["rmse_um"].as_f64().unwrap();
         assert!(r < 0.1, "{t}: held-out rmse {r}");
+    }
+}
+
+/// A target that never moves over the calibration rows is refused by every
+/// kind before training, naming it (mlr used to report fit 100 % and auto
+/// 0 % on the same flat column: both 0/0).
+#[test]
+fn a_flat_target_is_refused_before_training() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("t_s,T1,T2,dz_um\n");
+    for k in 0..200 {
+        let t1 = 20.0 + 0.01 * f64::from(k);
+        text.push_str(&format!(
+            "{},{t1},{},2.5\n",
+            k * 60,
+            20.0 + 0.1 * f64::from(k % 7)
+        ));
+    }
+    let data = write(dir.path(), "flat.csv", &text);
+    let out = dir.path().join("m.bin");
+    for kind in ["auto", "mlr", "pcr", "arx", "bp"] {
+        let e = common::fails_one_line(&[
+            "fit",
+            "--model",
+            kind,
+            "--target",
+            "dz_um",
+            "--data",
+            &data,
+            "--out",
+            p(&out),
+        ]);
+        assert_eq!(
+            e,
+            "error: dz_um is constant (2.5) on every calibration row: nothing to fit (check \
+             the column and --holdout-from-s)\n",
+            "{kind}"
+        );
+        assert!(!out.exists(), "no blob written");
     }
 }

@@ -268,6 +268,23 @@ fn output_equal_to_input_is_refused() {
         &same("--out", &data, "--data", &data),
     );
     refused_and_kept(
+        &[
+            "fit",
+            "--data",
+            &data,
+            "--target",
+            "dz_um",
+            "--model",
+            "gain",
+            "--gain-from",
+            &b,
+            "--out",
+            &b,
+        ],
+        &b,
+        &same("--out", &b, "--gain-from", &b),
+    );
+    refused_and_kept(
         &["refit", "--model", &b, "--data", &data, "--out", &data],
         &data,
         &same("--out", &data, "--data", &data),
@@ -422,4 +439,152 @@ fn too_many_columns_are_refused() {
         &["eval", "--spec", SP2_AMB, "--data", &data],
         &format!("error: {data}:1: more than 10000 columns (not a run file?)"),
     );
+}
+
+// ---- 4. a grid that would be mostly interpolation --------------------------
+
+/// Fails within [`DEADLINE`], its last stderr line exactly `expected`
+/// (notes on what it was about to do may come before).
+fn fails_ending_with(args: &[&str], expected: &str) {
+    let out = run_bounded(args, Stdio::null());
+    let se = String::from_utf8(out.stderr).unwrap();
+    assert!(!out.status.success(), "thermcomp {args:?} should fail");
+    assert_eq!(
+        se.lines().last(),
+        Some(expected),
+        "thermcomp {args:?}: {se}"
+    );
+}
+
+/// A run of 200 rows at 1 s whose second half was logged 104 days later (a
+/// mistyped time, two runs in one file): resampling it on the model's 1 s
+/// grid would build 9 million points from 200 rows. `fit`, `predict` and
+/// `replay` refuse at once, naming the gap (before, `fit` ran out of its
+/// two minutes at 4 GB, and `replay` wrote an 881 MB candump).
+#[test]
+fn a_gap_of_years_in_one_file_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text: String = run_text(200, false)
+        .lines()
+        .enumerate()
+        .map(|(i, line)| match line.split_once(',') {
+            Some((t, rest)) if i > 100 => {
+                format!("{},{rest}\n", t.parse::<f64>().unwrap() + 9e6)
+            }
+            _ => format!("{line}\n"),
+        })
+        .collect();
+    let data = write(d, "gap.csv", &text);
+    let b = blob(d);
+    let out = p(&d.join("out")).to_string();
+    let refused = format!(
+        "error: {data}: 200 rows resampled every 1 s would make 9000200 points, more \
+         than 100 per row: the longest step between rows is 9000001 s (the median 1 s); \
+         a run with a gap that long is two runs: split the file there"
+    );
+    let fit = [
+        "fit", "--data", &data, "--target", "dz_um", "--inputs", "T1,T2", "--model", "arx",
+        "--dt-s", "1", "--out", &out,
+    ];
+    fails_ending_with(&fit, &refused);
+    fails_ending_with(
+        &["predict", "--model", &b, "--data", &data, "--out", &out],
+        &refused,
+    );
+    fails_ending_with(
+        &["replay", "--model", &b, "--data", &data, "--candump", &out],
+        &refused,
+    );
+    assert!(!d.join("out").exists());
+}
+
+// ---- 5. flags that cannot mean what they say --------------------------------
+
+/// A validation run that is a calibration run, an output in a directory
+/// that does not exist, names given twice and a holdout time that is not a
+/// time: each refused in one line before any work, naming what is wrong.
+#[test]
+fn contradictory_or_impossible_flags_are_refused_before_the_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = write(d, "run.csv", &run_text(200, false));
+    let alias = p(&d.join(".").join("run.csv")).to_string();
+    let out = p(&d.join("m.bin")).to_string();
+    let fit = |extra: &[&str]| -> Vec<String> {
+        [
+            "fit", "--data", &data, "--target", "dz_um", "--model", "mlr",
+        ]
+        .iter()
+        .chain(extra)
+        .map(|s| s.to_string())
+        .collect()
+    };
+    let fails_with = |args: Vec<String>, expected: &str| {
+        fails_with(
+            &args.iter().map(String::as_str).collect::<Vec<_>>(),
+            expected,
+        );
+    };
+    fails_with(
+        fit(&["--inputs", "T1", "--validate", &alias, "--out", &out]),
+        &format!(
+            "error: --validate {alias} is the same file as --data {data}: its figures would \
+             not be held out"
+        ),
+    );
+    let nowhere = p(&d.join("no").join("m.bin")).to_string();
+    fails_with(
+        fit(&["--inputs", "T1", "--out", &nowhere]),
+        &format!(
+            "error: cannot write {nowhere}: there is no directory {}",
+            p(&d.join("no"))
+        ),
+    );
+    fails_with(
+        fit(&["--inputs", "T1,T2,T1", "--out", &out]),
+        "error: --inputs names T1 twice (positions 1 and 3)",
+    );
+    fails_with(
+        fit(&["--inputs", "T1", "--holdout-from-s", "NaN", "--out", &out]),
+        "error: --holdout-from-s NaN: give a time in seconds",
+    );
+    assert!(!d.join("m.bin").exists());
+}
+
+/// An input beyond the hub's 1e9 limit (the reader takes up to 1e15) gets
+/// no prediction, and the note says why (it used to say "non-finite
+/// output", which it was not).
+#[test]
+fn an_input_the_hub_refuses_is_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text: String = run_text(50, false)
+        .lines()
+        .enumerate()
+        .map(|(i, line)| {
+            let mut cells: Vec<&str> = line.split(',').collect();
+            if i > 0 {
+                cells[2] = "3e9";
+            }
+            format!("{}\n", cells.join(","))
+        })
+        .collect();
+    let data = write(d, "big.csv", &text);
+    let b = blob(d);
+    let out = p(&d.join("p.csv")).to_string();
+    let r = run_bounded(
+        &["predict", "--model", &b, "--data", &data, "--out", &out],
+        Stdio::null(),
+    );
+    let se = String::from_utf8(r.stderr).unwrap();
+    assert!(r.status.success(), "{se}");
+    assert!(
+        se.contains(&format!(
+            "note: {data}: 50 of 50 samples have an input beyond 1e9 in magnitude, which the \
+             hub refuses as a broken reading: no prediction there"
+        )),
+        "{se}"
+    );
+    assert!(!se.contains("non-finite"), "{se}");
 }

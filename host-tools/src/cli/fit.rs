@@ -18,7 +18,7 @@ use crate::fit::{auto, fit, FitKind, FitOptions, FitOutcome, FitParams};
 use crate::plot::model::{PageRun, PageText};
 use crate::runner::ColumnMap;
 use crate::score::TargetScore;
-use anyhow::{anyhow, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use serde_json::Value;
 use std::path::PathBuf;
@@ -397,13 +397,12 @@ pub fn fit_files(a: &FitArgs) -> Result<FitOutcome> {
 
 /// [`fit_files`], also returning the runs read (calibration, validation).
 fn read_and_fit(a: &FitArgs) -> Result<(FitOutcome, Vec<RunFile>, Vec<RunFile>)> {
-    let first = a.data.first().ok_or_else(|| anyhow!("no --data"))?;
     check_paths(a)?;
     let params = a.params().check()?;
     // Read only the columns the fit uses.
     let opts = ReadOptions {
         skip_bad_rows: a.skip_bad_rows,
-        only: Some(params.columns_read(first)?),
+        only: Some(params.columns_read(&a.data)?),
     };
     let runs = crate::data::source::read_runs(&a.data, &opts)?;
     let validate = crate::data::source::read_runs(&a.validate, &opts)?;
@@ -418,12 +417,28 @@ pub fn report_json(o: &FitOutcome, out: &std::path::Path) -> Result<Value> {
 }
 
 /// Refuses an `--out` (or the report page) that is the same file as a
-/// `--data` or `--validate` run.
+/// `--data` or `--validate` run or the `--gain-from` blob.
 fn check_paths(a: &FitArgs) -> Result<()> {
     let data = a.data.iter().map(|p| fsio::named("--data", p));
     let validate = a.validate.iter().map(|p| fsio::named("--validate", p));
-    let reads: Vec<_> = data.chain(validate).collect();
+    let gain = a
+        .options
+        .arx
+        .gain_from
+        .iter()
+        .map(|p| fsio::named("--gain-from", p));
+    let reads: Vec<_> = data.chain(validate).chain(gain).collect();
+    for v in &a.validate {
+        if let Some(d) = a.data.iter().find(|d| fsio::same_file(d, v)) {
+            bail!(
+                "--validate {} is the same file as --data {}: its figures would not be held out",
+                v.display(),
+                d.display()
+            );
+        }
+    }
     let page = super::report_page(a.report.as_deref())?;
+    fsio::dir_of(&a.out)?;
     let mut writes = vec![fsio::named("--out", &a.out)];
     writes.extend(page.as_deref().map(|p| fsio::named("--report", p)));
     fsio::check_distinct(&reads, &writes)
@@ -491,10 +506,24 @@ fn warn_unmeasured_band(o: &FitOutcome) {
     }
 }
 
+/// Says on stderr when `--holdout-from-s` held nothing out (it lies at or
+/// after every run's last row): the figures are then calibration figures.
+fn warn_nothing_held_out(a: &FitArgs, o: &FitOutcome) {
+    if let (Some(h), 0) = (a.holdout_from_s, o.report.holdout_rows) {
+        if a.validate.is_empty() {
+            eprintln!(
+                "note: --holdout-from-s {h} lies after every run's last row: nothing is held \
+                 out, every figure is on calibration rows"
+            );
+        }
+    }
+}
+
 /// Runs `thermcomp fit`.
 pub fn run(a: &FitArgs) -> Result<()> {
     let (o, runs, validate) = read_and_fit(a)?;
     warn_unmeasured_band(&o);
+    warn_nothing_held_out(a, &o);
     let (table, json) = (scores_text(&o.scores), report_json(&o, &a.out)?);
     write_report(a, &o, [&runs, &validate], &table, &json)?;
     if a.json {

@@ -8,7 +8,7 @@
 //! rows; every figure reported as held-out comes from rows no fit touched.
 
 use crate::data::cells::{self, Cells};
-use crate::data::runfile::{resample_linear, uniform_grid, RunFile};
+use crate::data::runfile::{resample_linear, uniform_grid, uniform_grid_len, RunFile, Sampling};
 use anyhow::{anyhow, bail, Result};
 use model_core::Reference;
 use std::borrow::Cow;
@@ -392,9 +392,9 @@ impl<'a> Dataset<'a> {
                 .collect();
             // Span where every column has at least started and not yet
             // ended; the inputs' own start (`lo_x`) opens the lead.
-            let span = |cols: &[Vec<Option<f64>>]| -> Result<(f64, f64)> {
+            let span = |cols: &[Vec<Option<f64>>], names: &[String]| -> Result<(f64, f64)> {
                 let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
-                for c in cols {
+                for (c, name) in cols.iter().zip(names) {
                     let first = c.iter().position(Option::is_some);
                     let last = c.iter().rposition(Option::is_some);
                     match (first, last) {
@@ -402,17 +402,22 @@ impl<'a> Dataset<'a> {
                             lo = lo.max(run.t_s[a]);
                             hi = hi.min(run.t_s[b]);
                         }
-                        _ => bail!("{}: a column has no values", run.name),
+                        _ => bail!("{}: column {name} has no values", run.name),
                     }
                 }
                 Ok((lo, hi))
             };
-            let (lo_x, hi_x) = span(&x)?;
-            let (lo_y, hi_y) = span(&y)?;
+            let (lo_x, hi_x) = span(&x, &self.inputs)?;
+            let (lo_y, hi_y) = span(&y, &self.targets)?;
             let (lo, hi) = (lo_x.max(lo_y), hi_x.min(hi_y));
             if hi <= lo {
                 continue;
             }
+            let points =
+                uniform_grid_len(lo_x, hi, dt_s).map_err(|e| anyhow!("{}: {e}", run.name))?;
+            Sampling::of(&run.t_s)
+                .check_grid(points, dt_s)
+                .map_err(|e| anyhow!("{}: {e}", run.name))?;
             let mut grid =
                 uniform_grid(lo_x, hi, dt_s).map_err(|e| anyhow!("{}: {e}", run.name))?;
             let lead_t: Vec<f64> = grid.drain(..grid.partition_point(|t| *t < lo)).collect();

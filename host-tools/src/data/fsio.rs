@@ -85,6 +85,11 @@ fn identity(path: &Path) -> Option<Identity> {
     }
 }
 
+/// Whether `a` and `b` name one existing file (by device and inode).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    matches!((identity(a), identity(b)), (Some(x), Some(y)) if x == y)
+}
+
 /// Refuses an output that is the same file as an input or as another
 /// output, with a one-line error naming both flags and the path.
 pub fn check_distinct<'a>(inputs: &[Named<'a>], outputs: &[Named<'a>]) -> Result<()> {
@@ -116,6 +121,23 @@ pub fn check_distinct<'a>(inputs: &[Named<'a>], outputs: &[Named<'a>]) -> Result
     Ok(())
 }
 
+/// The directory `path` would be written in, refused when it does not
+/// exist (a command checks its outputs' before the work, and says which).
+pub fn dir_of(path: &Path) -> Result<&Path> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "cannot write {}: there is no directory {}",
+            path.display(),
+            dir.display()
+        );
+    }
+    Ok(dir)
+}
+
 /// Writes `path` atomically: `fill` writes into a temporary file in the same
 /// directory, which is synced and renamed over `path` only when `fill` and
 /// the flush succeeded; on any error the temporary file is removed and
@@ -132,10 +154,7 @@ where
         w.flush().with_context(ctx)?;
         return Ok(value);
     }
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let dir = dir_of(path)?;
     let tmp = tempfile::Builder::new()
         .prefix(".thermcomp-")
         .suffix(".tmp")

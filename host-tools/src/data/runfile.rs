@@ -131,6 +131,37 @@ impl Sampling {
     pub const REL_TOL: f64 = 1e-6;
     /// Absolute tolerance of [`Sampling::is_uniform`], in seconds.
     pub const ABS_TOL_S: f64 = 1e-9;
+    /// Most grid points per row a resampling builds ([`Sampling::check_grid`]):
+    /// a model step a hundredth of the logger's. Beyond it the grid is
+    /// mostly interpolation: a gap of days in one file, or a step in the
+    /// wrong unit.
+    pub const MAX_POINTS_PER_ROW: usize = 100;
+    /// A grid this small is built whatever the rows (a short run on a
+    /// fine model step costs nothing).
+    pub const SMALL_GRID_POINTS: usize = 100_000;
+
+    /// Refuses to resample this run onto a grid of `points` points every
+    /// `dt` s when that is more than [`Sampling::MAX_POINTS_PER_ROW`] per
+    /// row (and more than [`Sampling::SMALL_GRID_POINTS`]): the grid would be
+    /// mostly made up, and a gap of years between two rows (one line's
+    /// time typed wrong, two runs in one file) would build millions of
+    /// points and hours of work from a small file.
+    pub fn check_grid(&self, points: usize, dt: f64) -> Result<(), GridError> {
+        let allowed = self
+            .n
+            .saturating_mul(Self::MAX_POINTS_PER_ROW)
+            .max(Self::SMALL_GRID_POINTS);
+        if points <= allowed {
+            return Ok(());
+        }
+        Err(GridError::MostlyInterpolated {
+            rows: self.n,
+            points,
+            dt,
+            gap: self.dt_max_s,
+            median: self.dt_median_s,
+        })
+    }
 
     /// Summarise the steps of the sample times `t`.
     ///
@@ -904,9 +935,15 @@ impl Header {
             names.push(name);
         }
         let Some(time_index) = names.iter().position(|n| n == TIME_COLUMN) else {
+            // One column holding `;` or a tab: another separator, likely.
+            let separator = match names.as_slice() {
+                [only] => [';', '\t'].into_iter().find(|c| only.contains(*c)),
+                _ => None,
+            };
             return Err(RunFileError::NoTimeColumn {
                 file: file.to_owned(),
                 line,
+                separator,
             });
         };
         let columns = names
@@ -1190,6 +1227,8 @@ pub enum RunFileError {
         file: String,
         /// Line of the header.
         line: u64,
+        /// The separator a header without commas seems to use (`;`, tab).
+        separator: Option<char>,
     },
     /// A header name is empty (often a trailing comma).
     EmptyColumnName {
@@ -1252,8 +1291,20 @@ impl fmt::Display for RunFileError {
             Self::Io { file, source } => write!(f, "cannot read {file}: {source}"),
             Self::Csv { file, message } => write!(f, "{file}: {message}"),
             Self::EmptyFile { file } => write!(f, "{file}: empty file (no header row)"),
-            Self::NoTimeColumn { file, line } => {
-                write!(f, "{file}:{line}: no {TIME_COLUMN} column in the header")
+            Self::NoTimeColumn {
+                file,
+                line,
+                separator,
+            } => {
+                write!(f, "{file}:{line}: no {TIME_COLUMN} column in the header")?;
+                match separator {
+                    Some(c) => write!(
+                        f,
+                        " (it has no comma but {}: run files are comma-separated)",
+                        if *c == '\t' { "tabs" } else { "semicolons" }
+                    ),
+                    None => Ok(()),
+                }
             }
             Self::EmptyColumnName { file, line, column } => {
                 write!(f, "{file}:{line}: column {column} has an empty name")
@@ -1556,6 +1607,22 @@ pub enum GridError {
         /// Requested step, s.
         dt: f64,
     },
+    /// The grid would be mostly interpolation: more than
+    /// [`Sampling::MAX_POINTS_PER_ROW`] points per row of the run
+    /// ([`Sampling::check_grid`]).
+    MostlyInterpolated {
+        /// Rows of the run.
+        rows: usize,
+        /// Points the grid would have.
+        points: usize,
+        /// Requested step, s.
+        dt: f64,
+        /// The run's longest and median steps between rows, s (`None`:
+        /// one row).
+        gap: Option<f64>,
+        /// See `gap`.
+        median: Option<f64>,
+    },
 }
 
 impl fmt::Display for GridError {
@@ -1592,6 +1659,38 @@ impl fmt::Display for GridError {
                 Num(t_end),
                 Num(dt)
             ),
+            Self::MostlyInterpolated {
+                rows,
+                points,
+                dt,
+                gap,
+                median,
+            } => {
+                write!(
+                    f,
+                    "{rows} rows resampled every {} s would make {points} points, \
+                     more than {} per row: ",
+                    Num(dt),
+                    Sampling::MAX_POINTS_PER_ROW
+                )?;
+                let per_row = Sampling::MAX_POINTS_PER_ROW as f64;
+                match (gap, median) {
+                    (Some(gap), Some(median)) if gap > per_row * median => write!(
+                        f,
+                        "the longest step between rows is {} s (the median {} s); \
+                         a run with a gap that long is two runs: split the file there",
+                        Num(gap),
+                        Num(median)
+                    ),
+                    (_, Some(median)) => write!(
+                        f,
+                        "a model step of {} s is too fine for rows {} s apart",
+                        Num(dt),
+                        Num(median)
+                    ),
+                    _ => write!(f, "a model step of {} s is too fine for this run", Num(dt)),
+                }
+            }
         }
     }
 }
@@ -1825,6 +1924,16 @@ mod tests {
         assert_eq!(
             error("time,T1\n0,1\n"),
             "run.csv:1: no t_s column in the header"
+        );
+        assert_eq!(
+            error("t_s;T1\n0;1\n"),
+            "run.csv:1: no t_s column in the header (it has no comma but semicolons: \
+             run files are comma-separated)"
+        );
+        assert_eq!(
+            error("t_s\tT1\n0\t1\n"),
+            "run.csv:1: no t_s column in the header (it has no comma but tabs: run \
+             files are comma-separated)"
         );
         assert_eq!(
             error("t_s,T1,T2,T1\n0,1,2,3\n"),
@@ -2193,6 +2302,32 @@ mod tests {
         // Huge values of opposite sign do not overflow.
         let big = resample_linear(&[0.0, 1.0], [Some(-f64::MAX), Some(f64::MAX)], &[0.5]);
         assert_eq!(big, [Some(0.0)]);
+    }
+
+    /// A grid of more than 100 points per row (and over 100,000) is
+    /// refused, naming a gap when one is to blame and the step otherwise.
+    #[test]
+    fn a_grid_mostly_interpolated_is_refused() {
+        let mut t: Vec<f64> = (0..721).map(|k| f64::from(k) * 10.0).collect();
+        let even = Sampling::of(&t);
+        assert_eq!(even.check_grid(100_000, 0.072), Ok(()), "small grids pass");
+        assert_eq!(even.check_grid(72_100, 0.1), Ok(()), "100 per row pass");
+        let fine = even.check_grid(7_200_001, 0.001).unwrap_err().to_string();
+        assert_eq!(
+            fine,
+            "721 rows resampled every 0.001 s would make 7200001 points, more than 100 \
+             per row: a model step of 0.001 s is too fine for rows 10 s apart"
+        );
+        for v in &mut t[300..] {
+            *v += 9.9e7;
+        }
+        let gap = Sampling::of(&t).check_grid(9_900_721, 10.0).unwrap_err();
+        assert_eq!(
+            gap.to_string(),
+            "721 rows resampled every 10 s would make 9900721 points, more than 100 per \
+             row: the longest step between rows is 99000010 s (the median 10 s); a run \
+             with a gap that long is two runs: split the file there"
+        );
     }
 
     #[test]

@@ -90,6 +90,19 @@ impl FitParams {
         if let Some(t) = self.targets.iter().find(|t| self.inputs.contains(t)) {
             bail!("{t} is both a --target and one of the --inputs: a model cannot read what it predicts");
         }
+        for (flag, names) in [("--target", &self.targets), ("--inputs", &self.inputs)] {
+            if let Some((first, again)) = first_repeat(names) {
+                bail!(
+                    "{flag} names {} twice (positions {} and {})",
+                    names[again],
+                    first + 1,
+                    again + 1
+                );
+            }
+        }
+        if let Some(h) = self.holdout_from_s.filter(|h| !h.is_finite()) {
+            bail!("--holdout-from-s {h}: give a time in seconds");
+        }
         self.options.check(self.kind)?;
         let form = if arma || self.kind == FitKind::Auto {
             InputForm::Absolute
@@ -110,17 +123,28 @@ impl ValidFitParams {
     }
 
     /// The columns a fit reads from run files (inputs, then targets);
-    /// `first`, the first calibration run's file, is read for its header
-    /// only when the default inputs depend on it.
-    pub fn columns_read(&self, first: &std::path::Path) -> Result<Vec<String>> {
+    /// the calibration runs' files `data` are read for their headers only
+    /// when the default inputs depend on them, and a column the first run
+    /// has but another lacks is said on stderr (it is not a default input).
+    pub fn columns_read(&self, data: &[std::path::PathBuf]) -> Result<Vec<String>> {
         let p = &self.params;
+        let first = data.first().ok_or_else(|| anyhow!("no --data"))?;
         let inputs = if p.inputs.is_empty() && p.kind != FitKind::Arma {
             let header_only = ReadOptions {
                 skip_bad_rows: true,
                 only: Some(Vec::new()),
             };
-            let header = RunFile::read(first, &header_only)?;
-            self.inputs_for(&header.columns, &first.display().to_string())?
+            let heads = data
+                .iter()
+                .map(|d| RunFile::read(d, &header_only))
+                .collect::<Result<Vec<_>, _>>()?;
+            let (common, missing) = common_columns(&heads);
+            let inputs = self.inputs_for(&common, &first.display().to_string())?;
+            let all = self.inputs_for(&heads[0].columns, "")?;
+            for (column, run) in missing.iter().filter(|(c, _)| all.contains(c)) {
+                eprintln!("note: {column} is not in {run}: not among the default inputs");
+            }
+            inputs
         } else {
             self.inputs_for(&[], "")?
         };
@@ -216,7 +240,8 @@ impl FitOutcome {
 /// all in memory. The figures are those of the encoded blob, decoded back.
 pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result<FitOutcome> {
     let first = runs.first().ok_or_else(|| anyhow!("no --data"))?;
-    let inputs = p.inputs_for(&first.columns, &first.path.display().to_string())?;
+    let (common, _) = common_columns(runs);
+    let inputs = p.inputs_for(&common, &first.path.display().to_string())?;
     let a = &p.params;
     let ds = Dataset::new(
         runs,
@@ -226,6 +251,7 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
         p.form,
         a.holdout_from_s,
     )?;
+    refuse_constant_targets(&ds)?;
     let fitted = train(p, &ds, runs, validate)?;
     let model = crate::fivepoint::with_geometry(fitted.model, a.l_defl_mm)?;
     let bytes = model_core::blob::encode_to_vec(&model)
@@ -260,6 +286,66 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
     })
 }
 
+/// The columns every run has, in the first run's order, and each column of
+/// the first run that another lacks, with that run's file (the first such).
+pub fn common_columns(runs: &[RunFile]) -> (Vec<String>, Vec<(String, String)>) {
+    let Some((first, rest)) = runs.split_first() else {
+        return (Vec::new(), Vec::new());
+    };
+    let mut common = Vec::new();
+    let mut missing = Vec::new();
+    for c in &first.columns {
+        match rest.iter().find(|r| !r.columns.contains(c)) {
+            Some(r) => missing.push((c.clone(), r.path.display().to_string())),
+            None => common.push(c.clone()),
+        }
+    }
+    (common, missing)
+}
+
+/// Refuses a target that never moves over the calibration rows: there is
+/// nothing to fit, and every score of it would be 0/0 (arma and `select`
+/// refuse it as well).
+fn refuse_constant_targets(ds: &Dataset) -> Result<()> {
+    let mut range = vec![(f64::INFINITY, f64::NEG_INFINITY); ds.targets.len()];
+    ds.visit_calibration_rows(&mut |_, y| {
+        for ((lo, hi), v) in range.iter_mut().zip(y) {
+            *lo = lo.min(*v);
+            *hi = hi.max(*v);
+        }
+    });
+    match ds.targets.iter().zip(&range).find(|(_, (lo, hi))| lo == hi) {
+        Some((t, (v, _))) => bail!(
+            "{t} is constant ({v}) on every calibration row: nothing to fit (check the \
+             column and --holdout-from-s)"
+        ),
+        None => Ok(()),
+    }
+}
+
+/// The positions of the first name that repeats an earlier one, and of
+/// that earlier one.
+fn first_repeat(names: &[String]) -> Option<(usize, usize)> {
+    names
+        .iter()
+        .enumerate()
+        .find_map(|(i, n)| names[..i].iter().position(|m| m == n).map(|j| (j, i)))
+}
+
+/// Refuses more inputs than the hub reads before any work, naming the way
+/// out (`kind`: the trainer's name in the message).
+pub fn within_hub(kind: &str, ds: &Dataset) -> Result<()> {
+    use model_core::model::MAX_CHANNELS;
+    let n = ds.inputs.len();
+    if n > MAX_CHANNELS {
+        bail!(
+            "{kind}: {n} inputs, but the hub reads at most {MAX_CHANNELS}: name at most \
+             {MAX_CHANNELS} with --inputs (`thermcomp select` ranks the temperatures)"
+        );
+    }
+    Ok(())
+}
+
 /// The kind's trainer on `ds`.
 fn train(
     p: &ValidFitParams,
@@ -279,13 +365,13 @@ fn train(
             };
             auto::fit(ds, &params.check(ds)?)
         }
-        FitKind::Mlr => mlr::fit(ds),
-        FitKind::Pcr => pcr::fit(ds, &o.pcr),
+        FitKind::Mlr => within_hub("mlr", ds).and_then(|()| mlr::fit(ds)),
+        FitKind::Pcr => within_hub("pcr", ds).and_then(|()| pcr::fit(ds, &o.pcr)),
         FitKind::Arx => arx::fit(ds, &o.arx),
         FitKind::Tf => tfbank::fit(ds, &o.arx),
         FitKind::Gain => gain::fit(ds, &o.arx, runs, validate),
-        FitKind::Bp => bp::fit(ds, &o.bp, false),
-        FitKind::Gabp => bp::fit(ds, &o.bp, true),
+        FitKind::Bp => within_hub("bp", ds).and_then(|()| bp::fit(ds, &o.bp, false)),
+        FitKind::Gabp => within_hub("gabp", ds).and_then(|()| bp::fit(ds, &o.bp, true)),
         FitKind::Arma => arma::fit(ds, &o.arma, o.arx.dt_s),
     }
 }

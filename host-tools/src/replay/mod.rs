@@ -522,6 +522,9 @@ impl TimeBase {
         };
         let n = uniform_grid_len(t0, t_end, dt).map_err(|e| anyhow!("{file}: {e}"))?;
         let sampling = tally.sampling();
+        sampling
+            .check_grid(n, dt)
+            .map_err(|e| anyhow!("{file}: {e}"))?;
         if !(sampling.is_uniform
             && sampling
                 .dt_median_s

@@ -82,7 +82,10 @@ pub(super) fn stream_run(
     let grid = if runner::on_model_grid(&plan.sampling, dt) {
         None
     } else {
-        Some(ModelGrid::new(plan.span, dt).map_err(|e| anyhow!("{}: {e}", path.display()))?)
+        Some(
+            ModelGrid::new(plan.span, dt, &plan.sampling)
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?,
+        )
     };
     let mut run = Opened::open(model, path, opts, map, sink)?;
     let mut out = RowOut::new(model, run.tool);

@@ -41,7 +41,7 @@ use features::Role;
 use folds::Folds;
 use layout::Layout;
 use model_core::fbank::MAX_FB_FEATURES;
-use model_core::model::{Bounds, Name, Span, MAX_CHANNELS};
+use model_core::model::{Bounds, Name, Span};
 use model_core::{Channel, Model, Params};
 use search::{FormData, Member, SearchSettings};
 use serde::Serialize;
@@ -157,13 +157,7 @@ impl AutoParams {
         if !(1..=100).contains(&self.ensemble) {
             bail!("auto: --auto-ensemble {} must be 1..100", self.ensemble);
         }
-        if ds.inputs.len() > MAX_CHANNELS {
-            bail!(
-                "auto: {} inputs, but the hub reads at most {MAX_CHANNELS}: name at most \
-                 {MAX_CHANNELS} with --inputs (`thermcomp select` ranks the temperatures)",
-                ds.inputs.len()
-            );
-        }
+        super::job::within_hub("auto", ds)?;
         let families = Family::parse_list(&self.families)?;
         let dt_s = super::dynamic::grid::sample_time(ds, self.dt_s)?;
         Ok(ValidAutoParams {
@@ -665,6 +659,7 @@ fn bounds(envelope: &[Span], bands: &[Band]) -> Result<Bounds> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use model_core::model::MAX_CHANNELS;
 
     #[test]
     fn the_largest_union_of_the_grids_fits_the_hub() {

@@ -164,7 +164,9 @@ fn most_held(rows: usize, row_dt: f64, model_dt: f64) -> usize {
     let m =
         crate::data::spec::parse("fb.toml", &FBANK.replace("4.0", &format!("{model_dt}"))).unwrap();
     let span = Some((0.0, (rows - 1) as f64 * row_dt));
-    let mut regrid = Regrid::new(&m, Some(ModelGrid::new(span, model_dt).unwrap()));
+    let times: Vec<f64> = (0..rows).map(|k| k as f64 * row_dt).collect();
+    let sampling = crate::data::runfile::Sampling::of(&times);
+    let mut regrid = Regrid::new(&m, Some(ModelGrid::new(span, model_dt, &sampling).unwrap()));
     let mut out = RowOut::new(&m, None);
     let mut sink = Collect::default();
     let mut most = 0;
