@@ -598,3 +598,39 @@ fn text_output_and_errors() {
         assert!(wants.iter().all(|w| e.contains(w)), "{e}");
     }
 }
+
+/// A target with one value over every run, and (for wgrey, as grey and
+/// maxtree already did) an input with one value, are refused by name
+/// (grey and maxtree used to fail on a flat target by suggesting scales
+/// that divide by zero too; wgrey ranked a flat target's or inputs' equal
+/// grades as if they meant something).
+#[test]
+fn flat_targets_and_inputs_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut flat_target = String::from("t_s,T1,T2,dz_um\n");
+    let mut flat_input = String::from("t_s,T1,T2,dz_um\n");
+    for k in 0..50 {
+        let (t1, t2) = (20.0 + 0.1 * f64::from(k), 20.0 + 0.05 * f64::from(k % 9));
+        flat_target.push_str(&format!("{k},{t1},{t2},0\n"));
+        flat_input.push_str(&format!("{k},{t1},20,{}\n", 0.3 * f64::from(k)));
+    }
+    let target = write(dir.path(), "flat_target.csv", &flat_target);
+    let input = write(dir.path(), "flat_input.csv", &flat_input);
+    for method in ["grey", "wgrey", "maxtree"] {
+        let e = fails(&[
+            "select", "--data", &target, "--target", "dz_um", "--method", method, "--top", "1",
+        ]);
+        assert_eq!(
+            e, "error: dz_um is constant (0) in every run: nothing to rank the inputs by\n",
+            "{method}"
+        );
+    }
+    let e = fails(&[
+        "select", "--data", &input, "--target", "dz_um", "--method", "wgrey", "--top", "1",
+    ]);
+    assert_eq!(
+        e,
+        "error: T2 is constant over the 50 rows used: it cannot be ranked; leave it out with \
+         --inputs\n"
+    );
+}

@@ -25,6 +25,25 @@ fn check_runs(files: &[RunFile], needed: &[String]) -> Result<()> {
     Ok(())
 }
 
+/// Refuses a target with one value over every run: there is nothing to
+/// rank the inputs by (grey and maxtree divided by zero on it, wgrey gave
+/// every input the same grade).
+fn refuse_flat_targets(files: &[RunFile], targets: &[String]) -> Result<()> {
+    for t in targets {
+        let mut values = files
+            .iter()
+            .filter_map(|r| r.column(t))
+            .flat_map(|c| c.present());
+        let Some(first) = values.next() else {
+            bail!("{t} has no values in any run");
+        };
+        if values.all(|v| v == first) {
+            bail!("{t} is constant ({first}) in every run: nothing to rank the inputs by");
+        }
+    }
+    Ok(())
+}
+
 /// The selection over runs in memory: settles the inputs from the first
 /// run's columns, checks the runs have them, runs the method.
 pub fn select(p: &ValidSelectParams, files: &[RunFile]) -> Result<SelectOutcome> {
@@ -35,6 +54,7 @@ pub fn select(p: &ValidSelectParams, files: &[RunFile]) -> Result<SelectOutcome>
     let inputs = a.inputs_for(&first.columns, &first.path.display().to_string())?;
     let needed: Vec<String> = inputs.iter().chain(&a.target).cloned().collect();
     check_runs(files, &needed)?;
+    refuse_flat_targets(files, &a.target)?;
     let names: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let skipped_rows = crate::data::source::skipped_rows(files);
     Ok(match a.method {

@@ -50,7 +50,7 @@ const RELATIVE_WHAT: &str = "the grey relative degree between the inputs";
 /// their clusters at `--level` (at most [`MAX_TYPICAL`] of them).
 fn grey_clusters(a: &SelectParams, files: &[RunFile], names: &[&str]) -> Result<InputClusters> {
     let x = Table::new(files, names);
-    x.report(files, "a value of every input", 2)?;
+    x.report(files, "a value of some input", 2)?;
     let abs = grey::absolute_matrix(&x.cols, &x.runs);
     let rel_choice = ScaleChoice::new(grey::Scale::Initial, &series(names, &x.cols), &x.runs);
     rel_choice.note(RELATIVE_WHAT);
@@ -256,6 +256,18 @@ fn wgrey_target(
     };
     let xy = Table::new(files, &with_target(names, t));
     xy.report(files, &format!("a value of {t} or of an input"), 2)?;
+    // A constant input gets a grade that says nothing (every constant
+    // input the same one): refused as grey and maxtree refuse it.
+    if let Some(n) = names
+        .iter()
+        .zip(&xy.cols)
+        .find_map(|(n, c)| c.iter().all(|v| Some(v) == c.first()).then_some(n))
+    {
+        bail!(
+            "{n} is constant over the {} rows used: it cannot be ranked; leave it out with --inputs",
+            xy.rows()
+        );
+    }
     let choice = ScaleChoice::new(a.scale, &series(&with_target(names, t), &xy.cols), &xy.runs);
     let with_what = format!("the grey correlativity with {t}");
     choice.note(&with_what);
@@ -344,7 +356,7 @@ struct MaximalTree {
 /// (Prim's order).
 fn maximal_tree(files: &[RunFile], names: &[&str]) -> Result<MaximalTree> {
     let x = Table::new(files, names);
-    x.report(files, "a value of every input", 3)?;
+    x.report(files, "a value of some input", 3)?;
     let r = stats::pearson_matrix(&x.cols).map_err(|j| {
         anyhow!(
             "{} is constant over the {} rows used: its correlation is undefined; leave it out with --inputs",

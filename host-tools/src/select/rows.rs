@@ -95,9 +95,18 @@ pub(super) fn scaled(
     name: &str,
 ) -> Result<Vec<f64>> {
     grey::dimensionless(col, runs, scale).map_err(|e| {
+        // The scales that do not divide by what was zero here: a run
+        // starting at 0 may still have a mean and a range; one whose mean
+        // is 0 a range; a constant one none (raw values only).
+        let others: &[&str] = match e {
+            grey::ScaleError::ZeroInitial { .. } => &["mean", "interval", "none"],
+            grey::ScaleError::ZeroMean { .. } => &["interval", "none"],
+            _ => &["none"],
+        };
         anyhow!(
-            "{name}: {e} (--scale {}); choose another --scale: mean, interval or none",
-            scale.name()
+            "{name}: {e} (--scale {}); choose another --scale: {}",
+            scale.name(),
+            others.join(", ")
         )
     })
 }
