@@ -36,9 +36,35 @@ impl ColumnMap {
             if name.is_empty() || col.is_empty() {
                 bail!("--map {p}: expected NAME=COLUMN");
             }
-            map.insert(name.to_string(), col.to_string());
+            if let Some(before) = map.insert(name.to_string(), col.to_string()) {
+                bail!("--map {p}: {name} is mapped twice (to {before} and to {col})");
+            }
         }
         Ok(Self(map))
+    }
+
+    /// Refuses a pair whose NAME the model neither reads nor predicts (a
+    /// typo would otherwise be ignored without a word).
+    pub fn check_names(&self, model: &ValidModel) -> Result<()> {
+        let inputs: Vec<&str> = model.inputs().iter().map(|c| c.name.as_str()).collect();
+        let outputs = prediction_names(model);
+        let mut names: Vec<&String> = self.0.keys().collect();
+        names.sort();
+        for name in names {
+            let known = inputs.contains(&name.as_str())
+                || outputs.contains(name)
+                || (model.five_point().is_some() && name == TOOL_COLUMN);
+            if !known {
+                bail!(
+                    "--map {name}={}: the model has no input or output {name} (inputs: {}; \
+                     outputs: {})",
+                    self.0[name],
+                    inputs.join(", "),
+                    outputs.join(", ")
+                );
+            }
+        }
+        Ok(())
     }
 
     /// The columns a model reads (and, with `outputs`, the measured columns

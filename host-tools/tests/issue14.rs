@@ -588,3 +588,95 @@ fn an_input_the_hub_refuses_is_named_as_such() {
     );
     assert!(!se.contains("non-finite"), "{se}");
 }
+
+/// A `--map` NAME the model neither reads nor predicts, or one NAME mapped
+/// twice, is refused (both used to be ignored without a word).
+#[test]
+fn a_map_that_cannot_apply_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = write(d, "run.csv", &run_text(50, false));
+    let b = blob(d);
+    fails_with(
+        &["eval", "--model", &b, "--data", &data, "--map", "T9=T2"],
+        "error: --map T9=T2: the model has no input or output T9 (inputs: T1, ambient_c; \
+         outputs: dz_um)",
+    );
+    fails_with(
+        &[
+            "predict",
+            "--model",
+            &b,
+            "--data",
+            &data,
+            "--map",
+            "T1=T2",
+            "--map",
+            "T1=speed_rpm",
+            "--out",
+            p(&d.join("p.csv")),
+        ],
+        "error: --map T1=speed_rpm: T1 is mapped twice (to T2 and to speed_rpm)",
+    );
+}
+
+/// Default inputs come from the headers alone: a row with one field too
+/// many is a `file:line` error even then (the header read used to skip
+/// every row and report "no valid data rows (all N skipped ...)" without
+/// --skip-bad-rows); and they are the columns every run has, whichever
+/// run comes first (a column only the first run had used to be refused
+/// in the other run, one only the second had silently dropped).
+#[test]
+fn default_inputs_come_from_every_run_s_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let full = run_text(60, false);
+    let trailing: String = full
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                format!("{l}\n")
+            } else {
+                format!("{l},\n")
+            }
+        })
+        .collect();
+    let bad = write(d, "trailing.csv", &trailing);
+    let out = p(&d.join("m.bin")).to_string();
+    fails_with(
+        &[
+            "fit", "--data", &bad, "--target", "dz_um", "--model", "mlr", "--out", &out,
+        ],
+        &format!("error: {bad}:2: expected 6 fields, found 7"),
+    );
+    // The second run without T2.
+    let no_t2: String = full
+        .lines()
+        .map(|l| {
+            let mut c: Vec<&str> = l.split(',').collect();
+            c.remove(3);
+            format!("{}\n", c.join(","))
+        })
+        .collect();
+    let (a, b) = (write(d, "a.csv", &full), write(d, "b.csv", &no_t2));
+    for (first, second) in [(&a, &b), (&b, &a)] {
+        let r = run_bounded(
+            &[
+                "fit", "--data", first, "--data", second, "--target", "dz_um", "--model", "mlr",
+                "--out", &out,
+            ],
+            Stdio::null(),
+        );
+        let se = String::from_utf8(r.stderr).unwrap();
+        assert!(r.status.success(), "{se}");
+        assert!(se.contains("linear model on 1 inputs"), "{se}");
+        assert_eq!(
+            se.contains(&format!(
+                "note: T2 is not in {b}: not among the default inputs"
+            )),
+            first == &a,
+            "{se}"
+        );
+    }
+}

@@ -39,6 +39,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
     }
     let model = a.model.load()?;
     let map = a.runs.column_map()?;
+    map.check_names(&model)?;
     let opts = a.runs.read_options(map.model_columns(&model, true));
     // Streamed, unless the page needs the runs in memory anyway.
     let (out, runs) = match &a.report {

@@ -37,6 +37,7 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     let model = a.model.load()?;
     check_interval(&model, a.interval)?;
     let map = a.runs.column_map()?;
+    map.check_names(&model)?;
     let opts = a.runs.read_options(map.model_columns(&model, false));
     let inputs = [a.model.paths(), a.runs.paths()].concat();
     fsio::check_distinct(&inputs, &[fsio::named("--out", &a.out)])?;

@@ -3,7 +3,7 @@
 //! with `--json` or as the method's text tables.
 
 use crate::data::fsio;
-use crate::data::runfile::{ReadOptions, RunFile};
+use crate::data::runfile::{ReadOptions, RowStream, RunFile};
 use crate::select::outcome::{GreyOutcome, MaxtreeOutcome, WgreyOutcome};
 use crate::select::{grey, select, Method, SelectOutcome, SelectParams, ValidSelectParams};
 use anyhow::{anyhow, Result};
@@ -135,13 +135,14 @@ fn read(a: &SelectArgs, p: &ValidSelectParams) -> Result<Vec<RunFile>> {
         .first()
         .ok_or_else(|| anyhow!("--data: give at least one run file"))?;
     let header_only = ReadOptions {
-        skip_bad_rows: true,
+        skip_bad_rows: false,
         only: Some(Vec::new()),
     };
     let inputs = if a.inputs.is_empty() {
-        let head = RunFile::read(first, &header_only)?;
+        // The header alone (the rows are read once, below).
+        let head = RowStream::open(first, &header_only)?;
         p.params()
-            .inputs_for(&head.columns, &first.display().to_string())?
+            .inputs_for(head.columns(), &first.display().to_string())?
     } else {
         p.params().inputs_for(&[], "")?
     };

@@ -7,7 +7,7 @@ use super::{
     arma, arx, auto, bp, gain, mlr, pcr, tfbank, Details, FitKind, Fitted, AUTO_EXTRA_INPUTS,
 };
 use crate::data::dataset::{Dataset, InputForm};
-use crate::data::runfile::{ReadOptions, RunFile};
+use crate::data::runfile::{ReadOptions, RowStream, RunFile};
 use crate::score::{score, TargetScore};
 use anyhow::{anyhow, bail, Result};
 use model_core::ValidModel;
@@ -131,16 +131,19 @@ impl ValidFitParams {
         let first = data.first().ok_or_else(|| anyhow!("no --data"))?;
         let inputs = if p.inputs.is_empty() && p.kind != FitKind::Arma {
             let header_only = ReadOptions {
-                skip_bad_rows: true,
+                skip_bad_rows: false,
                 only: Some(Vec::new()),
             };
             let heads = data
                 .iter()
-                .map(|d| RunFile::read(d, &header_only))
-                .collect::<Result<Vec<_>, _>>()?;
+                .map(|d| {
+                    let stream = RowStream::open(d, &header_only)?;
+                    Ok((d.display().to_string(), stream.columns().to_vec()))
+                })
+                .collect::<Result<Vec<_>>>()?;
             let (common, missing) = common_columns(&heads);
             let inputs = self.inputs_for(&common, &first.display().to_string())?;
-            let all = self.inputs_for(&heads[0].columns, "")?;
+            let all = self.inputs_for(&heads[0].1, "")?;
             for (column, run) in missing.iter().filter(|(c, _)| all.contains(c)) {
                 eprintln!("note: {column} is not in {run}: not among the default inputs");
             }
@@ -240,7 +243,11 @@ impl FitOutcome {
 /// all in memory. The figures are those of the encoded blob, decoded back.
 pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result<FitOutcome> {
     let first = runs.first().ok_or_else(|| anyhow!("no --data"))?;
-    let (common, _) = common_columns(runs);
+    let heads: Vec<(String, Vec<String>)> = runs
+        .iter()
+        .map(|r| (r.path.display().to_string(), r.columns.clone()))
+        .collect();
+    let (common, _) = common_columns(&heads);
     let inputs = p.inputs_for(&common, &first.path.display().to_string())?;
     let a = &p.params;
     let ds = Dataset::new(
@@ -286,17 +293,18 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
     })
 }
 
-/// The columns every run has, in the first run's order, and each column of
-/// the first run that another lacks, with that run's file (the first such).
-pub fn common_columns(runs: &[RunFile]) -> (Vec<String>, Vec<(String, String)>) {
-    let Some((first, rest)) = runs.split_first() else {
+/// The columns every run has (`runs`: each run's name and columns), in
+/// the first run's order, and each column of the first run that another
+/// lacks, with that run's name (the first such).
+pub fn common_columns(runs: &[(String, Vec<String>)]) -> (Vec<String>, Vec<(String, String)>) {
+    let Some(((_, first), rest)) = runs.split_first() else {
         return (Vec::new(), Vec::new());
     };
     let mut common = Vec::new();
     let mut missing = Vec::new();
-    for c in &first.columns {
-        match rest.iter().find(|r| !r.columns.contains(c)) {
-            Some(r) => missing.push((c.clone(), r.path.display().to_string())),
+    for c in first {
+        match rest.iter().find(|(_, cols)| !cols.contains(c)) {
+            Some((name, _)) => missing.push((c.clone(), name.clone())),
             None => common.push(c.clone()),
         }
     }
