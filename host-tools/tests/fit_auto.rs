@@ -81,6 +81,24 @@ fn fit_fails(data: &str, out: &Path, extra: &[&str]) -> String {
     e
 }
 
+/// `fit --model kind --target dz_um` on `data` fails in one line, and
+/// writes nothing at `out`; the line.
+fn kind_fails(kind: &str, data: &str, out: &Path) -> String {
+    let e = common::fails_one_line(&[
+        "fit",
+        "--model",
+        kind,
+        "--target",
+        "dz_um",
+        "--data",
+        data,
+        "--out",
+        p(out),
+    ]);
+    assert!(!out.exists(), "no blob written: {e}");
+    e
+}
+
 fn chosen_forms(v: &Value) -> Vec<String> {
     v["details"]["targets"][0]["forms"]
         .as_array()
@@ -569,17 +587,7 @@ fn more_inputs_than_the_hub_reads_are_refused_before_the_search() {
     // The static kinds say the same, before training (they used to say
     // "too many inputs", or "more than 32 inputs" after training).
     for kind in ["mlr", "pcr", "bp", "gabp"] {
-        let e = common::fails_one_line(&[
-            "fit",
-            "--model",
-            kind,
-            "--target",
-            "dz_um",
-            "--data",
-            &data,
-            "--out",
-            p(&out),
-        ]);
+        let e = kind_fails(kind, &data, &out);
         assert_eq!(
             e,
             format!(
@@ -730,17 +738,7 @@ fn a_flat_target_is_refused_before_training() {
     let data = write(dir.path(), "flat.csv", &text);
     let out = dir.path().join("m.bin");
     for kind in ["auto", "mlr", "pcr", "arx", "bp"] {
-        let e = common::fails_one_line(&[
-            "fit",
-            "--model",
-            kind,
-            "--target",
-            "dz_um",
-            "--data",
-            &data,
-            "--out",
-            p(&out),
-        ]);
+        let e = kind_fails(kind, &data, &out);
         assert_eq!(
             e,
             "error: dz_um is constant (2.5) on every calibration row: nothing to fit (check \
