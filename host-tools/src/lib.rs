@@ -3,6 +3,25 @@
 //! The command line ([`cli`]: clap, text tables, printing) is the default
 //! feature `cli`; without it the typed jobs alone build, without clap.
 
+/// `eprintln!` that never panics: std's panics when stderr is closed (as in
+/// `thermcomp ... 2>&1 | head`), which would abort a command mid-work for
+/// a note nobody can read any more. Defined before the modules, so it
+/// shadows std's in all of them.
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// `eprint!` that never panics (see `eprintln!` above).
+macro_rules! eprint {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 pub mod bench;
 #[cfg(feature = "cli")]
 pub mod cli;

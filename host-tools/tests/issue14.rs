@@ -680,3 +680,22 @@ fn default_inputs_come_from_every_run_s_header() {
         );
     }
 }
+
+/// A closed stderr (`thermcomp ... 2>&1 | head`) drops the notes, not the
+/// work: the command finishes and writes its output (std's `eprintln!`
+/// panicked on the broken pipe, exit 101, mid-work).
+#[test]
+fn closed_stderr_pipe_drops_the_notes_not_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run.csv");
+    let status = Command::new(env!("CARGO_BIN_EXE_thermcomp"))
+        .args(["simulate", "--out", p(&out), "--hours", "0.5"])
+        .stdin(Stdio::null())
+        .stdout(closed_pipe())
+        .stderr(closed_pipe())
+        .status()
+        .unwrap();
+    assert_eq!(status.code(), Some(0));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.lines().count() > 100, "{}", text.lines().count());
+}

@@ -563,3 +563,27 @@ fn drift_and_gain_are_found() {
     assert!((t.c2 - 0.3).abs() < 0.03, "{}", t.c2);
     assert!(t.effect_um > 4.0);
 }
+
+/// A measured output that is flat (a stuck probe) or empty over the new
+/// run is refused, and no blob is written: the test used to call a flat
+/// line "changed" (a Wald statistic of 4.5e31) and write an update with
+/// gain -1 that cancels the model, or to keep the model on nothing.
+#[test]
+fn a_flat_or_empty_measured_output_is_refused() {
+    for (cell, what) in [
+        ("5.0", "dz_um is measured as 5 on every row of the new runs: a stuck probe or a wrong column, nothing to test the model against"),
+        ("", "dz_um has no measured value in the new runs: nothing to test the model against"),
+    ] {
+        let case = linear_case(7, |_, _| 0.0);
+        write_run(&case.data, |_, _| f64::NAN);
+        let text = std::fs::read_to_string(&case.data)
+            .unwrap()
+            .replace("NaN", cell);
+        std::fs::write(&case.data, text).unwrap();
+        let e = common::fails_one_line(&[
+            "refit", "--model", p(&case.old), "--data", p(&case.data), "--out", p(&case.out),
+        ]);
+        assert_eq!(e, format!("error: {what}\n"));
+        assert!(!case.out.exists());
+    }
+}

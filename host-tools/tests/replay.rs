@@ -693,3 +693,22 @@ fn a_temperature_gap_replays_as_predict_bridges_it() {
     // The warm-up is in the offsets: dz well above zero by then.
     assert!(want[4799] > 10.0, "{}", want[4799]);
 }
+
+/// A temperature frozen on one value for 30 min while another rises 2 K is
+/// stuck from sample 1800 (firmware's `a_frozen_temperature_while_another_
+/// moves_is_stuck`): the summary counts those samples as readings not
+/// believed (it used to count them nowhere, so the zeroed offsets had no
+/// stated cause), and neither as faults nor as stale.
+#[test]
+fn a_stuck_temperature_is_counted_as_not_believed() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = String::from("t_s,T1,T2\n");
+    for t in 0..2000u32 {
+        run += &format!("{t},25.0,{}\n", 20.0 + 0.001 * f64::from(t));
+    }
+    let (j, _) = replay_gap(dir.path(), &run);
+    let run = &j["runs"][0];
+    assert_eq!(run["implausible_samples"], 200, "samples 1800..=1999");
+    assert_eq!(run["sensor_fault_samples"], 0);
+    assert_eq!(run["stale_samples"], 0);
+}

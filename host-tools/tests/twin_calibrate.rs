@@ -290,6 +290,18 @@ fn bad_inputs_fail_with_one_line() {
     let none = write("none.csv", &rows.replace("dz_um,T1", "a,b"));
     let e = calibrate(&none, &[]);
     assert!(e.contains("no displacement"), "{e}");
+    // A spindle that never turns: nothing to calibrate the heat to (this
+    // used to panic in nalgebra's SVD of an empty matrix).
+    let still = write("still.csv", &rows.replace(",1000,", ",0,"));
+    let e = calibrate(&still, &[]);
+    assert_eq!(
+        e,
+        format!(
+            "error: {}: speed_rpm is 0 on every row before --calibrate-until-s 2370: nothing \
+             heats the twin there, so nothing can be calibrated\n",
+            p(&still)
+        )
+    );
     // --calibrate without --save-machine is a usage error (clap: several
     // lines), but never a panic, and nothing is written.
     let out = common::run(&["simulate", "--calibrate", p(&good)]);

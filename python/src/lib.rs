@@ -151,9 +151,17 @@ fn fit<'py>(
         };
         let valid = params.check()?;
         // CSV paths: only the columns the fit reads, as the CLI does (the
-        // default inputs from the first run's header when it is a path).
+        // default inputs from the headers of the runs given as paths, when
+        // the first is one).
+        let paths: Vec<PathBuf> = runs
+            .iter()
+            .map(csv_path)
+            .collect::<Result<Vec<_>>>()?
+            .into_iter()
+            .flatten()
+            .collect();
         let only = match runs.first().map(csv_path).transpose()?.flatten() {
-            Some(first) => Some(valid.columns_read(&first)?),
+            Some(_) => Some(valid.columns_read(&paths)?),
             None => None,
         };
         let only = only.as_deref();

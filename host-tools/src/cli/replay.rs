@@ -64,7 +64,7 @@ pub fn run(a: &ReplayArgs) -> Result<()> {
         for r in &outcome.runs {
             let st = &r.states;
             fsio::print_line(&format!(
-                "{}: {} samples, {} frames ({} from the CNC); running {}, holding {}, ramping {}, zeroed {}, no model {}",
+                "{}: {} samples, {} frames ({} from the CNC); running {}, holding {}, ramping {}, zeroed {}, no model {}; samples with a sensor fault {}, a stale input {}, a reading not believed {}",
                 r.run,
                 r.samples,
                 r.frames,
@@ -73,7 +73,10 @@ pub fn run(a: &ReplayArgs) -> Result<()> {
                 st.holding,
                 st.ramping,
                 st.zeroed,
-                st.no_model
+                st.no_model,
+                r.sensor_fault_samples,
+                r.stale_samples,
+                r.implausible_samples
             ))?;
         }
         eprintln!("wrote {}", a.candump.display());

@@ -29,6 +29,11 @@ pub fn symmetric_eigen(a: DMatrix<f64>) -> Result<SymmetricEigen<f64, Dyn>> {
 /// would loop forever or panic on a NaN singular value. Singular values come
 /// unordered: the callers only take their maximum and solve.
 pub fn svd(a: DMatrix<f64>) -> Result<SVD<f64, Dyn, Dyn>> {
+    // nalgebra panics on an empty matrix (no live column: every input
+    // zero on the fit rows).
+    if a.is_empty() {
+        bail!("least squares: no column carries anything (every input is zero on the fit rows)");
+    }
     if let Some(i) = a.iter().position(|v| !v.is_finite()) {
         bail!(
             "least squares: column {} of the scaled design matrix has a non-finite value (inputs too large?)",
@@ -43,4 +48,18 @@ pub fn svd(a: DMatrix<f64>) -> Result<SVD<f64, Dyn, Dyn>> {
         bail!("least squares: the SVD gave non-finite singular values (inputs too large?)");
     }
     Ok(svd)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// nalgebra panics on an empty matrix; the wrapper says why instead.
+    #[test]
+    fn an_empty_matrix_is_an_error_not_a_panic() {
+        for (r, c) in [(0, 3), (3, 0), (0, 0)] {
+            let e = svd(DMatrix::zeros(r, c)).unwrap_err().to_string();
+            assert!(e.contains("no column carries anything"), "{r}x{c}: {e}");
+        }
+    }
 }

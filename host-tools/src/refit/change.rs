@@ -8,7 +8,7 @@ use crate::data::cells::Cells;
 use crate::data::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
 use crate::score::{score, TargetScore};
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use model_core::ValidModel;
 use serde::Serialize;
 
@@ -65,6 +65,29 @@ pub(crate) fn measured_outputs<'r>(
                 .collect::<Result<_>>()
         })
         .collect()
+}
+
+/// Refuses an output measured nowhere, or with one value over every new
+/// run (a stuck probe, a column zeroed by mistake): the test would compare
+/// the model with a flat line, call it changed and fit an update that
+/// cancels the model (seen: a Wald statistic of 4.5e31, the gain -1).
+pub(crate) fn refuse_flat_outputs(outputs: &[String], ys: &[Vec<Cells<'_>>]) -> Result<()> {
+    for (k, o) in outputs.iter().enumerate() {
+        let mut values = ys
+            .iter()
+            .filter_map(|run| run.get(k))
+            .flat_map(|c| c.present());
+        let Some(first) = values.next() else {
+            bail!("{o} has no measured value in the new runs: nothing to test the model against");
+        };
+        if values.all(|v| v == first) {
+            bail!(
+                "{o} is measured as {first} on every row of the new runs: a stuck probe or a \
+                 wrong column, nothing to test the model against"
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Where each run's held-out tail starts: the last `fraction` of its time.

@@ -203,6 +203,7 @@ pub fn refit(
 ) -> Result<RefitOutcome> {
     let outputs: Vec<String> = old.model.outputs().iter().map(|o| o.to_string()).collect();
     let ys = change::measured_outputs(runs, &outputs)?;
+    change::refuse_flat_outputs(&outputs, &ys)?;
     let split = change::holdout_starts(runs, p.holdout_fraction);
 
     // 1. The test, on every row of the new runs.

@@ -53,6 +53,7 @@ use firmware::hub::Hub;
 use firmware::pipeline::{
     ChannelFault, Pipeline, PipelineConfig, Reading, POSITION_REFERENCE_MM, TOOL_INPUT,
 };
+use firmware::report::StatusFlags;
 use max31865::{Config, Filter, Max31865, Mode, Wires};
 use model_core::rtd::{Rtd, RtdChannel, RtdCode};
 use serde::Serialize;
@@ -158,6 +159,7 @@ struct Tally {
     states: [usize; 5],
     sensor_faults: usize,
     stale: usize,
+    implausible: usize,
     max_abs_um: Vec<f64>,
 }
 
@@ -226,6 +228,10 @@ pub struct RunReplay {
     pub sensor_fault_samples: usize,
     /// Samples with a stale input.
     pub stale_samples: usize,
+    /// Samples with a temperature refused by a plausibility check (outside
+    /// the plausible window, rate of change, stuck) or by the spike filter:
+    /// a reading that is there but not believed (STATUS bits 1, 10-12).
+    pub implausible_samples: usize,
     /// Largest |offset| sent per output lane, µm.
     pub max_abs_offset_um: BTreeMap<String, f64>,
 }
@@ -452,6 +458,7 @@ impl ModelShape {
             },
             sensor_fault_samples: t.sensor_faults,
             stale_samples: t.stale,
+            implausible_samples: t.implausible,
             max_abs_offset_um: self
                 .outputs
                 .iter()
@@ -642,6 +649,14 @@ impl InputColumns {
                     stream.file(),
                     stream.columns().join(", ")
                 )),
+                None => {
+                    eprintln!(
+                        "note: {}: no column \"{c}\": the CNC never sends it in this replay, so \
+                         the model's input is stale throughout (hold, then ramp to zero)",
+                        stream.file()
+                    );
+                    Ok(None)
+                }
                 i => Ok(i),
             })
             .collect::<Result<Vec<_>>>()?;
@@ -801,6 +816,13 @@ impl<'a> HubRun<'a> {
         }
         if self.readings.iter().any(|r| matches!(r, Reading::Stale)) {
             tally.stale += 1;
+        }
+        const NOT_BELIEVED: u16 = StatusFlags::SPIKE_REJECTED
+            | StatusFlags::IMPLAUSIBLE
+            | StatusFlags::RATE_OF_CHANGE
+            | StatusFlags::STUCK;
+        if report.flags.0 & NOT_BELIEVED != 0 {
+            tally.implausible += 1;
         }
         let (sent, slopes) = self.send(t, now_ms, &report, log)?;
         if let Some(w) = trace {

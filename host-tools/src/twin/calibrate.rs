@@ -153,6 +153,15 @@ impl Measured {
             bail!("--calibrate-until-s must be finite");
         }
         let n_fit = t.partition_point(|&x| x < until_s);
+        // The twin's parameters scale the spindle's heat: a calibration part
+        // where it never turns has nothing to fit them to.
+        if schedule.speed_rpm[..n_fit].iter().all(|&v| v == 0.0) {
+            bail!(
+                "{}: speed_rpm is 0 on every row before --calibrate-until-s {until_s}: \
+                 nothing heats the twin there, so nothing can be calibrated",
+                path.display()
+            );
+        }
         // 30 rows: enough to see a time constant; 4 parameters + 7 gains.
         if n_fit < 30 {
             bail!(
