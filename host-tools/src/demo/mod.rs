@@ -658,8 +658,9 @@ impl Demo<'_> {
         let brief = Summary::of(&diag);
         let found = brief.verdict == withheld;
         let best = brief.best.as_ref();
+        let (channel, unit) = gap_channel(&brief);
         let figures = format!(
-            "verdict {} ({}); best {} shrinks the held-out dz gap {:.1} % ({:.2} -> {:.2} um rms)",
+            "verdict {} ({}); best {} shrinks the held-out gap on {channel} {:.1} % ({:.2} -> {:.2} {unit} rms)",
             brief.verdict,
             if found {
                 "the withheld effect: found"
@@ -1032,6 +1033,18 @@ fn list_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The channel a diagnosis verdict explains and its unit: a displacement
+/// (um) or, for a sensor-lag or ambient verdict, possibly a temperature
+/// (K); the demo's target when the verdict names none.
+pub(crate) fn gap_channel(brief: &Summary) -> (&str, &'static str) {
+    let channel = if brief.main_channel.is_empty() {
+        TARGET
+    } else {
+        brief.main_channel.as_str()
+    };
+    (channel, if channel.ends_with("_um") { "um" } else { "K" })
 }
 
 #[cfg(test)]

@@ -103,14 +103,7 @@ fn fit_lines(s: &mut String, fit: &FitStage) {
 /// if figured, the deployment comparison.
 fn diagnose_lines(s: &mut String, g: &DiagnoseStage) {
     let brief = Summary::of(&g.result);
-    // The channel the verdict explains: a displacement (um) or, for a
-    // sensor-lag or ambient verdict, possibly a temperature (K).
-    let channel = if brief.main_channel.is_empty() {
-        TARGET
-    } else {
-        brief.main_channel.as_str()
-    };
-    let unit = if channel.ends_with("_um") { "um" } else { "K" };
+    let (channel, unit) = super::gap_channel(&brief);
     let _ = writeln!(
         s,
         "6 diagnose   withheld {}: verdict {} ({}), best {} shrinks the held-out gap on {channel} {:.1} % ({:.2} -> {:.2} {unit} rms)",
