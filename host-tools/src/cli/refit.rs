@@ -254,7 +254,7 @@ fn text_report(
     }
     s.push_str(&format!(
         "{:<10} {:<12} {:>12} {:>12}\n",
-        "target", "part", "rmse_old_um", "rmse_new_um"
+        "target", "part", "rmse_old_um", "rmse_written_um"
     ));
     for (b, n) in before.iter().zip(after) {
         for (part, mb, mn) in [
