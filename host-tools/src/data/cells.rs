@@ -22,6 +22,38 @@ pub fn read(stored: f64) -> Option<f64> {
     (!stored.is_nan()).then_some(stored)
 }
 
+/// What a series of values does: no value at all, one value throughout,
+/// or moves. A target that never moves has nothing to fit, test or rank
+/// against (every score of it is 0/0), so `fit`, `refit` and `select`
+/// refuse it by this.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Level {
+    /// No value seen.
+    #[default]
+    Empty,
+    /// Every value seen is this one.
+    Flat(f64),
+    /// Two values seen differ.
+    Moves,
+}
+
+impl Level {
+    /// The level once `v` is seen too.
+    #[must_use]
+    pub fn push(self, v: f64) -> Self {
+        match self {
+            Self::Empty => Self::Flat(v),
+            Self::Flat(w) if w == v => self,
+            _ => Self::Moves,
+        }
+    }
+
+    /// The level of `values`.
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Self {
+        values.into_iter().fold(Self::Empty, Self::push)
+    }
+}
+
 /// A borrowed column of stored cells (see the module docs): each cell reads
 /// as `Option<f64>`, `None` where it is missing.
 #[derive(Clone, Copy, Default)]
@@ -129,6 +161,14 @@ impl fmt::Debug for Cells<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_level_is_empty_flat_or_moving() {
+        assert_eq!(Level::of([]), Level::Empty);
+        assert_eq!(Level::of([2.5, 2.5, 2.5]), Level::Flat(2.5));
+        assert_eq!(Level::of([2.5, 2.5, 2.6, 2.5]), Level::Moves);
+        assert_eq!(Level::Moves.push(1.0), Level::Moves);
+    }
 
     #[test]
     fn a_missing_cell_reads_as_none_and_others_as_stored() {

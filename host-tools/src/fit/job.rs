@@ -6,6 +6,7 @@
 use super::{
     arma, arx, auto, bp, gain, mlr, pcr, tfbank, Details, FitKind, Fitted, AUTO_EXTRA_INPUTS,
 };
+use crate::data::cells::Level;
 use crate::data::dataset::{Dataset, InputForm};
 use crate::data::runfile::{ReadOptions, RowStream, RunFile};
 use crate::score::{score, TargetScore};
@@ -315,20 +316,22 @@ pub fn common_columns(runs: &[(String, Vec<String>)]) -> (Vec<String>, Vec<(Stri
 /// nothing to fit, and every score of it would be 0/0 (arma and `select`
 /// refuse it as well).
 fn refuse_constant_targets(ds: &Dataset) -> Result<()> {
-    let mut range = vec![(f64::INFINITY, f64::NEG_INFINITY); ds.targets.len()];
+    let mut levels = vec![Level::Empty; ds.targets.len()];
     ds.visit_calibration_rows(&mut |_, y| {
-        for ((lo, hi), v) in range.iter_mut().zip(y) {
-            *lo = lo.min(*v);
-            *hi = hi.max(*v);
+        for (l, v) in levels.iter_mut().zip(y) {
+            *l = l.push(*v);
         }
     });
-    match ds.targets.iter().zip(&range).find(|(_, (lo, hi))| lo == hi) {
-        Some((t, (v, _))) => bail!(
-            "{t} is constant ({v}) on every calibration row: nothing to fit (check the \
-             column and --holdout-from-s)"
-        ),
-        None => Ok(()),
+    // No calibration row at all is refused by `Dataset::new`.
+    for (t, l) in ds.targets.iter().zip(levels) {
+        if let Level::Flat(v) = l {
+            bail!(
+                "{t} is constant ({v}) on every calibration row: nothing to fit (check the \
+                 column and --holdout-from-s)"
+            );
+        }
     }
+    Ok(())
 }
 
 /// The positions of the first name that repeats an earlier one, and of

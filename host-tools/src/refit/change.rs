@@ -4,7 +4,7 @@
 
 use super::stats::{drift_test, DriftTest, Sample};
 use super::ValidRefitParams;
-use crate::data::cells::Cells;
+use crate::data::cells::{Cells, Level};
 use crate::data::runfile::RunFile;
 use crate::runner::{self, ColumnMap};
 use crate::score::{score, TargetScore};
@@ -73,18 +73,19 @@ pub(crate) fn measured_outputs<'r>(
 /// cancels the model (seen: a Wald statistic of 4.5e31, the gain -1).
 pub(crate) fn refuse_flat_outputs(outputs: &[String], ys: &[Vec<Cells<'_>>]) -> Result<()> {
     for (k, o) in outputs.iter().enumerate() {
-        let mut values = ys
+        let values = ys
             .iter()
             .filter_map(|run| run.get(k))
             .flat_map(|c| c.present());
-        let Some(first) = values.next() else {
-            bail!("{o} has no measured value in the new runs: nothing to test the model against");
-        };
-        if values.all(|v| v == first) {
-            bail!(
-                "{o} is measured as {first} on every row of the new runs: a stuck probe or a \
+        match Level::of(values) {
+            Level::Empty => bail!(
+                "{o} has no measured value in the new runs: nothing to test the model against"
+            ),
+            Level::Flat(v) => bail!(
+                "{o} is measured as {v} on every row of the new runs: a stuck probe or a \
                  wrong column, nothing to test the model against"
-            );
+            ),
+            Level::Moves => {}
         }
     }
     Ok(())

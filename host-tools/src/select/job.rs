@@ -6,6 +6,7 @@
 use super::outcome::SelectOutcome;
 use super::params::ValidSelectParams;
 use super::{methods, Method};
+use crate::data::cells::Level;
 use crate::data::runfile::RunFile;
 use anyhow::{anyhow, bail, Result};
 
@@ -30,15 +31,16 @@ fn check_runs(files: &[RunFile], needed: &[String]) -> Result<()> {
 /// every input the same grade).
 fn refuse_flat_targets(files: &[RunFile], targets: &[String]) -> Result<()> {
     for t in targets {
-        let mut values = files
+        let values = files
             .iter()
             .filter_map(|r| r.column(t))
             .flat_map(|c| c.present());
-        let Some(first) = values.next() else {
-            bail!("{t} has no values in any run");
-        };
-        if values.all(|v| v == first) {
-            bail!("{t} is constant ({first}) in every run: nothing to rank the inputs by");
+        match Level::of(values) {
+            Level::Empty => bail!("{t} has no values in any run"),
+            Level::Flat(v) => {
+                bail!("{t} is constant ({v}) in every run: nothing to rank the inputs by")
+            }
+            Level::Moves => {}
         }
     }
     Ok(())
