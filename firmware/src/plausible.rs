@@ -203,18 +203,28 @@ impl PlausibleState {
         }
         self.last = t_c;
         if n.stuck > 0 {
-            if self.win_anchor.is_nan() {
-                self.win_anchor = t_c;
-            }
-            self.win_max = self.win_max.max((t_c - self.win_anchor).abs());
-            self.win_age = self.win_age.saturating_add(1);
-            if self.win_age >= n.stuck {
-                self.moved = f64::from(self.win_max) >= n.stuck_others_k;
-                self.win_anchor = t_c;
-                self.win_age = 0;
-                self.win_max = 0.0;
-            }
+            self.stuck_window(t_c, n);
         }
+        self.judge_rate(t_c, n)
+    }
+
+    /// The stuck check's window of readings: how far this channel moved.
+    fn stuck_window(&mut self, t_c: f32, n: &PlausibleSamples) {
+        if self.win_anchor.is_nan() {
+            self.win_anchor = t_c;
+        }
+        self.win_max = self.win_max.max((t_c - self.win_anchor).abs());
+        self.win_age = self.win_age.saturating_add(1);
+        if self.win_age >= n.stuck {
+            self.moved = f64::from(self.win_max) >= n.stuck_others_k;
+            self.win_anchor = t_c;
+            self.win_age = 0;
+            self.win_max = 0.0;
+        }
+    }
+
+    /// The rate window's verdict on a judged reading.
+    fn judge_rate(&mut self, t_c: f32, n: &PlausibleSamples) -> bool {
         if self.anchor.is_nan() {
             self.anchor = t_c;
             self.age = 0;
