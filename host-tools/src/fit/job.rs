@@ -365,6 +365,19 @@ fn train(
     validate: &[RunFile],
 ) -> Result<Fitted> {
     let o = &p.params.options;
+    // The static kinds read every input on one channel each: more than the
+    // hub's are refused before training (auto checks in its own params;
+    // arx and tf have their bank's smaller limit).
+    let static_kind = match p.params.kind {
+        FitKind::Mlr => Some("mlr"),
+        FitKind::Pcr => Some("pcr"),
+        FitKind::Bp => Some("bp"),
+        FitKind::Gabp => Some("gabp"),
+        _ => None,
+    };
+    if let Some(kind) = static_kind {
+        within_hub(kind, ds)?;
+    }
     match p.params.kind {
         FitKind::Auto => {
             let params = auto::AutoParams {
@@ -376,13 +389,13 @@ fn train(
             };
             auto::fit(ds, &params.check(ds)?)
         }
-        FitKind::Mlr => within_hub("mlr", ds).and_then(|()| mlr::fit(ds)),
-        FitKind::Pcr => within_hub("pcr", ds).and_then(|()| pcr::fit(ds, &o.pcr)),
+        FitKind::Mlr => mlr::fit(ds),
+        FitKind::Pcr => pcr::fit(ds, &o.pcr),
         FitKind::Arx => arx::fit(ds, &o.arx),
         FitKind::Tf => tfbank::fit(ds, &o.arx),
         FitKind::Gain => gain::fit(ds, &o.arx, runs, validate),
-        FitKind::Bp => within_hub("bp", ds).and_then(|()| bp::fit(ds, &o.bp, false)),
-        FitKind::Gabp => within_hub("gabp", ds).and_then(|()| bp::fit(ds, &o.bp, true)),
+        FitKind::Bp => bp::fit(ds, &o.bp, false),
+        FitKind::Gabp => bp::fit(ds, &o.bp, true),
         FitKind::Arma => arma::fit(ds, &o.arma, o.arx.dt_s),
     }
 }
