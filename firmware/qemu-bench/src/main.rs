@@ -204,6 +204,11 @@ fn bench_kind(clock: &Clock, overhead: &Cost, kind: ModelKind, buf: &mut [u8; MA
         black_box(&state);
     });
     row(name, "bridge, every input back", &bridge);
+    let one = time(clock, overhead, REPS, || {
+        valid.bridge(&mut state, 0, (ta[0], tb[0]), black_box(1200));
+        black_box(&state);
+    });
+    row(name, "bridge, one input back", &one);
 
     // Once per model load.
     let decode = time(clock, overhead, DECODE_REPS, || {
