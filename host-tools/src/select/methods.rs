@@ -13,6 +13,7 @@ use super::rows::{
     Table,
 };
 use super::{grey, maxtree, wgrey, MAX_TYPICAL};
+use crate::data::cells::Level;
 use crate::data::runfile::RunFile;
 use crate::num::stats;
 use anyhow::{anyhow, bail, Context, Result};
@@ -261,7 +262,7 @@ fn wgrey_target(
     if let Some(n) = names
         .iter()
         .zip(&xy.cols)
-        .find_map(|(n, c)| c.iter().all(|v| Some(v) == c.first()).then_some(n))
+        .find_map(|(n, c)| matches!(Level::of(c.iter().copied()), Level::Flat(_)).then_some(n))
     {
         bail!(
             "{n} is constant over the {} rows used: it cannot be ranked; leave it out with --inputs",
