@@ -84,6 +84,19 @@ fn run_text(n: usize, huge: bool) -> String {
     s
 }
 
+/// `text` with each line's cells edited by `f(line index, cells)` (the
+/// header is line 0).
+fn edited(text: &str, f: impl Fn(usize, &mut Vec<String>)) -> String {
+    text.lines()
+        .enumerate()
+        .map(|(i, line)| {
+            let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+            f(i, &mut cells);
+            format!("{}\n", cells.join(","))
+        })
+        .collect()
+}
+
 fn blob(dir: &Path) -> String {
     let out = dir.join("sp2.bin");
     common::ok(&["model", "build", "--spec", SP2_AMB, "--out", p(&out)]);
@@ -465,16 +478,11 @@ fn fails_ending_with(args: &[&str], expected: &str) {
 fn a_gap_of_years_in_one_file_is_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let text: String = run_text(200, false)
-        .lines()
-        .enumerate()
-        .map(|(i, line)| match line.split_once(',') {
-            Some((t, rest)) if i > 100 => {
-                format!("{},{rest}\n", t.parse::<f64>().unwrap() + 9e6)
-            }
-            _ => format!("{line}\n"),
-        })
-        .collect();
+    let text = edited(&run_text(200, false), |i, c| {
+        if i > 100 {
+            c[0] = (c[0].parse::<f64>().unwrap() + 9e6).to_string();
+        }
+    });
     let data = write(d, "gap.csv", &text);
     let b = blob(d);
     let out = p(&d.join("out")).to_string();
@@ -559,17 +567,11 @@ fn contradictory_or_impossible_flags_are_refused_before_the_fit() {
 fn an_input_the_hub_refuses_is_named_as_such() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let text: String = run_text(50, false)
-        .lines()
-        .enumerate()
-        .map(|(i, line)| {
-            let mut cells: Vec<&str> = line.split(',').collect();
-            if i > 0 {
-                cells[2] = "3e9";
-            }
-            format!("{}\n", cells.join(","))
-        })
-        .collect();
+    let text = edited(&run_text(50, false), |i, c| {
+        if i > 0 {
+            c[2] = "3e9".into();
+        }
+    });
     let data = write(d, "big.csv", &text);
     let b = blob(d);
     let out = p(&d.join("p.csv")).to_string();
@@ -631,17 +633,11 @@ fn default_inputs_come_from_every_run_s_header() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let full = run_text(60, false);
-    let trailing: String = full
-        .lines()
-        .enumerate()
-        .map(|(i, l)| {
-            if i == 0 {
-                format!("{l}\n")
-            } else {
-                format!("{l},\n")
-            }
-        })
-        .collect();
+    let trailing = edited(&full, |i, c| {
+        if i > 0 {
+            c.push(String::new());
+        }
+    });
     let bad = write(d, "trailing.csv", &trailing);
     let out = p(&d.join("m.bin")).to_string();
     fails_with(
@@ -651,14 +647,9 @@ fn default_inputs_come_from_every_run_s_header() {
         &format!("error: {bad}:2: expected 6 fields, found 7"),
     );
     // The second run without T2.
-    let no_t2: String = full
-        .lines()
-        .map(|l| {
-            let mut c: Vec<&str> = l.split(',').collect();
-            c.remove(3);
-            format!("{}\n", c.join(","))
-        })
-        .collect();
+    let no_t2 = edited(&full, |_, c| {
+        c.remove(3);
+    });
     let (a, b) = (write(d, "a.csv", &full), write(d, "b.csv", &no_t2));
     for (first, second) in [(&a, &b), (&b, &a)] {
         let r = run_bounded(

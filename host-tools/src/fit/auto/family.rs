@@ -18,9 +18,10 @@
 //! for every target together, on the sum over targets of CV mse over the
 //! target's calibration variance. The ridge winner (its averaged ensemble;
 //! with several runs the average of its best candidates, before the
-//! one-standard-error rule picks the simplest) stays unless the best other (family, form) has a lower sum by more than
-//! one standard error of the paired per-fold difference: within noise the
-//! simpler, hub-exact model with the tame extrapolation is kept.
+//! one-standard-error rule picks the simplest) stays unless the best other
+//! (family, form) has a lower sum by more than one standard error of the
+//! paired per-fold difference: within noise the simpler, hub-exact model
+//! with the tame extrapolation is kept.
 
 use super::features::Role;
 use super::folds::Folds;
