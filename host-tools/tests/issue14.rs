@@ -475,7 +475,7 @@ fn fails_ending_with(args: &[&str], expected: &str) {
 /// `replay` refuse at once, naming the gap (before, `fit` ran out of its
 /// two minutes at 4 GB, and `replay` wrote an 881 MB candump).
 #[test]
-fn a_gap_of_years_in_one_file_is_refused_at_once() {
+fn a_gap_of_months_in_one_file_is_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let text = edited(&run_text(200, false), |i, c| {
