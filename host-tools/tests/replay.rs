@@ -262,6 +262,38 @@ fn a_corrupted_blob_runs_as_no_model_with_zero_offsets() {
         .all(|f| f[4..16] == *"000000000000" && &f[16..18] == "00"));
 }
 
+/// A valid blob with bytes after its CRC: the hub's upload takes exactly
+/// one blob and refuses the file, as `eval` does, so the replay runs
+/// without a model (it used to run the blob, reading only the declared
+/// length, as from a flash slot).
+#[test]
+fn a_blob_with_trailing_bytes_is_refused_as_the_upload_refuses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = build_model(dir.path());
+    let mut bytes = std::fs::read(&blob).unwrap();
+    bytes.extend_from_slice(&[0, 0, 0]);
+    let long = dir.path().join("long.bin");
+    std::fs::write(&long, &bytes).unwrap();
+    let log = dir.path().join("out.log");
+    let out = common::run(&[
+        "replay",
+        "--model",
+        p(&long),
+        "--data",
+        RUN,
+        "--candump",
+        p(&log),
+        "--json",
+    ]);
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("the hub refuses this blob"), "{err}");
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["runs"][0]["states"]["no_model"], j["runs"][0]["samples"]);
+    let eval = common::run(&["eval", "--model", p(&long), "--data", RUN]);
+    assert!(!eval.status.success());
+}
+
 /// Seed 003's feed-axis model (README "Positioning error of a feed axis"):
 /// PCR slope k(T) and `poly(P) + (k - k0) P` with P from `y_mm`.
 const SEED003_POSITIONAL: &str = r#"
@@ -711,4 +743,47 @@ fn a_stuck_temperature_is_counted_as_not_believed() {
     assert_eq!(run["implausible_samples"], 200, "samples 1800..=1999");
     assert_eq!(run["sensor_fault_samples"], 0);
     assert_eq!(run["stale_samples"], 0);
+}
+
+/// A nominal simulated run replayed with a model that reads the room and
+/// the coolant: the twin writes both as their sensors read them (with the
+/// sensors' noise), so the hub believes them for the whole run. They were
+/// written as exact constants before, which the hub called stuck after
+/// 30 min: 3,601 of the 5,401 samples not believed, the offsets zeroed.
+/// What is left are T1's own fast steps where the spindle changes speed,
+/// each held two samples by the spike filter (4 here).
+#[test]
+fn a_simulated_constant_room_is_not_called_stuck() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run.csv");
+    ok(&[
+        "simulate",
+        "--out",
+        p(&run),
+        "--hours",
+        "1.5",
+        "--dt-s",
+        "10",
+    ]);
+    let blob = dir.path().join("m.bin");
+    ok(&[
+        "fit",
+        "--data",
+        p(&run),
+        "--model",
+        "mlr",
+        "--target",
+        "dz_um",
+        "--inputs",
+        "T1,ambient_c,coolant_c",
+        "--out",
+        p(&blob),
+    ]);
+    let (j, _) = replay_json(dir.path(), p(&blob), p(&run));
+    let r = &j["runs"][0];
+    assert_eq!(r["samples"], 5401, "{r}");
+    let refused = r["implausible_samples"].as_u64().unwrap();
+    assert!(refused <= 10, "{r}");
+    assert_eq!(r["sensor_fault_samples"], 0, "{r}");
+    assert_eq!(r["states"]["zeroed"], 0, "{r}");
 }

@@ -957,9 +957,8 @@ fn replay_agreement(model: &ValidModel, trace: &Path, data: &Path) -> Result<Agr
         // Any flag but Extrapolating (information: the offsets are the
         // model's, outside its calibration envelope) means the hub changed
         // or held what the model said. So do the plausibility faults, but
-        // in Running they name an input no output reads: the simulated
-        // ambient and coolant are exact constants, which the hub calls
-        // stuck while the machine warms.
+        // in Running they name an input no output reads (an input the
+        // model reads and the hub does not believe holds the hub).
         use firmware::report::StatusFlags as F;
         let informational = F::EXTRAPOLATING | F::IMPLAUSIBLE | F::RATE_OF_CHANGE | F::STUCK;
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]

@@ -18,6 +18,8 @@ pub enum Stream {
     Spectrum = 3,
     /// Door openings of the `ambient` effect.
     Doors = 4,
+    /// The ambient and coolant sensors' noise (the boundary columns).
+    BoundaryNoise = 5,
 }
 
 use crate::num::rng::SplitMix64;

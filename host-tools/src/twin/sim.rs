@@ -41,9 +41,9 @@ pub struct Row<'a> {
     pub speed_rpm: f64,
     /// Spindle effective power, kW.
     pub power_kw: f64,
-    /// Ambient air, deg C.
+    /// Ambient air as its sensor reads it (with sensor noise), deg C.
     pub ambient_c: f64,
-    /// Coolant supply, deg C.
+    /// Coolant supply as its sensor reads it (with sensor noise), deg C.
     pub coolant_c: f64,
     /// Tool length, mm.
     pub tool_mm: f64,
@@ -205,6 +205,15 @@ fn power_kw(schedule: &Schedule, k: usize, q: &[f64; N_NODES], cut_kw: f64) -> f
     }
 }
 
+/// The ambient and coolant sensors' readings of the boundary temperatures
+/// `ta` and `tc`: the same noise as the machine's own sensors, from a stream
+/// of their own. Without it the written columns would repeat one value for
+/// hours at a constant room, which the hub calls a stuck sensor (no real
+/// RTD's code holds still that long).
+fn boundary_readings(ta: f64, tc: f64, noise_c: f64, rng: &mut Rng) -> [f64; 2] {
+    [ta + noise_c * rng.normal(), tc + noise_c * rng.normal()]
+}
+
 /// The probe readings `clean` plus independent noise of `noise_um` each.
 fn noisy_probes(clean: &ProbeReadings, noise_um: f64, rng: &mut Rng) -> [f64; 5] {
     let mut noisy = [
@@ -314,6 +323,7 @@ pub fn run(
         .then_some(machine.effects.sensor_lag.tau_s);
     let mut bank = SensorBank::new(sites, machine.sensors.noise_c, lag, opts.seed);
     let mut probe_rng = Rng::new(opts.seed, Stream::ProbeNoise);
+    let mut boundary_rng = Rng::new(opts.seed, Stream::BoundaryNoise);
 
     // Initial equilibrium at rest.
     let (ta0, tc0) = (ambient.at(t0), coolant.advance_to(t0));
@@ -329,6 +339,8 @@ pub fn run(
     for k in 0..n {
         let (t, rpm) = (schedule.t_s[k], schedule.speed_rpm[k]);
         let (ta, tc) = (ambient.at(t), coolant.advance_to(t));
+        let [ta_read, tc_read] =
+            boundary_readings(ta, tc, machine.sensors.noise_c, &mut boundary_rng);
         let tool_mm = schedule.tool_mm.as_ref().map_or(machine.tool_mm, |v| v[k]);
         let cut_kw = cutting_kw(machine, schedule, fx, k, rpm);
         let q = node_heat_w(machine, fx, rpm, cut_kw);
@@ -362,8 +374,8 @@ pub fn run(
             t_s: t,
             speed_rpm: rpm,
             power_kw: power_kw(schedule, k, &q, cut_kw),
-            ambient_c: ta,
-            coolant_c: tc,
+            ambient_c: ta_read,
+            coolant_c: tc_read,
             tool_mm,
             temps_c: &temps,
             probes_um: noisy,
