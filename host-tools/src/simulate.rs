@@ -77,6 +77,7 @@ impl SimulateParams {
         let effects = EffectSet::parse(&self.effects)?;
         let schedule =
             profile::schedule(&profile, machine.max_rpm, self.hours, self.dt_s, self.seed)?;
+        schedule.check_top_speed(machine.max_rpm, &profile.label())?;
         Ok(ValidSimulateParams {
             machine,
             machine_label: self

@@ -345,6 +345,19 @@ fn issue14_absurd_values_are_refused() {
         se.contains("dt.toml:3:1: [[tf]] dz_um <- T1: a: NaN is not a finite number"),
         "{se}"
     );
+    // A coefficient of 1e300 used to build (predict then wrote 300-digit
+    // offsets): beyond 1e12 is refused at its entry.
+    std::fs::write(
+        &spec,
+        tf.replace("1e-300", "1.0")
+            .replace("a = [0.5]", "a = [1e300]"),
+    )
+    .unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(
+        se.contains("dt.toml:3:1: [[tf]] dz_um <- T1: a: 1e300 is beyond 1e12 in magnitude"),
+        "{se}"
+    );
     std::fs::write(
         &spec,
         tf.replace("1e-300", "1.0").replace("\"tf\"", "\"tx\""),
@@ -370,6 +383,24 @@ fn issue14_absurd_values_are_refused() {
     // A negative number is a value, judged as one (not "unexpected argument").
     let se = fails(&["simulate", "--out", p(&csv), "--hours", "-1"]);
     assert!(se.contains("--hours must be finite and > 0"), "{se}");
+    // A speed above the machine's top speed is refused, not extrapolated
+    // (constant:1e12 heated the twin by 1e16 times its top speed's heat).
+    for rpm in ["constant:12001", "constant:1e12"] {
+        let se = fails(&[
+            "simulate",
+            "--out",
+            p(&csv),
+            "--hours",
+            "1",
+            "--profile",
+            rpm,
+        ]);
+        assert!(
+            se.contains("is above the machine's max_rpm 12000") && se.contains("--machine"),
+            "{se}"
+        );
+    }
+    assert!(!csv.exists(), "nothing written");
 
     let (machine, _) = ok(&["simulate", "--print-machine"]);
     let cold = d.join("cold.toml");

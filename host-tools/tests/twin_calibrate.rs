@@ -350,3 +350,48 @@ fn bad_inputs_fail_with_one_line() {
         "{e:?}"
     );
 }
+
+/// `--calibrate-until-s` past the last row holds nothing out: the table
+/// says so and shows "-" where the rest's figures would be (it printed NaN),
+/// and a parameter that ends on a bound is marked as the bound's answer
+/// (this run's flat T1 and straight-line dz pin few of them), in the text
+/// as in the JSON's `at_bound`.
+#[test]
+fn nothing_held_out_and_parameters_on_a_bound_are_said() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let mut rows = String::from("t_s,speed_rpm,dz_um,T1\n");
+    for k in 0..80 {
+        rows.push_str(&format!("{},1000,{},20\n", k * 60, -0.1 * k as f64));
+    }
+    let run = common::write(dir.path(), "run.csv", &rows);
+    let cal = dir.path().join("cal.toml");
+    let args = [
+        "simulate",
+        "--calibrate",
+        &run,
+        "--save-machine",
+        p(&cal),
+        "--calibrate-until-s",
+        "1e9",
+    ];
+    let (_, err) = ok(&args);
+    assert!(!err.contains("NaN"), "{err}");
+    assert!(err.contains("nothing held out"), "{err}");
+    let mut json_args = args.to_vec();
+    json_args.push("--json");
+    let v = ok_json(&json_args);
+    let params = v["params"].as_object().unwrap();
+    let on_bound: Vec<&String> = params
+        .iter()
+        .filter(|(_, x)| x["at_bound"] == true)
+        .map(|(k, _)| k)
+        .collect();
+    let marked = err.matches("bound: the run did not pin it").count();
+    assert_eq!(marked, on_bound.len(), "{on_bound:?}\n{err}");
+    // Three here (bearing_exponent, capacity_factor, g_ambient_factor).
+    assert!(marked >= 1, "{err}");
+    for name in on_bound {
+        let line = err.lines().find(|l| l.contains(name.as_str())).unwrap();
+        assert!(line.contains("bound: the run did not pin it"), "{line}");
+    }
+}

@@ -196,7 +196,15 @@ fn print_calibration(a: &SimulateArgs, cal: &Calibrated) -> Result<()> {
 fn calibration_table(cal: &calibrate::Calibration) -> String {
     let mut s = String::new();
     for (p, v) in calibrate::PARAMS.iter().zip(calibrate::values(&cal.theta)) {
-        let _ = writeln!(s, "{:>18} = {v:.4} {}", p.name, p.unit);
+        let _ = write!(s, "{:>18} = {v:.4} {}", p.name, p.unit);
+        if let Some(side) = p.bound_hit(v) {
+            let _ = write!(
+                s,
+                "  (at its {side} bound: the run did not pin it; the bounds are {} .. {})",
+                p.lo, p.hi
+            );
+        }
+        s.push('\n');
     }
     let _ = writeln!(
         s,
@@ -212,9 +220,34 @@ fn calibration_table(cal: &calibrate::Calibration) -> String {
         let (r, f) = c.rest.map_or((f64::NAN, f64::NAN), |p| (p.rmse, p.fit_pct));
         let _ = writeln!(
             s,
-            "{:>10} {:>9.3} {:<2} {:>8.1} {:>9.3} {:<2} {:>8.1}",
-            c.name, c.calibration.rmse, c.unit, c.calibration.fit_pct, r, c.unit, f
+            "{:>10} {} {} {} {}",
+            c.name,
+            figure(c.calibration.rmse, 9, 3, c.unit),
+            figure(c.calibration.fit_pct, 8, 1, ""),
+            figure(r, 9, 3, c.unit),
+            figure(f, 8, 1, "")
         );
     }
+    if cal.channels.iter().all(|c| c.rest.is_none()) {
+        s.push_str("nothing held out (--calibrate-until-s covers the run): no rest figures\n");
+    }
     s
+}
+
+/// `x` in `width` columns with `decimals`, then `unit` in two; "-" where
+/// there is no figure (nothing held out, a flat channel's fit).
+fn figure(x: f64, width: usize, decimals: usize, unit: &str) -> String {
+    let (n, unit) = if x.is_finite() {
+        (format!("{x:>width$.decimals$}"), unit)
+    } else {
+        (
+            format!("{:>width$}", "-"),
+            if unit.is_empty() { "" } else { "  " },
+        )
+    };
+    if unit.is_empty() {
+        n
+    } else {
+        format!("{n} {unit:<2}")
+    }
 }

@@ -852,6 +852,10 @@ fn place_site(p: usize) -> Site {
 /// rest, one named sensor site per temperature column (offset from `T0`),
 /// one `[[output]]` per displacement column.
 fn apply_outputs(m: &mut Machine, data: &Measured, lin: &Linear) {
+    // The run's top speed is within the calibrated machine's range, so
+    // `simulate --machine` runs it again (its file profile).
+    let top = data.schedule.speed_rpm.iter().copied().fold(0.0, f64::max);
+    m.max_rpm = m.max_rpm.max(top);
     if !lin.temps.is_empty() {
         let mut levels: Vec<f64> = lin.temps.iter().map(|f| f.offset_c).collect();
         levels.sort_by(f64::total_cmp);
@@ -934,6 +938,7 @@ pub fn to_toml(base_text: &str, cal: &Calibration, source: &str) -> Result<Strin
         h.motor_iron_w_at_ref,
     )?;
     set(&mut doc, &["heat", "bearing_exponent"], h.bearing_exponent)?;
+    set(&mut doc, &["max_rpm"], m.max_rpm)?;
     set(&mut doc, &["boundary", "ambient_c"], m.boundary.ambient_c)?;
     set(&mut doc, &["boundary", "coolant_c"], m.boundary.coolant_c)?;
     for n in Node::ALL {
@@ -1017,8 +1022,7 @@ pub fn to_json(cal: &Calibration) -> Value {
     let m = &cal.machine;
     let mut params = serde_json::Map::new();
     for (p, x) in PARAMS.iter().zip(values(&cal.theta)) {
-        // A value on a bound is the bound's answer, not the data's.
-        let at_bound = x <= p.lo * (1.0 + 1e-9) || x >= p.hi * (1.0 - 1e-9);
+        let at_bound = p.bound_hit(x).is_some();
         params.insert(
             p.name.into(),
             json!({"value": x, "unit": p.unit, "lo": p.lo, "hi": p.hi, "at_bound": at_bound}),

@@ -18,6 +18,26 @@ pub struct ParamDef {
     pub log: bool,
 }
 
+impl ParamDef {
+    /// Which bound the value `x` sits on, if any ("lower" / "upper"): a
+    /// value there is the bound's answer, not the data's. Within 1e-9 of
+    /// the value (log parameters) or of the range (the others).
+    pub fn bound_hit(&self, x: f64) -> Option<&'static str> {
+        let tol = if self.log {
+            1e-9 * x.abs()
+        } else {
+            1e-9 * (self.hi - self.lo)
+        };
+        if x <= self.lo + tol {
+            Some("lower")
+        } else if x >= self.hi - tol {
+            Some("upper")
+        } else {
+            None
+        }
+    }
+}
+
 /// Values from optimiser coordinates (`exp` of the logs).
 pub fn to_values(defs: &[ParamDef], theta: &[f64]) -> Vec<f64> {
     defs.iter()

@@ -177,6 +177,27 @@ pub fn spectrum_segments(total_s: f64, max_rpm: f64, seed: u64) -> Vec<(f64, f64
 }
 
 /// A run file's speed, power and tool columns.
+impl Schedule {
+    /// Refuses a speed above the machine's top speed `max_rpm`: the heat
+    /// laws are the machine's up to it, and beyond they extrapolate (a
+    /// speed 100 times the top one heats the spindle 10,000 times as
+    /// hard). `profile` names the source in the message.
+    pub fn check_top_speed(&self, max_rpm: f64, profile: &str) -> Result<()> {
+        let over = self
+            .speed_rpm
+            .iter()
+            .zip(&self.t_s)
+            .find(|(v, _)| **v > max_rpm * (1.0 + 1e-9));
+        match over {
+            Some((v, t)) => bail!(
+                "--profile {profile}: speed_rpm {v} at t_s = {t} is above the machine's max_rpm \
+                 {max_rpm}: give a machine file (--machine) whose max_rpm covers it"
+            ),
+            None => Ok(()),
+        }
+    }
+}
+
 fn from_file(path: &Path, hours: Option<f64>) -> Result<Schedule> {
     let opts = ReadOptions {
         skip_bad_rows: false,
