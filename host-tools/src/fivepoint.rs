@@ -108,12 +108,17 @@ pub struct FivePointOutcome {
     pub tip_rows: usize,
     /// Where the tool length came from: `"--tool-mm"` or `"tool_mm"`.
     pub tool_from: &'static str,
+    /// Rows whose `tool_mm` cell is empty and that took the last length
+    /// logged before them (a CNC logs the tool when it changes; the hub
+    /// holds the last one received the same way).
+    pub tool_held_rows: usize,
     /// Probe spacing used, mm.
     pub a_mm: f64,
     /// Deflection-centre distance used, mm.
     pub l_defl_mm: f64,
-    /// Largest |value| of each written column, keyed by its name.
-    pub max_abs: std::collections::BTreeMap<&'static str, f64>,
+    /// Largest |value| of each written column, keyed by its name; `None`
+    /// (JSON null) where no row has a value.
+    pub max_abs: std::collections::BTreeMap<&'static str, Option<f64>>,
 }
 
 /// Each probe's first reading: the reference its changes are taken from.
@@ -128,9 +133,28 @@ fn change(run: &ProbeRun<'_>, refs: &[Option<f64>; 5], i: usize, row: usize) -> 
     Some(v - refs.get(i).copied().flatten()?)
 }
 
-/// The tool length of `row`.
-fn tool_at(p: &FivePointParams, run: &ProbeRun<'_>, row: usize) -> Option<f64> {
-    p.tool_mm.or_else(|| run.tool_mm.and_then(|c| c.get(row)))
+/// Each row's tool length: `--tool-mm`, else the row's `tool_mm`, else
+/// the last one logged before it (`None` before the first); and how many
+/// rows took a held length.
+fn tool_lengths(p: &FivePointParams, run: &ProbeRun<'_>) -> (Vec<Option<f64>>, usize) {
+    let n = run.t_s.len();
+    if let Some(t) = p.tool_mm {
+        return (vec![Some(t); n], 0);
+    }
+    let (mut last, mut held) = (None, 0);
+    let tools = (0..n)
+        .map(|row| match run.tool_mm.and_then(|c| c.get(row)) {
+            Some(t) => {
+                last = Some(t);
+                last
+            }
+            None => {
+                held += usize::from(last.is_some());
+                last
+            }
+        })
+        .collect();
+    (tools, held)
 }
 
 /// One row: E, θx, θy (each when its probes have values) and the tip.
@@ -138,7 +162,7 @@ fn row_values(
     p: &FivePointParams,
     run: &ProbeRun<'_>,
     refs: &[Option<f64>; 5],
-    row: usize,
+    (row, tool): (usize, Option<f64>),
 ) -> Result<[Option<f64>; 6]> {
     let d = |i| change(run, refs, i, row);
     let angle = |near: Option<f64>, far: Option<f64>| -> Result<Option<f64>> {
@@ -155,7 +179,7 @@ fn row_values(
     let e = d(4);
     let tx = angle(d(0), d(2))?;
     let ty = angle(d(1), d(3))?;
-    let tip = match (e, tx, ty, tool_at(p, run, row)) {
+    let tip = match (e, tx, ty, tool) {
         (Some(e), Some(tx), Some(ty), Some(tool)) => {
             let drift = SpindleDrift {
                 elongation_um: e,
@@ -186,14 +210,16 @@ pub fn compute(
         bail!("probe and tool columns must have one value per row");
     }
     let refs = references(run);
+    let (tools, tool_held_rows) = tool_lengths(p, run);
     let max = model_core::fivepoint::MAX_L_DEFL_MM;
     let mut columns: [Vec<Option<f64>>; 6] = Default::default();
-    for row in 0..n {
+    for (row, &tool) in tools.iter().enumerate() {
         let t = run.t_s.get(row).copied().unwrap_or(f64::NAN);
-        if let Some(tool) = tool_at(p, run, row).filter(|v| !(0.0..=max).contains(v)) {
+        if let Some(tool) = tool.filter(|v| !(0.0..=max).contains(v)) {
             bail!("t_s = {t}: {TOOL_COLUMN} {tool} is outside 0..={max} mm");
         }
-        let values = row_values(p, run, &refs, row).map_err(|e| anyhow!("t_s = {t}: {e}"))?;
+        let values =
+            row_values(p, run, &refs, (row, tool)).map_err(|e| anyhow!("t_s = {t}: {e}"))?;
         for (col, v) in columns.iter_mut().zip(values) {
             col.push(v);
         }
@@ -204,7 +230,7 @@ pub fn compute(
         .map(|(name, col)| {
             (
                 *name,
-                col.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs())),
+                col.iter().flatten().map(|v| v.abs()).reduce(f64::max),
             )
         })
         .collect();
@@ -216,6 +242,7 @@ pub fn compute(
         } else {
             TOOL_COLUMN
         },
+        tool_held_rows,
         a_mm: p.a_mm,
         l_defl_mm: p.l_defl_mm,
         max_abs,
@@ -284,6 +311,58 @@ mod tests {
         assert!((tx - 1e6 * (1e-4f64).atan()).abs() < 1e-9, "{tx}");
         assert_eq!(o.tip_rows, 2);
         assert_eq!(o.rows, 3);
+    }
+
+    /// A tool length logged only when it changes: the empty rows take the
+    /// last one logged (as the hub holds the last one received); rows
+    /// before the first have no tip. The tip's dx is (l_defl + tool) θx,
+    /// so the held row's dx is the logged row's (same probes, same tool).
+    #[test]
+    fn an_empty_tool_cell_holds_the_last_length_logged() {
+        let s1 = [100.0, 106.0, 106.0, 106.0];
+        let zero = [7.0; 4];
+        let tool = [f64::NAN, 100.0, f64::NAN, 200.0];
+        let [s1, zero, tool] = [&s1, &zero, &tool].map(|c| Cells::new(c));
+        let run = ProbeRun {
+            t_s: &[0.0, 1.0, 2.0, 3.0],
+            probes: [s1, zero, zero, zero, zero],
+            tool_mm: Some(tool),
+        };
+        let (c, o) = compute(&params(None), &run).unwrap_or_else(|e| panic!("{e}"));
+        let dx = &c.columns[3];
+        assert_eq!(dx[0], None, "no tool length logged yet");
+        assert_eq!(dx[2], dx[1], "the held row");
+        // θx = 6 um / 120 mm = 50 urad: dx = (300 + 100) mm x 50 urad =
+        // 20 um, then (300 + 200) mm x 50 urad = 25 um (to 1e-6 um: the
+        // exact geometry's tan and q differ from the product by ~1e-12).
+        let got = dx.iter().map(|v| v.unwrap_or(f64::NAN)).collect::<Vec<_>>();
+        assert!(
+            (got[1] - 20.0).abs() < 1e-6 && (got[3] - 25.0).abs() < 1e-6,
+            "{got:?}"
+        );
+        assert_eq!((o.tip_rows, o.tool_held_rows), (3, 1));
+        assert_eq!(
+            o.max_abs["dx_um"].map(|v| (v - 25.0).abs() < 1e-6),
+            Some(true)
+        );
+    }
+
+    /// No row with every probe: the largest tip drifts are absent, not 0.
+    #[test]
+    fn no_tip_anywhere_has_no_largest_drift() {
+        let s1 = [100.0, 106.0];
+        let none = [f64::NAN; 2];
+        let [s1, none] = [&s1, &none].map(|c| Cells::new(c));
+        let run = ProbeRun {
+            t_s: &[0.0, 1.0],
+            probes: [s1, s1, s1, s1, none],
+            tool_mm: None,
+        };
+        let (_, o) = compute(&params(Some(100.0)), &run).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(o.tip_rows, 0);
+        assert_eq!(o.max_abs["dz_um"], None);
+        assert_eq!(o.max_abs["e_um"], None);
+        assert!(o.max_abs["theta_x_urad"].is_some());
     }
 
     #[test]

@@ -4,8 +4,8 @@ use crate::data::fsio::{self, named};
 use crate::data::rawcells::{self, RawTable};
 use crate::data::runfile::{ReadOptions, RunFile};
 use crate::fivepoint::{
-    compute, FivePointColumns, FivePointParams, ProbeRun, DEFAULT_A_MM, OUTPUT_COLUMNS,
-    PROBE_COLUMNS, TOOL_COLUMN,
+    compute, FivePointColumns, FivePointOutcome, FivePointParams, ProbeRun, DEFAULT_A_MM,
+    OUTPUT_COLUMNS, PROBE_COLUMNS, TOOL_COLUMN,
 };
 use anyhow::{anyhow, Result};
 use clap::Args;
@@ -83,17 +83,39 @@ pub fn run(a: &FivePointArgs) -> Result<()> {
     if a.json {
         fsio::print_line(&serde_json::to_string(&outcome)?)?;
     } else {
-        eprintln!(
-            "wrote {} ({} rows, {} with a tool-tip drift; max |dx| {:.3} um, |dy| {:.3} um, |dz| {:.3} um)",
-            a.out.display(),
-            outcome.rows,
-            outcome.tip_rows,
-            outcome.max_abs.get("dx_um").copied().unwrap_or(0.0),
-            outcome.max_abs.get("dy_um").copied().unwrap_or(0.0),
-            outcome.max_abs.get("dz_um").copied().unwrap_or(0.0),
-        );
+        print_summary(&a.out, &outcome);
     }
     Ok(())
+}
+
+/// The text summary (stderr): rows, tip rows, the largest tip drifts ("-"
+/// where no row has one), the rows that held a tool length.
+fn print_summary(out: &std::path::Path, o: &FivePointOutcome) {
+    let largest = |name: &str| {
+        o.max_abs
+            .get(name)
+            .copied()
+            .flatten()
+            .map_or_else(|| "-".to_string(), |v| format!("{v:.3} um"))
+    };
+    eprintln!(
+        "wrote {} ({} rows, {} with a tool-tip drift; max |dx| {}, |dy| {}, |dz| {})",
+        out.display(),
+        o.rows,
+        o.tip_rows,
+        largest("dx_um"),
+        largest("dy_um"),
+        largest("dz_um"),
+    );
+    if o.tip_rows == 0 {
+        eprintln!("note: no row has all five probes and a tool length: no tip drift computed");
+    }
+    if o.tool_held_rows > 0 {
+        eprintln!(
+            "note: {} rows with an empty {TOOL_COLUMN} took the length logged before them",
+            o.tool_held_rows
+        );
+    }
 }
 
 /// Writes `t_s`, the computed columns, then every other run column as it
