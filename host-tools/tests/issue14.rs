@@ -560,15 +560,18 @@ fn contradictory_or_impossible_flags_are_refused_before_the_fit() {
     assert!(!d.join("m.bin").exists());
 }
 
-/// An input beyond the hub's 1e9 limit (the reader takes up to 1e15) gets
-/// no prediction, and the note says why (it used to say "non-finite
-/// output", which it was not).
+/// An input beyond the hub's 1e9 limit (the reader takes up to 1e15 in a
+/// column whose name states no quantity) gets no prediction, and the note
+/// says why (it used to say "non-finite output", which it was not). In a
+/// column named as a temperature the same cell is refused where it stands.
 #[test]
 fn an_input_the_hub_refuses_is_named_as_such() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let text = edited(&run_text(50, false), |i, c| {
-        if i > 0 {
+        if i == 0 {
+            c[2] = "raw1".into();
+        } else {
             c[2] = "3e9".into();
         }
     });
@@ -576,7 +579,9 @@ fn an_input_the_hub_refuses_is_named_as_such() {
     let b = blob(d);
     let out = p(&d.join("p.csv")).to_string();
     let r = run_bounded(
-        &["predict", "--model", &b, "--data", &data, "--out", &out],
+        &[
+            "predict", "--model", &b, "--data", &data, "--map", "T1=raw1", "--out", &out,
+        ],
         Stdio::null(),
     );
     let se = String::from_utf8(r.stderr).unwrap();
@@ -589,6 +594,14 @@ fn an_input_the_hub_refuses_is_named_as_such() {
         "{se}"
     );
     assert!(!se.contains("non-finite"), "{se}");
+    let named = write(d, "t1.csv", &text.replacen("raw1", "T1", 1));
+    fails_with(
+        &["predict", "--model", &b, "--data", &named, "--out", &out],
+        &format!(
+            "error: {named}:2:3 (T1): 3e9 is not a temperature in deg C (its name says so; \
+             readings lie in -273.15 ..= 1000)"
+        ),
+    );
 }
 
 /// A `--map` NAME the model neither reads nor predicts, or one NAME mapped

@@ -893,6 +893,8 @@ struct Header {
     columns: Vec<String>,
     /// 0-based field index of `t_s`.
     time_index: usize,
+    /// Each name's physical quantity (file order), where its name says it.
+    quantities: Vec<Option<Quantity>>,
 }
 
 impl Header {
@@ -952,10 +954,12 @@ impl Header {
             .filter(|&(i, _)| i != time_index)
             .map(|(_, n)| n.clone())
             .collect();
+        let quantities = names.iter().map(|n| Quantity::of(n)).collect();
         Ok(Header {
             names,
             columns,
             time_index,
+            quantities,
         })
     }
 
@@ -985,7 +989,11 @@ impl Header {
                 data_index += 1;
             }
             let value = if wanted {
-                parse_cell(raw, column, name)?
+                let v = parse_cell(raw, column, name)?;
+                if let (Some(x), Some(q)) = (v, self.quantities.get(index).copied().flatten()) {
+                    q.check(x, column, name, || shown_cell(clean_field(raw).as_ref()))?;
+                }
+                v
             } else {
                 None
             };
@@ -1041,9 +1049,81 @@ fn check_names(file: &str, columns: &[(String, Option<Vec<f64>>)]) -> Result<(),
     Ok(())
 }
 
+/// A physical quantity a column's name states (CONTRACT.md section 2:
+/// "units are in the names"), with the range no reading of it can leave:
+/// a cell outside is a broken reading or a wrong column, refused where it
+/// stands rather than taken as a figure (a single `1e14` in `dz_um` was
+/// `diagnose`'s gap; in `T1`, a fit's largest input).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quantity {
+    /// `T1`, `T2`, ... and `*_c`: deg C, from absolute zero to
+    /// [`MAX_TEMPERATURE_C`].
+    Temperature,
+    /// `*_um` and the probes `S1`, `S2`, ...: um, at most
+    /// [`MAX_LENGTH_UM`] in magnitude.
+    Length,
+}
+
+/// The warmest reading a run file may hold, deg C: above a PT100's or
+/// PT1000's range (850 C) and far above any machine tool's.
+pub const MAX_TEMPERATURE_C: f64 = 1000.0;
+/// Absolute zero, deg C.
+pub const ABSOLUTE_ZERO_C: f64 = -273.15;
+/// The largest length a run file may hold, um: 10 m, longer than any
+/// machine's travel and 10^5 times any thermal drift.
+pub const MAX_LENGTH_UM: f64 = 1e7;
+
+impl Quantity {
+    /// The quantity `name` states, if any.
+    pub fn of(name: &str) -> Option<Quantity> {
+        let numbered = |prefix: char| {
+            name.strip_prefix(prefix)
+                .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+        };
+        if numbered('T') || name.ends_with("_c") {
+            Some(Quantity::Temperature)
+        } else if numbered('S') || name.ends_with("_um") {
+            Some(Quantity::Length)
+        } else {
+            None
+        }
+    }
+
+    /// The closed range a reading lies in.
+    pub fn range(self) -> (f64, f64) {
+        match self {
+            Quantity::Temperature => (ABSOLUTE_ZERO_C, MAX_TEMPERATURE_C),
+            Quantity::Length => (-MAX_LENGTH_UM, MAX_LENGTH_UM),
+        }
+    }
+
+    /// `v` if it lies in [`Quantity::range`]; else the cell's error, its
+    /// text from `text`.
+    fn check(
+        self,
+        v: f64,
+        column: usize,
+        name: &str,
+        text: impl FnOnce() -> String,
+    ) -> Result<(), RowErrorKind> {
+        let (lo, hi) = self.range();
+        if (lo..=hi).contains(&v) {
+            Ok(())
+        } else {
+            Err(RowErrorKind::Unphysical {
+                column,
+                name: name.to_owned(),
+                text: text(),
+                quantity: self,
+            })
+        }
+    }
+}
+
 /// Checks one in-memory cell: `NaN` is a missing value (stored as is, see
 /// [`cells`]), any other non-finite or too large value an error (as
-/// [`parse_cell`] judges a CSV cell).
+/// [`parse_cell`] judges a CSV cell), as is a value its name's quantity
+/// cannot take.
 fn check_memory_cell(v: f64, column: usize, name: &str) -> Result<(), RowErrorKind> {
     if v.is_nan() {
         Ok(())
@@ -1059,6 +1139,8 @@ fn check_memory_cell(v: f64, column: usize, name: &str) -> Result<(), RowErrorKi
             name: name.to_owned(),
             text: format!("{v}"),
         })
+    } else if let Some(q) = Quantity::of(name) {
+        q.check(v, column, name, || format!("{v}"))
     } else {
         Ok(())
     }
@@ -1396,6 +1478,17 @@ pub enum RowErrorKind {
         /// The cell's text (shortened if long).
         text: String,
     },
+    /// A cell outside the range of the quantity its column's name states.
+    Unphysical {
+        /// 1-based field index.
+        column: usize,
+        /// Header name of the column.
+        name: String,
+        /// The cell's text (shortened if long).
+        text: String,
+        /// The quantity the name states.
+        quantity: Quantity,
+    },
     /// The `t_s` cell is empty.
     MissingTime {
         /// 1-based field index of `t_s`.
@@ -1436,6 +1529,24 @@ impl fmt::Display for RowError {
                 write!(
                     f,
                     "{file}:{line}:{column} ({}): value {text:?} is beyond {MAX_CELL_MAGNITUDE:e} in magnitude",
+                    Name(name)
+                )
+            }
+            RowErrorKind::Unphysical {
+                column,
+                name,
+                text,
+                quantity,
+            } => {
+                let what = match quantity {
+                    Quantity::Temperature => "a temperature in deg C",
+                    Quantity::Length => "a length in um",
+                };
+                let (lo, hi) = quantity.range();
+                write!(
+                    f,
+                    "{file}:{line}:{column} ({}): {text} is not {what} (its name says so; \
+                     readings lie in {lo} ..= {hi})",
                     Name(name)
                 )
             }
@@ -1915,8 +2026,38 @@ mod tests {
             error("t_s,T1,dz_um\n0,1,2\n1,1,-1e308\n"),
             r#"run.csv:3:3 (dz_um): value "-1e308" is beyond 1e15 in magnitude"#
         );
-        // Epoch seconds and large but physical values still read.
-        RunFile::from_reader("run.csv", &b"t_s,T1\n1700000000,-1e9\n"[..], &STRICT).unwrap();
+        // Epoch seconds and large values of a column without a unit still read.
+        RunFile::from_reader("run.csv", &b"t_s,load\n1700000000,-1e9\n"[..], &STRICT).unwrap();
+    }
+
+    /// A temperature below absolute zero or above 1000 C, a length beyond
+    /// 10 m: refused at the cell, by the quantity the name states; columns
+    /// whose names state none (`speed_rpm`, `load`) are not judged.
+    #[test]
+    fn readings_their_quantity_cannot_take_are_refused_where_they_are() {
+        assert_eq!(
+            error("t_s,T1,dz_um\n0,1,2\n1,1,1e14\n"),
+            "run.csv:3:3 (dz_um): 1e14 is not a length in um (its name says so; readings \
+             lie in -10000000 ..= 10000000)"
+        );
+        assert_eq!(
+            error("t_s,T12,dz_um\n0,-273.2,2\n"),
+            "run.csv:2:2 (T12): -273.2 is not a temperature in deg C (its name says so; \
+             readings lie in -273.15 ..= 1000)"
+        );
+        assert!(error("t_s,coolant_c\n0,1000.5\n").contains("(coolant_c): 1000.5 is not"));
+        assert!(error("t_s,S5\n0,-2e7\n").contains("(S5): -2e7 is not a length"));
+        let edge = "t_s,T1,ambient_c,S1,dz_um,Tx,T,speed_rpm\n\
+                    0,-273.15,1000,1e7,-1e7,5000,5000,1e12\n";
+        RunFile::from_reader("run.csv", edge.as_bytes(), &STRICT).unwrap();
+        // In memory too (the Python binding's data frames).
+        let e = RunFile::from_columns("df", vec![0.0], vec![("T3".into(), Some(vec![2e3]))]);
+        assert!(format!("{}", e.unwrap_err()).contains("(T3): 2000 is not a temperature"));
+        // Quantities from names.
+        assert_eq!(Quantity::of("T07"), Some(Quantity::Temperature));
+        assert_eq!(Quantity::of("Tool"), None);
+        assert_eq!(Quantity::of("ch1_um"), Some(Quantity::Length));
+        assert_eq!(Quantity::of("S"), None);
     }
 
     #[test]
