@@ -229,13 +229,24 @@ fn number(v: &toml::Value, what: &str) -> Result<f64> {
     Ok(x)
 }
 
-/// TOML reads `nan` and `inf` as floats; a coefficient must be finite.
-/// Checked here, per entry, so the error names the entry's line and column
-/// (model validation would only say that some coefficient is not finite).
+/// The largest magnitude a spec number may have: a coefficient of 1e300
+/// was built, and `predict` then wrote 300-digit offsets. 1e12 leaves room
+/// for any physical gain (um per K, um per rpm^2), time constant (s) or
+/// reference, and keeps an output within f64's exact printing range for
+/// inputs up to the hub's 1e9.
+pub const MAX_SPEC_MAGNITUDE: f64 = 1e12;
+
+/// TOML reads `nan` and `inf` as floats; a coefficient must be finite, and
+/// at most [`MAX_SPEC_MAGNITUDE`] in magnitude. Checked here, per entry, so
+/// the error names the entry's line and column (model validation would only
+/// say that some coefficient is not finite).
 fn finite(values: &[f64], what: &str) -> Result<()> {
     match values.iter().find(|v| !v.is_finite()) {
         Some(v) => bail!("{what}: {v} is not a finite number"),
-        None => Ok(()),
+        None => match values.iter().find(|v| v.abs() > MAX_SPEC_MAGNITUDE) {
+            Some(v) => bail!("{what}: {v:e} is beyond {MAX_SPEC_MAGNITUDE:e} in magnitude"),
+            None => Ok(()),
+        },
     }
 }
 

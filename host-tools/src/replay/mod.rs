@@ -253,20 +253,32 @@ pub struct ReplayOutcome {
     pub skipped_rows: usize,
 }
 
+/// The model file's bytes as the hub's upload takes them: exactly one valid
+/// blob, or nothing (the upload refuses anything else, trailing bytes
+/// included, and the hub runs without a model: a note says so). A flash
+/// slot may hold bytes after its blob; an uploaded file may not.
+fn uploaded(model: &Path) -> Result<Vec<u8>> {
+    let bytes = crate::data::fsio::read_capped(model, model_core::blob::MAX_BLOB_LEN as u64)?;
+    match model_core::blob::decode(&bytes) {
+        Ok(_) => Ok(bytes),
+        Err(e) => {
+            eprintln!(
+                "note: {}: the hub refuses this blob ({e}): it runs without a model and sends zero offsets",
+                model.display()
+            );
+            Ok(Vec::new())
+        }
+    }
+}
+
 /// The replay job: every run through a fresh hub, streamed row by row,
 /// the candump log (and the trace) written as it goes (atomically: a
 /// failed run leaves no half log behind). Memory is bounded by a few rows
 /// whatever the runs' length.
 pub fn replay(p: &ReplayParams) -> Result<ReplayOutcome> {
     check_paths(p)?;
-    let bytes = crate::data::fsio::read_capped(&p.model, model_core::blob::MAX_BLOB_LEN as u64)?;
+    let bytes = uploaded(&p.model)?;
     let probe = Hub::load(&bytes);
-    if let Some(e) = probe.load_error() {
-        eprintln!(
-            "note: {}: the hub refuses this blob ({e}): it runs without a model and sends zero offsets",
-            p.model.display()
-        );
-    }
     let map = ColumnMap::parse(&p.map)?;
     let shape = ModelShape::of(&probe, &map);
     let needed: Vec<String> = shape
