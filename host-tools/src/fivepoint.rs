@@ -16,7 +16,7 @@
 //! `theta_x_urad` S1 and S3, `theta_y_urad` S2 and S4, the tip all five and
 //! a tool length. No row is ever dropped.
 
-use crate::data::cells::Cells;
+use crate::data::cells::{Cells, LastLogged};
 use anyhow::{anyhow, bail, Result};
 use model_core::fivepoint::{is_five_point, FivePoint, DEFAULT_L_DEFL_MM};
 use model_core::geometry::{spindle_drift, ProbeReadings, SpindleDrift};
@@ -141,20 +141,11 @@ fn tool_lengths(p: &FivePointParams, run: &ProbeRun<'_>) -> (Vec<Option<f64>>, u
     if let Some(t) = p.tool_mm {
         return (vec![Some(t); n], 0);
     }
-    let (mut last, mut held) = (None, 0);
+    let mut hold = LastLogged::default();
     let tools = (0..n)
-        .map(|row| match run.tool_mm.and_then(|c| c.get(row)) {
-            Some(t) => {
-                last = Some(t);
-                last
-            }
-            None => {
-                held += usize::from(last.is_some());
-                last
-            }
-        })
+        .map(|row| hold.next(run.tool_mm.and_then(|c| c.get(row))))
         .collect();
-    (tools, held)
+    (tools, hold.held())
 }
 
 /// One row: E, θx, θy (each when its probes have values) and the tip.

@@ -11,7 +11,7 @@
 //! A five-point model's predictions also carry the tool-tip drift from its
 //! outputs and each row's `tool_mm`, as the hub computes it.
 
-use crate::data::cells::{CellColumn, Cells};
+use crate::data::cells::{CellColumn, Cells, LastLogged};
 use crate::data::runfile::{resample_linear, uniform_grid_len, RunFile, Sampling};
 use crate::fivepoint::TOOL_COLUMN;
 use anyhow::{bail, Result};
@@ -310,7 +310,9 @@ pub fn tool_note() -> String {
 }
 
 /// The tip drift per row from a five-point model's outputs and the row's
-/// tool length (empty where either is missing), as the hub computes it.
+/// tool length (the last one logged where the cell is empty; empty where
+/// an output or every tool length so far is missing), as the hub computes
+/// it.
 fn tool_tip_columns(
     tip: &TipMap,
     outputs: &[Vec<Option<f64>>],
@@ -319,10 +321,11 @@ fn tool_tip_columns(
 ) -> [Vec<Option<f64>>; 3] {
     let mut cols: [Vec<Option<f64>>; 3] = Default::default();
     let mut values = Vec::with_capacity(outputs.len());
+    let mut hold = LastLogged::default();
     for row in 0..len {
         values.clear();
         values.extend(outputs.iter().map(|c| c.get(row).copied().flatten()));
-        let tool_mm = tool.and_then(|t| t.get(row));
+        let tool_mm = hold.next(tool.and_then(|t| t.get(row)));
         let drift = tool_tip_row(tip, &values, tool_mm);
         for (col, d) in cols.iter_mut().zip(drift) {
             col.push(d);

@@ -384,7 +384,7 @@ fn issue14_absurd_values_are_refused() {
     let se = fails(&["simulate", "--out", p(&csv), "--hours", "-1"]);
     assert!(se.contains("--hours must be finite and > 0"), "{se}");
     // A speed above the machine's top speed is refused, not extrapolated
-    // (constant:1e12 heated the twin by 1e16 times its top speed's heat).
+    // (constant:1e12 heated the bearings some 5e12 times as hard as the top speed).
     for rpm in ["constant:12001", "constant:1e12"] {
         let se = fails(&[
             "simulate",

@@ -78,6 +78,30 @@ fn twin_run(dir: &std::path::Path) -> String {
     p(&sim).to_string()
 }
 
+/// The run file `path` with its `tool_mm` cells emptied wherever the
+/// length equals the row before's (a CNC log written on tool changes).
+fn tool_only_on_change(path: &str) -> String {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let i = header.split(',').position(|h| h == "tool_mm").unwrap();
+    let mut out = format!("{header}\n");
+    let mut last = String::new();
+    let mut emptied = 0;
+    for line in lines {
+        let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+        if cells[i] == last {
+            cells[i].clear();
+            emptied += 1;
+        } else {
+            last = cells[i].clone();
+        }
+        out += &(cells.join(",") + "\n");
+    }
+    assert!(emptied > 7000, "{emptied} cells emptied");
+    out
+}
+
 #[test]
 fn fivepoint_reproduces_the_twin_tip_and_a_hub_model_follows_tool_changes() {
     let dir = tempfile::tempdir().unwrap();
@@ -154,6 +178,24 @@ fn fivepoint_reproduces_the_twin_tip_and_a_hub_model_follows_tool_changes() {
     let ev = ok_json(&["eval", "--model", p(&blob), "--data", p(&fp), "--json"]);
     for key in ["e_um", "theta_x_urad", "dx_um", "dy_um", "dz_um"] {
         assert_eq!(ev[key]["n"], 7201, "{key} scored on every row");
+    }
+    // The tool logged only where it changes: predict holds the last length
+    // logged, so every tip is the one from the full column, to the bit.
+    let sparse = dir.path().join("sparse.csv");
+    std::fs::write(&sparse, tool_only_on_change(p(&fp))).unwrap();
+    let pred_sparse = dir.path().join("pred_sparse.csv");
+    ok(&[
+        "predict",
+        "--model",
+        p(&blob),
+        "--data",
+        p(&sparse),
+        "--out",
+        p(&pred_sparse),
+    ]);
+    let ps = read_csv(p(&pred_sparse));
+    for axis in ["dx_um_pred", "dy_um_pred", "dz_um_pred"] {
+        assert_eq!(ps[axis], pr[axis], "{axis}");
     }
 
     // 3. The hub: replay sends tool_mm in TOOL_POSITION frames; its lanes

@@ -598,8 +598,8 @@ fn an_input_the_hub_refuses_is_named_as_such() {
     fails_with(
         &["predict", "--model", &b, "--data", &named, "--out", &out],
         &format!(
-            "error: {named}:2:3 (T1): 3e9 is not a temperature in deg C (its name says so; \
-             readings lie in -273.15 ..= 1000)"
+            "error: {named}:2:3 (T1): value \"3e9\" is not a temperature in deg C (its name \
+             says so; readings lie in -273.15 ..= 1000)"
         ),
     );
 }

@@ -29,7 +29,8 @@ pub struct FivePointArgs {
     /// Distance from the spindle nose up to the deflection centre, mm.
     #[arg(long, default_value_t = model_core::fivepoint::DEFAULT_L_DEFL_MM)]
     pub l_defl_mm: f64,
-    /// A fixed tool length, mm (default: each row's tool_mm).
+    /// A fixed tool length, mm (default: each row's tool_mm, an empty cell
+    /// holding the last length logged).
     #[arg(long)]
     pub tool_mm: Option<f64>,
     /// Print one JSON summary object.

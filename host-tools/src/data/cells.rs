@@ -109,6 +109,32 @@ impl<'a> Cells<'a> {
     }
 }
 
+/// A column logged when it changes, read row by row: a missing cell takes
+/// the last value present before it (`None` before the first). The tool
+/// length is such a column (a CNC logs it at a tool change; the hub holds
+/// the last one received the same way).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LastLogged {
+    last: Option<f64>,
+    held: usize,
+}
+
+impl LastLogged {
+    /// The value for a row whose cell is `cell`.
+    pub fn next(&mut self, cell: Option<f64>) -> Option<f64> {
+        match cell {
+            Some(v) => self.last = Some(v),
+            None => self.held += usize::from(self.last.is_some()),
+        }
+        self.last
+    }
+
+    /// Rows so far whose cell was missing and that took a held value.
+    pub fn held(&self) -> usize {
+        self.held
+    }
+}
+
 /// A column read cell by cell, `None` for a missing cell: [`Cells`], or
 /// cells already held as options (a resampled column).
 pub trait CellColumn {

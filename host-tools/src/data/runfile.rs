@@ -36,7 +36,12 @@ pub const TIME_COLUMN: &str = "t_s";
 /// Whether a column is a temperature sensor by the contract's naming
 /// (`T1`, `T2`, ...): the default candidates of `select` and `fit`.
 pub fn is_temperature_column(name: &str) -> bool {
-    name.strip_prefix('T')
+    numbered(name, 'T')
+}
+
+/// Whether `name` is `prefix` followed by one or more digits (`T12`, `S3`).
+fn numbered(name: &str, prefix: char) -> bool {
+    name.strip_prefix(prefix)
         .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
 }
 
@@ -73,8 +78,9 @@ const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
 /// worse than no model; skipping is an explicit choice of the user.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ReadOptions {
-    /// Skip data rows with an error (bad or non-finite number, wrong field
-    /// count, missing or non-increasing time) instead of failing, recording
+    /// Skip data rows with an error (bad or non-finite number, a value its
+    /// column's [`Quantity`] cannot take, wrong field count, missing or
+    /// non-increasing time) instead of failing, recording
     /// each one in [`RunFile::skipped`]. Header errors are always fatal, since
     /// without a valid header no row can be understood.
     pub skip_bad_rows: bool,
@@ -325,7 +331,8 @@ impl RunFile {
     /// The same rules as [`RunFile::read`], with `name` for the file and the
     /// place a CSV would have (line = row + 2, column 1 = `t_s`) in errors:
     /// `t_s` present, finite and strictly increasing; no duplicate or empty
-    /// names; cells finite and at most [`MAX_CELL_MAGNITUDE`] in magnitude.
+    /// names; cells finite and at most [`MAX_CELL_MAGNITUDE`] in magnitude,
+    /// and within the range of the [`Quantity`] a column's name states.
     pub fn from_columns(
         name: &str,
         t_s: Vec<f64>,
@@ -1076,13 +1083,9 @@ pub const MAX_LENGTH_UM: f64 = 1e7;
 impl Quantity {
     /// The quantity `name` states, if any.
     pub fn of(name: &str) -> Option<Quantity> {
-        let numbered = |prefix: char| {
-            name.strip_prefix(prefix)
-                .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
-        };
-        if numbered('T') || name.ends_with("_c") {
+        if is_temperature_column(name) || name.ends_with("_c") {
             Some(Quantity::Temperature)
-        } else if numbered('S') || name.ends_with("_um") {
+        } else if numbered(name, 'S') || name.ends_with("_um") {
             Some(Quantity::Length)
         } else {
             None
@@ -1545,8 +1548,8 @@ impl fmt::Display for RowError {
                 let (lo, hi) = quantity.range();
                 write!(
                     f,
-                    "{file}:{line}:{column} ({}): {text} is not {what} (its name says so; \
-                     readings lie in {lo} ..= {hi})",
+                    "{file}:{line}:{column} ({}): value {text:?} is not {what} (its name says \
+                     so; readings lie in {lo} ..= {hi})",
                     Name(name)
                 )
             }
@@ -2037,22 +2040,22 @@ mod tests {
     fn readings_their_quantity_cannot_take_are_refused_where_they_are() {
         assert_eq!(
             error("t_s,T1,dz_um\n0,1,2\n1,1,1e14\n"),
-            "run.csv:3:3 (dz_um): 1e14 is not a length in um (its name says so; readings \
-             lie in -10000000 ..= 10000000)"
+            "run.csv:3:3 (dz_um): value \"1e14\" is not a length in um (its name says so; \
+             readings lie in -10000000 ..= 10000000)"
         );
         assert_eq!(
             error("t_s,T12,dz_um\n0,-273.2,2\n"),
-            "run.csv:2:2 (T12): -273.2 is not a temperature in deg C (its name says so; \
-             readings lie in -273.15 ..= 1000)"
+            "run.csv:2:2 (T12): value \"-273.2\" is not a temperature in deg C (its name \
+             says so; readings lie in -273.15 ..= 1000)"
         );
-        assert!(error("t_s,coolant_c\n0,1000.5\n").contains("(coolant_c): 1000.5 is not"));
-        assert!(error("t_s,S5\n0,-2e7\n").contains("(S5): -2e7 is not a length"));
+        assert!(error("t_s,coolant_c\n0,1000.5\n").contains("(coolant_c): value \"1000.5\" is not"));
+        assert!(error("t_s,S5\n0,-2e7\n").contains("(S5): value \"-2e7\" is not a length"));
         let edge = "t_s,T1,ambient_c,S1,dz_um,Tx,T,speed_rpm\n\
                     0,-273.15,1000,1e7,-1e7,5000,5000,1e12\n";
         RunFile::from_reader("run.csv", edge.as_bytes(), &STRICT).unwrap();
         // In memory too (the Python binding's data frames).
         let e = RunFile::from_columns("df", vec![0.0], vec![("T3".into(), Some(vec![2e3]))]);
-        assert!(format!("{}", e.unwrap_err()).contains("(T3): 2000 is not a temperature"));
+        assert!(format!("{}", e.unwrap_err()).contains("(T3): value \"2000\" is not a temperature"));
         // Quantities from names.
         assert_eq!(Quantity::of("T07"), Some(Quantity::Temperature));
         assert_eq!(Quantity::of("Tool"), None);

@@ -229,11 +229,10 @@ fn number(v: &toml::Value, what: &str) -> Result<f64> {
     Ok(x)
 }
 
-/// The largest magnitude a spec number may have: a coefficient of 1e300
-/// was built, and `predict` then wrote 300-digit offsets. 1e12 leaves room
-/// for any physical gain (um per K, um per rpm^2), time constant (s) or
-/// reference, and keeps an output within f64's exact printing range for
-/// inputs up to the hub's 1e9.
+/// The largest magnitude a spec number may have (but for a feature's
+/// hold, below): a coefficient of 1e300 was built, and `predict` then wrote
+/// 300-digit offsets. 1e12 leaves room for any physical gain (um per K, um
+/// per rpm^2), time constant (s, 30,000 years) or reference.
 pub const MAX_SPEC_MAGNITUDE: f64 = 1e12;
 
 /// TOML reads `nan` and `inf` as floats; a coefficient must be finite, and
@@ -247,6 +246,20 @@ fn finite(values: &[f64], what: &str) -> Result<()> {
             Some(v) => bail!("{what}: {v:e} is beyond {MAX_SPEC_MAGNITUDE:e} in magnitude"),
             None => Ok(()),
         },
+    }
+}
+
+/// A feature's time constant: as [`finite`], except the hold
+/// (`model_core::fbank::HOLD_TAU_S`, `f64::MAX`, docs/models.md), which
+/// `fit --model auto` and `refit` write for a change from the run's first
+/// value.
+fn time_constant(tau_s: Option<f64>) -> Result<()> {
+    match tau_s {
+        Some(t) if t == model_core::fbank::HOLD_TAU_S => Ok(()),
+        Some(t) => finite(&[t], "tau_s").map_err(|e| {
+            anyhow!("{e} (a feature that holds the run's first value has tau_s = 1.7976931348623157e308)")
+        }),
+        None => Ok(()),
     }
 }
 
@@ -877,7 +890,7 @@ fn fbank_params(
                 finite_ref(i.reference)?;
             }
             for ft in &f.features {
-                finite(&ft.tau_s.into_iter().collect::<Vec<_>>(), "tau_s")?;
+                time_constant(ft.tau_s)?;
             }
             for o in &f.output {
                 finite(&[o.intercept], "intercept")?;
@@ -1203,6 +1216,13 @@ half_width = { dz_um = 1.2 }
                 "power must be 1 or 2",
             ),
             ("tau_s = 600.0", "tau_s = -1.0", "tau_s >= 0"),
+            // Beyond 1e12 s is refused, naming the hold's spelling; the hold
+            // itself builds (below).
+            (
+                "tau_s = 600.0",
+                "tau_s = 1e13",
+                "tau_s: 1e13 is beyond 1e12 in magnitude (a feature that holds",
+            ),
             (
                 ", T2 = [15.0, 30.0]",
                 "",
@@ -1222,5 +1242,8 @@ half_width = { dz_um = 1.2 }
             let e = parse("fb.toml", &text).unwrap_err().to_string();
             assert!(e.contains(expected), "{expected:?} not in {e}");
         }
+        let hold = FB.replace("tau_s = 600.0", "tau_s = 1.7976931348623157e308");
+        assert_ne!(hold, FB);
+        parse("fb.toml", &hold).unwrap_or_else(|e| panic!("{e}"));
     }
 }

@@ -16,6 +16,7 @@
 
 mod regrid;
 
+use crate::data::cells::LastLogged;
 use crate::data::runfile::{ReadOptions, RowError, RowStream, SkippedRow, StreamItem};
 use crate::fivepoint::TOOL_COLUMN;
 use crate::runner::{self, ColumnMap, RowStepper};
@@ -175,12 +176,14 @@ impl Opened {
 
 /// The values and bands handed on with each row: the model's outputs,
 /// then a five-point model's tool-tip drift from them and the row's tool
-/// length, as the hub computes it.
+/// length (the last one logged where the cell is empty), as the hub
+/// computes it.
 struct RowOut<'m> {
     model: &'m ValidModel,
     values: Vec<Option<f64>>,
     bands: Vec<Option<f64>>,
     tool: Option<usize>,
+    tool_hold: LastLogged,
 }
 
 impl<'m> RowOut<'m> {
@@ -195,6 +198,7 @@ impl<'m> RowOut<'m> {
             values: vec![None; runner::prediction_names(model).len()],
             bands: vec![None; n_bands],
             tool,
+            tool_hold: LastLogged::default(),
         }
     }
 
@@ -208,7 +212,9 @@ impl<'m> RowOut<'m> {
     fn emit(&mut self, sink: &mut impl RowSink, t_s: f64, cells: &[Option<f64>]) -> Result<()> {
         if let Some(map) = self.model.five_point() {
             let (outputs, tip) = self.values.split_at_mut(self.model.outputs().len());
-            let tool_mm = self.tool.and_then(|i| cells.get(i).copied().flatten());
+            let tool_mm = self
+                .tool_hold
+                .next(self.tool.and_then(|i| cells.get(i).copied().flatten()));
             for (slot, d) in tip
                 .iter_mut()
                 .zip(runner::tool_tip_row(map, outputs, tool_mm))

@@ -176,12 +176,12 @@ pub fn spectrum_segments(total_s: f64, max_rpm: f64, seed: u64) -> Vec<(f64, f64
     out
 }
 
-/// A run file's speed, power and tool columns.
 impl Schedule {
     /// Refuses a speed above the machine's top speed `max_rpm`: the heat
     /// laws are the machine's up to it, and beyond they extrapolate (a
-    /// speed 100 times the top one heats the spindle 10,000 times as
-    /// hard). `profile` names the source in the message.
+    /// speed 100 times the top one heats the bearings about 1,600 times as
+    /// hard, their losses going as speed^1.6). `profile` names the source
+    /// in the message.
     pub fn check_top_speed(&self, max_rpm: f64, profile: &str) -> Result<()> {
         let over = self
             .speed_rpm
@@ -198,6 +198,7 @@ impl Schedule {
     }
 }
 
+/// A run file's speed, power and tool columns.
 fn from_file(path: &Path, hours: Option<f64>) -> Result<Schedule> {
     let opts = ReadOptions {
         skip_bad_rows: false,
