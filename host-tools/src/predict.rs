@@ -111,6 +111,18 @@ pub fn predict_files(
     })
 }
 
+/// `text` as one CSV field: quoted (its quotes doubled) where it holds a
+/// comma, a quote or a line break, so a run's file name stays one field
+/// and the whole name (a comma used to become `_`, a line break to split
+/// the row).
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
 /// Writes the predictions CSV, each run streamed row by row
 /// ([`crate::stream::stream_run`]) and written as it goes: rows written,
 /// empty prediction cells, rows skipped as bad.
@@ -143,7 +155,7 @@ fn write_predictions(
         let mut sink = CsvSink {
             interval,
             out,
-            name: several.then(|| path.display().to_string().replace(',', "_")),
+            name: several.then(|| csv_field(&path.display().to_string())),
             blank_cells: names.len()
                 + if interval {
                     2 * model.outputs().len()

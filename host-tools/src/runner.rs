@@ -12,7 +12,7 @@
 //! outputs and each row's `tool_mm`, as the hub computes it.
 
 use crate::data::cells::{CellColumn, Cells, LastLogged};
-use crate::data::runfile::{resample_linear, uniform_grid_len, RunFile, Sampling};
+use crate::data::runfile::{resample_linear, uniform_grid_len, RunFile, Sampling, TIME_COLUMN};
 use crate::fivepoint::TOOL_COLUMN;
 use anyhow::{bail, Result};
 use model_core::fivepoint::{TipMap, TIP_OUTPUTS};
@@ -35,6 +35,11 @@ impl ColumnMap {
             let (name, col) = (name.trim(), col.trim());
             if name.is_empty() || col.is_empty() {
                 bail!("--map {p}: expected NAME=COLUMN");
+            }
+            if col == TIME_COLUMN {
+                bail!(
+                    "--map {p}: {TIME_COLUMN} is the run's time, not an input or a measured column"
+                );
             }
             if let Some(before) = map.insert(name.to_string(), col.to_string()) {
                 bail!("--map {p}: {name} is mapped twice (to {before} and to {col})");
@@ -451,6 +456,35 @@ pub fn resampled_note(sampling: &Sampling, dt: f64, rows: usize) -> String {
     )
 }
 
+/// Missing cells of one input column that lie between two present ones
+/// (a gap linear interpolation bridges), counted row by row: cells before
+/// the first value or after the last are not bridged (no prediction
+/// there, which a note of its own says).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BridgedCells {
+    seen: bool,
+    pending: usize,
+    bridged: usize,
+}
+
+impl BridgedCells {
+    /// Takes the next row's cell: present or missing.
+    pub fn push(&mut self, present: bool) {
+        if present {
+            self.bridged += if self.seen { self.pending } else { 0 };
+            self.pending = 0;
+            self.seen = true;
+        } else {
+            self.pending += 1;
+        }
+    }
+
+    /// Cells bridged so far.
+    pub fn bridged(&self) -> usize {
+        self.bridged
+    }
+}
+
 /// The note of missing input cells bridged for a dynamic model.
 pub fn bridged_note(bridged: usize) -> String {
     format!(
@@ -496,7 +530,9 @@ fn predict_outputs(model: &ValidModel, run: &RunFile, map: &ColumnMap) -> Result
     let inputs: Vec<Vec<Option<f64>>> = columns
         .iter()
         .map(|c| {
-            bridged += c.iter().filter(|v| v.is_none()).count();
+            let mut count = BridgedCells::default();
+            c.iter().for_each(|v| count.push(v.is_some()));
+            bridged += count.bridged();
             resample_linear(&run.t_s, *c, &input_t)
         })
         .collect();

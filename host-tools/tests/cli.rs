@@ -345,6 +345,40 @@ fn issue14_absurd_values_are_refused() {
         se.contains("dt.toml:3:1: [[tf]] dz_um <- T1: a: NaN is not a finite number"),
         "{se}"
     );
+    // A bad reference word is named as such (it was serde's "data did not
+    // match any variant of untagged enum RefSpec").
+    std::fs::write(
+        &spec,
+        tf.replace("1e-300", "1.0")
+            .replace("a = [0.5]", "reference = \"last\"\na = [0.5]"),
+    )
+    .unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(
+        se.contains("dt.toml:6:13: reference must be \"first\", \"absolute\" or a number"),
+        "{se}"
+    );
+    // A name with a control character is refused (it built, and `model
+    // show` printed a raw NUL); a 900,000-byte name is shown cut (the
+    // error was 1.8 MB).
+    std::fs::write(
+        &spec,
+        tf.replace("1e-300", "1.0").replace("dz_um", "dz\\u0000um"),
+    )
+    .unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(
+        se.contains("column name \"dz\\0um\" holds a control character"),
+        "{se}"
+    );
+    let long = "x".repeat(900_000);
+    std::fs::write(&spec, tf.replace("1e-300", "1.0").replace("dz_um", &long)).unwrap();
+    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
+    assert!(
+        se.len() < 300 && se.contains("is longer than 24 bytes"),
+        "{}",
+        se.len()
+    );
     // A coefficient of 1e300 used to build (predict then wrote 300-digit
     // offsets): beyond 1e12 is refused at its entry.
     std::fs::write(

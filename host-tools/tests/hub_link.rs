@@ -385,9 +385,15 @@ fn set_tool_arrives_as_set_tool_length() {
     let hub = Hub::start(Sim::default(), board_flash());
     ok(&["hub", "set-tool", "--port", hub.port(), "--mm", "123.4"]);
     let refused = fails_one_line(&["hub", "set-tool", "--port", hub.port(), "--mm", "-1"]);
+    // Judged as typed, before the wire's f32 (1e300 was "got inf").
+    let huge = fails_one_line(&["hub", "set-tool", "--port", hub.port(), "--mm", "1e300"]);
     let seen = hub.finish();
     assert_eq!(seen.commands, vec![Command::SetToolLength { mm: 123.4 }]);
     assert!(refused.contains("--mm"), "{refused}");
+    assert!(
+        huge.contains("--mm must be a tool length in 0 ..= 5000 mm, got 1e300"),
+        "{huge}"
+    );
 }
 
 #[test]

@@ -605,7 +605,8 @@ fn an_input_the_hub_refuses_is_named_as_such() {
 }
 
 /// A `--map` NAME the model neither reads nor predicts, or one NAME mapped
-/// twice, is refused (both used to be ignored without a word).
+/// twice, is refused (both used to be ignored without a word); so is a
+/// COLUMN that is the time.
 #[test]
 fn a_map_that_cannot_apply_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -632,6 +633,11 @@ fn a_map_that_cannot_apply_is_refused() {
             p(&d.join("p.csv")),
         ],
         "error: --map T1=speed_rpm: T1 is mapped twice (to T2 and to speed_rpm)",
+    );
+    // The time column is neither (it was "the run has no such column").
+    fails_with(
+        &["eval", "--model", &b, "--data", &data, "--map", "dz_um=t_s"],
+        "error: --map dz_um=t_s: t_s is the run's time, not an input or a measured column",
     );
 }
 
@@ -702,4 +708,93 @@ fn closed_stderr_pipe_drops_the_notes_not_the_work() {
     assert_eq!(status.code(), Some(0));
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.lines().count() > 100, "{}", text.lines().count());
+}
+
+/// A dynamic model's run given as a FIFO: the first pass read it, the
+/// second waited for a writer for ever. Now refused at once, before any
+/// open, with one line (nothing writes to the FIFO here, so even the first
+/// open would block).
+#[test]
+fn a_fifo_run_for_a_dynamic_model_is_refused_not_waited_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fifo = d.join("run.fifo");
+    nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
+    let b = blob(d);
+    let out = p(&d.join("p.csv")).to_string();
+    fails_with(
+        &["predict", "--model", &b, "--data", p(&fifo), "--out", &out],
+        &format!(
+            "error: {}: a pipe or FIFO: a dynamic model reads its run twice (its time steps \
+             first), so give the run as a file",
+            p(&fifo)
+        ),
+    );
+}
+
+/// `eval` over two runs, one whose target is empty on every row: its text
+/// line says why it has no figures (it printed `rmse NaN  fit NaN%`), as the
+/// JSON does.
+#[test]
+fn a_run_with_nothing_to_score_has_no_nan_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let good = write(d, "good.csv", &run_text(50, false));
+    let empty = edited(&run_text(50, false), |i, c| {
+        if i > 0 {
+            c[5].clear();
+        }
+    });
+    let empty = write(d, "empty.csv", &empty);
+    let b = blob(d);
+    let (table, _) = common::ok(&["eval", "--model", &b, "--data", &good, "--data", &empty]);
+    let line = table
+        .lines()
+        .find(|l| l.trim_start().starts_with(&empty))
+        .unwrap_or_else(|| panic!("{table}"));
+    assert!(!table.contains("NaN"), "{table}");
+    assert!(line.contains("no samples"), "{line}");
+}
+
+/// `predict` over several runs writes each run's file name in the `run`
+/// column as one CSV field, whole: a comma used to become `_`, and a line
+/// break split the row in two.
+#[test]
+fn run_names_with_commas_quotes_and_line_breaks_stay_one_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = run_text(20, false);
+    let odd = [
+        write(d, "a,b \"q\".csv", &text),
+        write(d, "nl\nname.csv", &text),
+    ];
+    let b = blob(d);
+    let out = d.join("p.csv");
+    let r = run_bounded(
+        &[
+            "predict",
+            "--model",
+            &b,
+            "--data",
+            &odd[0],
+            "--data",
+            &odd[1],
+            "--out",
+            p(&out),
+        ],
+        Stdio::null(),
+    );
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let mut rdr = csv::Reader::from_path(&out).unwrap();
+    let runs: Vec<String> = rdr
+        .records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            assert_eq!(rec.len(), 3, "{rec:?}");
+            rec[0].to_string()
+        })
+        .collect();
+    assert_eq!(runs.len(), 40);
+    assert!(runs[..20].iter().all(|r| *r == odd[0]), "{:?}", runs[0]);
+    assert!(runs[20..].iter().all(|r| *r == odd[1]), "{:?}", runs[20]);
 }

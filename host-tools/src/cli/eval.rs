@@ -110,37 +110,51 @@ fn table_text(out: &Map<String, Value>) -> String {
         "reduce_%"
     );
     for (name, m) in out {
-        let f = |k: &str| m.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
+        let f = |k: &str, width: usize, decimals: usize| figure(m, k, width, decimals);
         let _ = writeln!(
             s,
-            "{:<10} {:>8} {:>9.3} {:>8.2} {:>7.4} {:>8.2} {:>9.3} {:>10.3} {:>8.3} {:>10.2}",
+            "{:<10} {:>8} {} {} {} {} {} {} {} {}",
             name,
             m.get("n").and_then(Value::as_u64).unwrap_or(0),
-            f("rmse_um"),
-            f("fit_pct"),
-            f("r2"),
-            f("eta_pct"),
-            f("max_abs_um"),
-            f("mean_abs_um"),
-            f("dpk_um"),
-            f("reduction_pct")
+            f("rmse_um", 9, 3),
+            f("fit_pct", 8, 2),
+            f("r2", 7, 4),
+            f("eta_pct", 8, 2),
+            f("max_abs_um", 9, 3),
+            f("mean_abs_um", 10, 3),
+            f("dpk_um", 8, 3),
+            f("reduction_pct", 10, 2)
         );
         if let Some(Value::Array(runs)) = m.get("per_run") {
             if runs.len() > 1 {
                 for r in runs {
-                    let g = |k: &str| r.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
+                    let file = r.get("file").and_then(Value::as_str).unwrap_or("?");
+                    if let Some(e) = r.get("error").and_then(Value::as_str) {
+                        let _ = writeln!(s, "  {file:<30} {e}");
+                        continue;
+                    }
+                    let g = |k: &str, width: usize, decimals: usize| figure(r, k, width, decimals);
                     let _ = writeln!(
                         s,
-                        "  {:<30} rmse {:>8.3}  fit {:>7.2}%  dpk {:>8.3}  reduction {:>7.2}%",
-                        r.get("file").and_then(Value::as_str).unwrap_or("?"),
-                        g("rmse_um"),
-                        g("fit_pct"),
-                        g("dpk_um"),
-                        g("reduction_pct")
+                        "  {:<30} rmse {}  fit {}%  dpk {}  reduction {}%",
+                        file,
+                        g("rmse_um", 8, 3),
+                        g("fit_pct", 7, 2),
+                        g("dpk_um", 8, 3),
+                        g("reduction_pct", 7, 2)
                     );
                 }
             }
         }
     }
     s
+}
+
+/// The number `key` of `v` in `width` columns with `decimals`, or "-"
+/// where it is absent or not finite (a run with nothing to score).
+fn figure(v: &Value, key: &str, width: usize, decimals: usize) -> String {
+    match v.get(key).and_then(Value::as_f64).filter(|x| x.is_finite()) {
+        Some(x) => format!("{x:>width$.decimals$}"),
+        None => format!("{:>width$}", "-"),
+    }
 }

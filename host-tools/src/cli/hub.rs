@@ -77,9 +77,9 @@ pub struct UploadArgs {
 pub struct SetToolArgs {
     #[command(flatten)]
     port: PortArgs,
-    /// Tool length, mm (finite, not negative).
+    /// Tool length, mm (0 ..= 5000).
     #[arg(long, allow_negative_numbers = true)]
-    mm: f32,
+    mm: f64,
 }
 
 /// `hub ping`.
@@ -149,12 +149,21 @@ fn upload(a: &UploadArgs) -> Result<()> {
 }
 
 fn set_tool(a: &SetToolArgs) -> Result<()> {
-    if !(a.mm.is_finite() && a.mm >= 0.0) {
-        bail!("--mm must be a finite length >= 0, got {}", a.mm);
+    // Read as f64 and judged before the wire's f32: 1e300 was reported as
+    // "got inf". The hub's tip geometry takes 0 ..= 5000 mm.
+    let max = model_core::fivepoint::MAX_L_DEFL_MM;
+    if !(0.0..=max).contains(&a.mm) {
+        let got = if a.mm.abs() < 1e9 {
+            format!("{}", a.mm)
+        } else {
+            format!("{:e}", a.mm)
+        };
+        bail!("--mm must be a tool length in 0 ..= {max} mm, got {got}");
     }
     let timeout = a.port.timeout()?;
     let mut s = a.port.open()?;
-    s.set_tool(a.mm, timeout.min(session::REPLY_TIMEOUT))
+    #[allow(clippy::cast_possible_truncation)]
+    s.set_tool(a.mm as f32, timeout.min(session::REPLY_TIMEOUT))
         .map_err(|e| anyhow!("set-tool: {e}"))?;
     eprintln!("tool length {} mm set", a.mm);
     Ok(())

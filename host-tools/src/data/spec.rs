@@ -22,7 +22,10 @@ use toml::Spanned;
 
 /// A reference as written: `"first"`, `"absolute"`, or a number.
 #[derive(Deserialize, Debug, Clone, Copy)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "reference must be \"first\", \"absolute\" or a number"
+)]
 enum RefSpec {
     Word(RefWord),
     Value(f64),
@@ -392,12 +395,41 @@ fn name(s: &str) -> Result<Name> {
     if s.trim().is_empty() {
         bail!("empty column name");
     }
+    if s.chars().any(char::is_control) {
+        bail!(
+            "column name \"{}\" holds a control character (no run-file column can have it)",
+            shown(s)
+        );
+    }
     Name::try_from(s).map_err(|_| {
         anyhow!(
-            "column name \"{s}\" is longer than {} bytes",
+            "column name \"{}\" is longer than {} bytes",
+            shown(s),
             model_core::model::NAME_LEN
         )
     })
+}
+
+/// A name as error messages show it: its first 40 characters, control
+/// characters escaped, then "..." if there is more (a 900,000-character
+/// name made a 1.8 MB "one-line" error; a line break split it).
+fn shown(s: &str) -> String {
+    const SHOWN: usize = 40;
+    let mut out: String = s
+        .chars()
+        .take(SHOWN)
+        .map(|c| {
+            if c.is_control() {
+                c.escape_debug().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect();
+    if s.chars().nth(SHOWN).is_some() {
+        out.push_str("...");
+    }
+    out
 }
 
 impl Builder<'_> {
@@ -509,7 +541,13 @@ fn tf_params(
                 b: vec_of(&t.b, "b")?,
             })
         })()
-        .map_err(|err| anyhow!("{at}: [[tf]] {} <- {}: {err}", t.output, t.input))?;
+        .map_err(|err| {
+            anyhow!(
+                "{at}: [[tf]] {} <- {}: {err}",
+                shown(&t.output),
+                shown(&t.input)
+            )
+        })?;
         entries
             .push(entry)
             .map_err(|_| anyhow!("{at}: more than {} [[tf]] entries", entries.capacity()))?;
@@ -557,7 +595,7 @@ fn linear_params(
                 position: b.position(&l.position)?,
             })
         })()
-        .map_err(|err| anyhow!("{at}: [[linear]] {}: {err}", l.output))?;
+        .map_err(|err| anyhow!("{at}: [[linear]] {}: {err}", shown(&l.output)))?;
         outputs
             .push(eq)
             .map_err(|_| anyhow!("{at}: more than {MAX_OUTPUTS} [[linear]] entries"))?;
@@ -717,7 +755,7 @@ fn pcr_params(
                 },
             })
         })()
-        .map_err(|err| anyhow!("{at}: [[pcr]] {}: {err}", p.output))?;
+        .map_err(|err| anyhow!("{at}: [[pcr]] {}: {err}", shown(&p.output)))?;
         entries.push(entry);
         spans.push(span);
     }

@@ -77,6 +77,22 @@ pub struct RunEnd {
     pub first_skipped: Option<RowError>,
 }
 
+/// Refuses a run a second pass cannot read again: a FIFO or a pipe
+/// (`--data <(...)`) was read once, then waited on for ever (a FIFO) or
+/// found empty (a pipe); so is a socket. Anything else (a missing path, a
+/// directory, a device) is left to the reader's own error.
+fn rereadable(path: &Path) -> Result<()> {
+    use std::os::unix::fs::FileTypeExt;
+    match std::fs::metadata(path).map(|m| m.file_type()) {
+        Ok(t) if t.is_fifo() || t.is_socket() => anyhow::bail!(
+            "{}: a pipe or FIFO: a dynamic model reads its run twice (its time steps first), \
+             so give the run as a file",
+            path.display()
+        ),
+        _ => Ok(()),
+    }
+}
+
 /// Runs `model` over the run file at `path` (its `opts.only` columns
 /// read), handing each row to `sink`; see the module docs.
 pub fn stream_run(
@@ -87,6 +103,7 @@ pub fn stream_run(
     sink: &mut impl RowSink,
 ) -> Result<RunEnd> {
     if model.kind().is_dynamic() {
+        rereadable(path)?;
         let plan = regrid::Plan::first_pass(model, path, opts, map)?;
         if !plan.on_rows(model) {
             return regrid::stream_run(model, path, opts, map, sink, &plan);

@@ -180,8 +180,9 @@ struct Regrid<'m> {
     x: Vec<Option<f64>>,
     values: Vec<Option<f64>>,
     bands: Vec<Option<f64>>,
-    /// Missing input cells (bridged), for the note.
-    bridged: usize,
+    /// Missing input cells between two present ones (bridged), per
+    /// input, for the note.
+    bridged: Vec<runner::BridgedCells>,
     /// Rows after the grid's last whole step, for the note.
     tail: usize,
 }
@@ -207,16 +208,16 @@ impl<'m> Regrid<'m> {
             x: Vec::with_capacity(model.inputs().len()),
             values: vec![None; n_out],
             bands: vec![None; n_bands],
-            bridged: 0,
+            bridged: vec![runner::BridgedCells::default(); model.inputs().len()],
             tail: 0,
         }
     }
 
     /// Takes a good row: its input cells into the tracks, the row into the queue.
     fn push_row(&mut self, t_s: f64, cells: &[Option<f64>], inputs: &[usize]) {
-        for (track, &i) in self.inputs.iter_mut().zip(inputs) {
+        for ((track, count), &i) in self.inputs.iter_mut().zip(&mut self.bridged).zip(inputs) {
             let v = cells.get(i).copied().flatten();
-            self.bridged += usize::from(v.is_none());
+            count.push(v.is_some());
             track.push(t_s, v);
         }
         let last = self.grid.and_then(|g| g.last_whole_step());
@@ -345,8 +346,9 @@ impl<'m> Regrid<'m> {
                 notes.push(grid.extra_step_note(self.tail));
             }
         }
-        if self.bridged > 0 {
-            notes.push(runner::bridged_note(self.bridged));
+        let bridged: usize = self.bridged.iter().map(runner::BridgedCells::bridged).sum();
+        if bridged > 0 {
+            notes.push(runner::bridged_note(bridged));
         }
         self.stepper.notes(&mut notes);
         notes

@@ -140,6 +140,13 @@ fn own_grid_with_missing_cells_bridged_at_start_middle_and_end() {
     // stepper's (no value before the first T1).
     let gap = |k: usize| k < 2 || (40..55).contains(&k) || k == 99;
     assert_same(&csv(100, |k| 4.0 * k as f64, gap), 2);
+    // Only the 15 cells between two values are bridged: the 2 before the
+    // first and the 1 after the last have no prediction (it said 18).
+    let ((_, notes), _) = both(&csv(100, |k| 4.0 * k as f64, gap));
+    assert!(
+        notes[0].starts_with("15 missing input cells bridged"),
+        "{notes:?}"
+    );
 }
 
 #[test]
