@@ -333,72 +333,48 @@ fn issue14_absurd_values_are_refused() {
     std::fs::write(&spec, tf.replace("1e-300", "1e300")).unwrap();
     let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
     assert!(se.contains("not a sample time"), "{se}");
-    // TOML reads nan: the entry's line, not just "a coefficient".
-    std::fs::write(
-        &spec,
-        tf.replace("1e-300", "1.0")
-            .replace("a = [0.5]", "a = [nan]"),
-    )
-    .unwrap();
-    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
-    assert!(
-        se.contains("dt.toml:3:1: [[tf]] dz_um <- T1: a: NaN is not a finite number"),
-        "{se}"
-    );
-    // A bad reference word is named as such (it was serde's "data did not
-    // match any variant of untagged enum RefSpec").
-    std::fs::write(
-        &spec,
-        tf.replace("1e-300", "1.0")
-            .replace("a = [0.5]", "reference = \"last\"\na = [0.5]"),
-    )
-    .unwrap();
-    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
-    assert!(
-        se.contains("dt.toml:6:13: reference must be \"first\", \"absolute\" or a number"),
-        "{se}"
-    );
-    // A name with a control character is refused (it built, and `model
-    // show` printed a raw NUL); a 900,000-byte name is shown cut (the
-    // error was 1.8 MB).
-    std::fs::write(
-        &spec,
-        tf.replace("1e-300", "1.0").replace("dz_um", "dz\\u0000um"),
-    )
-    .unwrap();
-    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
-    assert!(
-        se.contains("column name \"dz\\0um\" holds a control character"),
-        "{se}"
-    );
+    // Each spec mistake is named at its entry, in one line.
+    let build = |text: &str| {
+        std::fs::write(&spec, text).unwrap();
+        fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)])
+    };
+    let good = tf.replace("1e-300", "1.0");
     let long = "x".repeat(900_000);
-    std::fs::write(&spec, tf.replace("1e-300", "1.0").replace("dz_um", &long)).unwrap();
-    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
-    assert!(
-        se.len() < 300 && se.contains("is longer than 24 bytes"),
-        "{}",
-        se.len()
-    );
-    // A coefficient of 1e300 used to build (predict then wrote 300-digit
-    // offsets): beyond 1e12 is refused at its entry.
-    std::fs::write(
-        &spec,
-        tf.replace("1e-300", "1.0")
-            .replace("a = [0.5]", "a = [1e300]"),
-    )
-    .unwrap();
-    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
-    assert!(
-        se.contains("dt.toml:3:1: [[tf]] dz_um <- T1: a: 1e300 is beyond 1e12 in magnitude"),
-        "{se}"
-    );
-    std::fs::write(
-        &spec,
-        tf.replace("1e-300", "1.0").replace("\"tf\"", "\"tx\""),
-    )
-    .unwrap();
-    let se = fails(&["model", "build", "--spec", p(&spec), "--out", p(&out)]);
-    assert!(se.contains("dt.toml:1:8: kind = \"tx\""), "{se}");
+    let cases = [
+        // TOML reads nan: the entry's line, not just "a coefficient".
+        (
+            ("a = [0.5]", "a = [nan]"),
+            "dt.toml:3:1: [[tf]] dz_um <- T1: a: NaN is not a finite number",
+        ),
+        // A bad reference word (it was serde's "data did not match any
+        // variant of untagged enum RefSpec").
+        (
+            ("a = [0.5]", "reference = \"last\"\na = [0.5]"),
+            "dt.toml:6:13: reference must be \"first\", \"absolute\" or a number",
+        ),
+        // A name with a control character (it built, and `model show`
+        // printed a raw NUL).
+        (
+            ("dz_um", "dz\\u0000um"),
+            "column name \"dz\\0um\" holds a control character",
+        ),
+        // A 900,000-byte name, cut in the message (the error was 1.8 MB).
+        (("dz_um", long.as_str()), "is longer than 24 bytes"),
+        // A coefficient of 1e300 (predict then wrote 300-digit offsets).
+        (
+            ("a = [0.5]", "a = [1e300]"),
+            "dt.toml:3:1: [[tf]] dz_um <- T1: a: 1e300 is beyond 1e12 in magnitude",
+        ),
+        (("\"tf\"", "\"tx\""), "dt.toml:1:8: kind = \"tx\""),
+    ];
+    for ((from, to), expected) in cases {
+        let se = build(&good.replace(from, to));
+        assert!(
+            se.contains(expected) && se.len() < 300,
+            "{expected}: {}",
+            &se[..se.len().min(300)]
+        );
+    }
 
     let csv = d.join("sim.csv");
     let se = fails(&[
