@@ -112,9 +112,9 @@ pub fn predict_files(
 }
 
 /// `text` as one CSV field: quoted (its quotes doubled) where it holds a
-/// comma, a quote or a line break, so a run's file name stays one field
-/// and the whole name (a comma used to become `_`, a line break to split
-/// the row).
+/// comma, a quote or a line break, so a run's file name (or a model's
+/// output name in the header) stays one field and whole (a comma in a run
+/// name used to become `_`, a line break to split the row).
 fn csv_field(text: &str) -> String {
     if text.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", text.replace('"', "\"\""))
@@ -149,6 +149,7 @@ fn write_predictions(
             header.push(format!("{o}_hi95"));
         }
     }
+    let header: Vec<String> = header.iter().map(|h| csv_field(h)).collect();
     writeln!(w, "{}", header.join(",")).with_context(|| write_err(out))?;
     let (mut rows, mut missing, mut skipped) = (0, 0, 0);
     for path in paths {

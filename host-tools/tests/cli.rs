@@ -356,7 +356,7 @@ fn issue14_absurd_values_are_refused() {
         // printed a raw NUL).
         (
             ("dz_um", "dz\\u0000um"),
-            "column name \"dz\\0um\" holds a control character",
+            "column name \"dz\\0um\" holds a control character: a model's column names must be printable",
         ),
         // A 900,000-byte name, cut in the message (the error was 1.8 MB).
         (("dz_um", long.as_str()), "is longer than 24 bytes"),

@@ -387,13 +387,17 @@ fn set_tool_arrives_as_set_tool_length() {
     let refused = fails_one_line(&["hub", "set-tool", "--port", hub.port(), "--mm", "-1"]);
     // Judged as typed, before the wire's f32 (1e300 was "got inf").
     let huge = fails_one_line(&["hub", "set-tool", "--port", hub.port(), "--mm", "1e300"]);
+    // The hub's own range (firmware MAX_TOOL_LENGTH_MM): 3000 used to pass
+    // here and be refused by the hub.
+    let long = fails_one_line(&["hub", "set-tool", "--port", hub.port(), "--mm", "3000"]);
     let seen = hub.finish();
     assert_eq!(seen.commands, vec![Command::SetToolLength { mm: 123.4 }]);
     assert!(refused.contains("--mm"), "{refused}");
     assert!(
-        huge.contains("--mm must be a tool length in 0 ..= 5000 mm, got 1e300"),
+        huge.contains("--mm must be a tool length in 0 ..= 1000 mm, got 1e300"),
         "{huge}"
     );
+    assert!(long.contains("0 ..= 1000 mm, got 3000"), "{long}");
 }
 
 #[test]

@@ -77,7 +77,7 @@ pub struct UploadArgs {
 pub struct SetToolArgs {
     #[command(flatten)]
     port: PortArgs,
-    /// Tool length, mm (0 ..= 5000).
+    /// Tool length, mm (0 ..= 1000, the hub's range).
     #[arg(long, allow_negative_numbers = true)]
     mm: f64,
 }
@@ -149,9 +149,9 @@ fn upload(a: &UploadArgs) -> Result<()> {
 }
 
 fn set_tool(a: &SetToolArgs) -> Result<()> {
-    // Read as f64 and judged before the wire's f32: 1e300 was reported as
-    // "got inf". The hub's tip geometry takes 0 ..= 5000 mm.
-    let max = model_core::fivepoint::MAX_L_DEFL_MM;
+    // Read as f64 and judged before the wire's f32 (1e300 was reported as
+    // "got inf"), against the range the hub itself takes.
+    let max = firmware::pipeline::MAX_TOOL_LENGTH_MM;
     if !(0.0..=max).contains(&a.mm) {
         let got = if a.mm.abs() < 1e9 {
             format!("{}", a.mm)

@@ -259,9 +259,13 @@ fn finite(values: &[f64], what: &str) -> Result<()> {
 fn time_constant(tau_s: Option<f64>) -> Result<()> {
     match tau_s {
         Some(t) if t == model_core::fbank::HOLD_TAU_S => Ok(()),
-        Some(t) => finite(&[t], "tau_s").map_err(|e| {
-            anyhow!("{e} (a feature that holds the run's first value has tau_s = 1.7976931348623157e308)")
+        Some(t) if t.is_finite() => finite(&[t], "tau_s").map_err(|e| {
+            anyhow!(
+                "{e} (a feature that holds the run's first value has tau_s = \
+                 1.7976931348623157e308)"
+            )
         }),
+        Some(t) => finite(&[t], "tau_s"),
         None => Ok(()),
     }
 }
@@ -397,7 +401,7 @@ fn name(s: &str) -> Result<Name> {
     }
     if s.chars().any(char::is_control) {
         bail!(
-            "column name \"{}\" holds a control character (no run-file column can have it)",
+            "column name \"{}\" holds a control character: a model's column names must be printable",
             shown(s)
         );
     }
@@ -414,10 +418,15 @@ fn name(s: &str) -> Result<Name> {
 /// characters escaped, then "..." if there is more (a 900,000-character
 /// name made a 1.8 MB "one-line" error; a line break split it).
 fn shown(s: &str) -> String {
-    const SHOWN: usize = 40;
+    shown_first(s, 40)
+}
+
+/// `s`'s first `n` characters, control characters escaped, then "..." if
+/// there is more.
+fn shown_first(s: &str, n: usize) -> String {
     let mut out: String = s
         .chars()
-        .take(SHOWN)
+        .take(n)
         .map(|c| {
             if c.is_control() {
                 c.escape_debug().to_string()
@@ -426,7 +435,7 @@ fn shown(s: &str) -> String {
             }
         })
         .collect();
-    if s.chars().nth(SHOWN).is_some() {
+    if s.chars().nth(n).is_some() {
         out.push_str("...");
     }
     out
@@ -989,8 +998,31 @@ pub fn load(path: &Path) -> Result<ValidModel> {
     parse(&path.display().to_string(), &text)
 }
 
-/// Parses and validates spec text; `file` names it in errors.
+/// Parses and validates spec text; `file` names it in errors, which are
+/// one bounded line whatever the spec holds (see [`bounded`]).
 pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
+    parse_unbounded(file, text).map_err(|e| anyhow!("{}", bounded(&format!("{e:#}"))))
+}
+
+/// An error message as one line of bounded length: control characters
+/// escaped (a name holding a line break split the line), and every word
+/// longer than 200 characters cut to its first 40 (a 900,000-character name
+/// made a 1.8 MB message). Paths and `file:line:column` places stay whole.
+fn bounded(msg: &str) -> String {
+    const LONG: usize = 200;
+    msg.split(' ')
+        .map(|word| {
+            if word.chars().nth(LONG).is_some() {
+                shown(word)
+            } else {
+                shown_first(word, LONG)
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn parse_unbounded(file: &str, text: &str) -> Result<ValidModel> {
     let spec: SpecFile = from_toml(file, text)?;
     let mut b = Builder {
         file,
@@ -1280,6 +1312,28 @@ half_width = { dz_um = 1.2 }
             let e = parse("fb.toml", &text).unwrap_err().to_string();
             assert!(e.contains(expected), "{expected:?} not in {e}");
         }
+        // Whatever a name holds, the error is one line of bounded length:
+        // a line break in a feature's input, a 900,000-byte envelope key.
+        let long = "x".repeat(900_000);
+        for text in [
+            FB.replace("{ input = \"T2\", power = 2 }", "{ input = \"a\\nb\" }"),
+            FB.replace("T2 = [15.0, 30.0]", &format!("{long} = [15.0, 30.0]")),
+        ] {
+            let e = parse("fb.toml", &text).unwrap_err().to_string();
+            assert!(
+                !e.contains('\n') && e.len() < 300,
+                "{}",
+                &e[..e.len().min(300)]
+            );
+        }
+        let e = parse(
+            "fb.toml",
+            &FB.replace("{ input = \"T2\", power = 2 }", "{ input = \"a\\nb\" }"),
+        );
+        assert!(e
+            .unwrap_err()
+            .to_string()
+            .contains("input a\\nb is not in inputs"));
         let hold = FB.replace("tau_s = 600.0", "tau_s = 1.7976931348623157e308");
         assert_ne!(hold, FB);
         parse("fb.toml", &hold).unwrap_or_else(|e| panic!("{e}"));
