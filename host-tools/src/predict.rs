@@ -1,5 +1,6 @@
 //! `thermcomp predict`: a model's outputs for run files, row for row.
 
+use crate::data::rawcells;
 use crate::data::runfile::{ReadOptions, RunFile, SkippedRow};
 use crate::runner::{self, ColumnMap};
 use anyhow::{Context, Result};
@@ -111,18 +112,6 @@ pub fn predict_files(
     })
 }
 
-/// `text` as one CSV field: quoted (its quotes doubled) where it holds a
-/// comma, a quote or a line break, so a run's file name (or a model's
-/// output name in the header) stays one field and whole (a comma in a run
-/// name used to become `_`, a line break to split the row).
-fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_string()
-    }
-}
-
 /// Writes the predictions CSV, each run streamed row by row
 /// ([`crate::stream::stream_run`]) and written as it goes: rows written,
 /// empty prediction cells, rows skipped as bad.
@@ -149,14 +138,14 @@ fn write_predictions(
             header.push(format!("{o}_hi95"));
         }
     }
-    let header: Vec<String> = header.iter().map(|h| csv_field(h)).collect();
+    let header: Vec<String> = header.iter().map(|h| rawcells::csv_field(h)).collect();
     writeln!(w, "{}", header.join(",")).with_context(|| write_err(out))?;
     let (mut rows, mut missing, mut skipped) = (0, 0, 0);
     for path in paths {
         let mut sink = CsvSink {
             interval,
             out,
-            name: several.then(|| csv_field(&path.display().to_string())),
+            name: several.then(|| rawcells::csv_field(&path.display().to_string())),
             blank_cells: names.len()
                 + if interval {
                     2 * model.outputs().len()

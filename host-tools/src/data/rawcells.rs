@@ -1,9 +1,21 @@
 //! A run file's cells as text, row for row, for commands that copy columns
 //! they do not compute (`fivepoint` keeps a run's other columns as written,
-//! text columns included).
+//! text columns included), and text written as one CSV field.
 
 use anyhow::{bail, Context, Result};
 use std::path::Path;
+
+/// `text` as one CSV field: quoted (its quotes doubled) where it holds a
+/// comma, a quote or a line break, so a run's file name (or a model's
+/// output name in the header) stays one field and whole (a comma in a run
+/// name used to become `_`, a line break to split the row).
+pub fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
 
 /// A CSV's header and data rows as text.
 pub struct RawTable {

@@ -451,6 +451,10 @@ impl ModelShape {
             header.push(TOOL_INPUT.to_string());
         }
         header.extend(["state".to_string(), "flags".to_string()]);
+        let header: Vec<String> = header
+            .iter()
+            .map(|h| crate::data::rawcells::csv_field(h))
+            .collect();
         header.join(",")
     }
 
