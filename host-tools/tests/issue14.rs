@@ -798,3 +798,36 @@ fn run_names_with_commas_quotes_and_line_breaks_stay_one_field() {
     assert!(runs[..20].iter().all(|r| *r == odd[0]), "{:?}", runs[0]);
     assert!(runs[20..].iter().all(|r| *r == odd[1]), "{:?}", runs[20]);
 }
+
+/// A broken reading in a calibration run (900 C for one row among 20 C
+/// ones) is named by `fit`, which takes it as a figure (it said nothing).
+#[test]
+fn a_broken_reading_in_the_calibration_runs_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = edited(&run_text(50, false), |i, c| {
+        if i == 10 {
+            c[3] = "900".into();
+        }
+    });
+    let data = write(d, "spike.csv", &text);
+    let out = p(&d.join("m.bin")).to_string();
+    let args = [
+        "fit", "--data", &data, "--model", "mlr", "--inputs", "T1,T2", "--target", "dz_um",
+        "--out", &out,
+    ];
+    let (_, se) = common::ok(&args);
+    assert!(
+        se.contains(&format!(
+            "note: {data}: T2: 1 reading(s) jump away from both neighbours faster than a \
+             temperature moves (the first 900 at t_s = 9)"
+        )),
+        "{se}"
+    );
+    let clean = write(d, "clean.csv", &run_text(50, false));
+    let (_, se) = common::ok(&[
+        "fit", "--data", &clean, "--model", "mlr", "--inputs", "T1,T2", "--target", "dz_um",
+        "--out", &out,
+    ]);
+    assert!(!se.contains("jump away"), "{se}");
+}

@@ -11,3 +11,4 @@ pub mod rawcells;
 pub mod runfile;
 pub mod source;
 pub mod spec;
+pub mod spikes;
