@@ -800,7 +800,8 @@ fn run_names_with_commas_quotes_and_line_breaks_stay_one_field() {
 }
 
 /// A broken reading in a calibration run (900 C for one row among 20 C
-/// ones) is named by `fit`, which takes it as a figure (it said nothing).
+/// ones) is named by `fit`, which takes it as a figure (it said nothing),
+/// and in a real run by `diagnose`.
 #[test]
 fn a_broken_reading_in_the_calibration_runs_is_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -830,4 +831,25 @@ fn a_broken_reading_in_the_calibration_runs_is_named() {
         "--out", &out,
     ]);
     assert!(!se.contains("jump away"), "{se}");
+    // diagnose names it in the real run too.
+    let sim = write(d, "sim.csv", &run_text(400, false));
+    let real = write(
+        d,
+        "real.csv",
+        &edited(&run_text(400, false), |i, c| {
+            if i == 10 {
+                c[3] = "900".into();
+            }
+        }),
+    );
+    let r = run_bounded(
+        &["diagnose", "--sim", &sim, "--real", &real, "--json"],
+        Stdio::null(),
+    );
+    let se = String::from_utf8(r.stderr).unwrap();
+    assert!(
+        se.contains(&format!("note: {real}: T2: 1 reading(s) jump away"))
+            && se.contains("The diagnosis takes them"),
+        "{se}"
+    );
 }

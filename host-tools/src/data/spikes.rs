@@ -3,8 +3,7 @@
 //! hub's spike limit, `firmware::spike::SpikeConfig::DEFAULT`: 0.5 K/s plus
 //! 0.5 K of noise, over the rows' own time steps) while the neighbours
 //! agree. A broken reading (a loose wire, a converter glitch) looks like
-//! this; a fit would take it as a figure, so the commands that train on a
-//! run say where it is.
+//! this; `fit` and `diagnose` take it as a figure, so they say where it is.
 
 use crate::data::runfile::{Quantity, RunFile};
 use firmware::spike::SpikeConfig;
@@ -23,11 +22,12 @@ pub struct Isolated {
 }
 
 impl Isolated {
-    /// The note for `run`'s file.
-    pub fn note(&self, run: &RunFile) -> String {
+    /// The note for `run`'s file; `taker` ("the fit", "the diagnosis")
+    /// takes the readings as they are.
+    pub fn note(&self, run: &RunFile, taker: &str) -> String {
         format!(
             "{}: {}: {} reading(s) jump away from both neighbours faster than a temperature \
-             moves (the first {} at t_s = {}): broken readings? The fit takes them as they \
+             moves (the first {} at t_s = {}): broken readings? {taker} takes them as they \
              are; clear such a cell to leave it out",
             run.path.display(),
             self.column,
@@ -95,7 +95,8 @@ mod tests {
             (got[0].count, got[0].first_t_s, got[0].first_value),
             (1, 20.0, 900.0)
         );
-        assert!(got[0].note(&run(&[20.0])).contains("T1: 1 reading(s) jump"));
+        let note = got[0].note(&run(&[20.0]), "The fit");
+        assert!(note.contains("T1: 1 reading(s) jump") && note.contains("The fit takes"));
         assert!(isolated(&run(&[20.0, 20.0, 40.0, 40.0, 40.0]), &cols).is_empty());
         assert!(isolated(&run(&[20.0, 23.0, 26.0, 29.0, 32.0]), &cols).is_empty());
         assert!(isolated(&run(&[20.0, f64::NAN, 900.0, 20.0, 20.0]), &cols).is_empty());

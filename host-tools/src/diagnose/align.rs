@@ -381,6 +381,9 @@ impl Builder {
     /// speed (the real log's, else the simulation's) and the optional
     /// inputs of the real run.
     fn add(&mut self, sim: &RunFile, real: &RunFile, names: &[String], inputs: bool) -> Result<()> {
+        for found in crate::data::spikes::isolated(real, names) {
+            eprintln!("note: {}", found.note(real, "The diagnosis"));
+        }
         let grid = &self.grid;
         if inputs {
             self.speed = filled(real, "speed_rpm", grid)

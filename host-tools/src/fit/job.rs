@@ -300,7 +300,7 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
 fn note_isolated_readings(runs: &[RunFile], inputs: &[String]) {
     for run in runs {
         for found in crate::data::spikes::isolated(run, inputs) {
-            eprintln!("note: {}", found.note(run));
+            eprintln!("note: {}", found.note(run, "The fit"));
         }
     }
 }
