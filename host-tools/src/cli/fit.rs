@@ -407,6 +407,11 @@ fn read_and_fit(a: &FitArgs) -> Result<(FitOutcome, Vec<RunFile>, Vec<RunFile>)>
     let runs = crate::data::source::read_runs(&a.data, &opts)?;
     let validate = crate::data::source::read_runs(&a.validate, &opts)?;
     let outcome = fit(&params, &runs, &validate)?;
+    // Isolated readings in the calibration runs' temperature inputs: the
+    // fit took them as figures (crate::data::spikes).
+    for note in crate::data::spikes::notes(&runs, &outcome.inputs, "The fit") {
+        eprintln!("note: {note}");
+    }
     fsio::write_bytes_atomic(&a.out, &outcome.bytes)?;
     Ok((outcome, runs, validate))
 }

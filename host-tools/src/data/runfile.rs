@@ -1238,6 +1238,12 @@ fn clean_field(raw: &[u8]) -> Cow<'_, [u8]> {
 /// the message on one line.
 struct Name<'a>(&'a str);
 
+/// `s` as a message shows it on one line: as is, or quoted with its control
+/// characters escaped if it has any (a file name holding a line break).
+pub fn printable(s: &str) -> String {
+    Name(s).to_string()
+}
+
 impl fmt::Display for Name<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.0.chars().any(char::is_control) {

@@ -259,7 +259,7 @@ fn finite(values: &[f64], what: &str) -> Result<()> {
 fn time_constant(tau_s: Option<f64>) -> Result<()> {
     match tau_s {
         Some(t) if t == model_core::fbank::HOLD_TAU_S => Ok(()),
-        Some(t) if t.is_finite() => finite(&[t], "tau_s").map_err(|e| {
+        Some(t) if t > 0.0 => finite(&[t], "tau_s").map_err(|e| {
             anyhow!(
                 "{e} (a feature that holds the run's first value has tau_s = \
                  1.7976931348623157e308)"
@@ -1001,16 +1001,24 @@ pub fn load(path: &Path) -> Result<ValidModel> {
 /// Parses and validates spec text; `file` names it in errors, which are
 /// one bounded line whatever the spec holds (see [`bounded`]).
 pub fn parse(file: &str, text: &str) -> Result<ValidModel> {
-    parse_unbounded(file, text).map_err(|e| anyhow!("{}", bounded(&format!("{e:#}"))))
+    parse_unbounded(file, text).map_err(|e| {
+        let msg = format!("{e:#}");
+        match msg.strip_prefix(file) {
+            Some(rest) => anyhow!("{file}{}", bounded(rest)),
+            None => anyhow!("{}", bounded(&msg)),
+        }
+    })
 }
 
-/// An error message as one line of bounded length: control characters
-/// escaped (a name holding a line break split the line), and every word
-/// longer than 200 characters cut to its first 40 (a 900,000-character name
-/// made a 1.8 MB message). Paths and `file:line:column` places stay whole.
+/// An error message (after its `file` prefix, kept whole) as one line of
+/// bounded length: control characters escaped (a name holding a line break
+/// split the line), every word longer than 200 characters cut to its first
+/// 40, and the whole cut at 1,000 characters (a 900,000-character name made
+/// a 1.8 MB message).
 fn bounded(msg: &str) -> String {
     const LONG: usize = 200;
-    msg.split(' ')
+    let words = msg
+        .split(' ')
         .map(|word| {
             if word.chars().nth(LONG).is_some() {
                 shown(word)
@@ -1019,7 +1027,8 @@ fn bounded(msg: &str) -> String {
             }
         })
         .collect::<Vec<_>>()
-        .join(" ")
+        .join(" ");
+    shown_first(&words, 1000)
 }
 
 fn parse_unbounded(file: &str, text: &str) -> Result<ValidModel> {
@@ -1334,6 +1343,14 @@ half_width = { dz_um = 1.2 }
             .unwrap_err()
             .to_string()
             .contains("input a\\nb is not in inputs"));
+        // A long name with spaces: the whole line is cut (1,000 characters);
+        // a long file path stays whole, its line:column with it.
+        let spaced = format!("\"{}\" = [15.0, 30.0]", "a ".repeat(450_000));
+        let e = parse("fb.toml", &FB.replace("T2 = [15.0, 30.0]", &spaced));
+        assert!(e.unwrap_err().to_string().len() < 1100);
+        let deep = format!("{}fb.toml", "d/".repeat(300));
+        let e = parse(&deep, &FB.replace("tau_s = 600.0", "tau_s = -1.0")).unwrap_err();
+        assert!(e.to_string().starts_with(&format!("{deep}:")), "{e}");
         let hold = FB.replace("tau_s = 600.0", "tau_s = 1.7976931348623157e308");
         assert_ne!(hold, FB);
         parse("fb.toml", &hold).unwrap_or_else(|e| panic!("{e}"));

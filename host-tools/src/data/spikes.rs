@@ -4,8 +4,10 @@
 //! 0.5 K of noise, over the rows' own time steps) while the neighbours
 //! agree. A broken reading (a loose wire, a converter glitch) looks like
 //! this; `fit` and `diagnose` take it as a figure, so they say where it is.
+//! A spike two rows long is not found (its rows agree with each other);
+//! the hub's filter refuses those too (`persist_samples = 3`).
 
-use crate::data::runfile::{Quantity, RunFile};
+use crate::data::runfile::{printable, Quantity, RunFile};
 use firmware::spike::SpikeConfig;
 
 /// One column's isolated readings in one run.
@@ -29,13 +31,24 @@ impl Isolated {
             "{}: {}: {} reading(s) jump away from both neighbours faster than a temperature \
              moves (the first {} at t_s = {}): broken readings? {taker} takes them as they \
              are; clear such a cell to leave it out",
-            run.path.display(),
-            self.column,
+            printable(&run.path.display().to_string()),
+            printable(&self.column),
             self.count,
             self.first_value,
             self.first_t_s
         )
     }
+}
+
+/// The notes on every run of `runs` (`taker` as in [`Isolated::note`]).
+pub fn notes(runs: &[RunFile], columns: &[String], taker: &str) -> Vec<String> {
+    runs.iter()
+        .flat_map(|run| {
+            isolated(run, columns)
+                .into_iter()
+                .map(move |i| i.note(run, taker))
+        })
+        .collect()
 }
 
 /// The isolated readings of `run`'s temperature columns among `columns`.

@@ -260,7 +260,6 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
         a.holdout_from_s,
     )?;
     refuse_constant_targets(&ds)?;
-    note_isolated_readings(runs, &ds.inputs);
     let fitted = train(p, &ds, runs, validate)?;
     let model = crate::fivepoint::with_geometry(fitted.model, a.l_defl_mm)?;
     let bytes = model_core::blob::encode_to_vec(&model)
@@ -293,16 +292,6 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
         inputs: ds.inputs,
         report,
     })
-}
-
-/// Says where the calibration runs' temperature inputs hold isolated
-/// readings (`crate::data::spikes`): the fit takes them as figures.
-fn note_isolated_readings(runs: &[RunFile], inputs: &[String]) {
-    for run in runs {
-        for found in crate::data::spikes::isolated(run, inputs) {
-            eprintln!("note: {}", found.note(run, "The fit"));
-        }
-    }
 }
 
 /// The columns every run has (`runs`: each run's name and columns), in
