@@ -314,6 +314,7 @@ fn write_rows(
     let mut line = String::with_capacity(512);
     let mut reference: Option<crate::twin::network::State> = None;
     let summary = sim::run(machine, schedule, opts, |r| {
+        within_physics(r)?;
         line.clear();
         let _ = write!(line, "{},{}", r.t_s, r.speed_rpm);
         for v in [r.power_kw, r.ambient_c, r.coolant_c] {
@@ -353,6 +354,39 @@ fn write_rows(
         pb.finish_and_clear();
     }
     Ok(summary)
+}
+
+/// Refuses a row no machine can produce: a temperature outside -273.15
+/// ..= 1000 C or a displacement beyond 10 m, the ranges the run-file
+/// reader takes (`runfile::Quantity`). A machine file's parameters can
+/// each be valid and still drive the twin there together (a bearing
+/// exponent of 1000 gave T1 = 8.9e79 C and a written run nothing could
+/// read back).
+fn within_physics(r: &sim::Row<'_>) -> Result<()> {
+    use crate::data::runfile::Quantity;
+    let temps = [r.ambient_c, r.coolant_c]
+        .into_iter()
+        .chain(r.temps_c.iter().copied());
+    let lengths = [r.dx_um, r.dy_um, r.dz_um].into_iter().chain(r.probes_um);
+    let judged = temps
+        .map(|v| (v, Quantity::Temperature))
+        .chain(lengths.map(|v| (v, Quantity::Length)));
+    for (v, q) in judged {
+        let (lo, hi) = q.range();
+        if !(lo..=hi).contains(&v) {
+            let what = match q {
+                Quantity::Temperature => "a temperature",
+                Quantity::Length => "a displacement",
+            };
+            anyhow::bail!(
+                "t_s = {}: {what} of the twin reaches {v:e}, outside {lo} ..= {hi}: the \
+                 machine's parameters (or the profile's power) drive it beyond any machine; \
+                 check the machine file",
+                r.t_s
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Appends `v` with four decimals (0.1 mK, 0.1 nm: below every noise

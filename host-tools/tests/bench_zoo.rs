@@ -173,4 +173,45 @@ fn zoo_flags_fail_with_one_line() {
     assert!(e.contains("--twin"), "{e}");
     let e = fails_one_line(&["bench", "gap", "--profiles", "steps:48"]);
     assert!(e.contains("--twin"), "twin-only flags ask for --twin: {e}");
+    // Also beside a zoo flag, where clap lets them through (`--cases 2
+    // --plants a` ran every zoo case without a word).
+    for flag in ["--cases", "--seeds"] {
+        let e = fails_one_line(&["bench", "gap", flag, "2", "--plants", "a"]);
+        assert!(e.contains(&format!("{flag} is for the twin cases")), "{e}");
+    }
+    let e = fails_one_line(&["bench", "gap", "--effects", "ambient,ambient"]);
+    assert!(e.contains("--effects: ambient is listed twice"), "{e}");
+    let e = fails_one_line(&["bench", "gap", "--twin", "--cases", "0"]);
+    assert!(e.contains("--cases must be at least 1"), "{e}");
+}
+
+/// `--out DIR` never removes what the run did not create: a user's files
+/// in `DIR/runs` survive a run without `--keep-runs` (the folder used to be
+/// removed, files and all), and `--keep-runs` refuses to write into it.
+#[test]
+fn a_user_s_runs_folder_is_left_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("zoo");
+    let precious = out.join("runs").join("precious.csv");
+    std::fs::create_dir_all(precious.parent().unwrap()).unwrap();
+    std::fs::write(&precious, "t_s\n0\n").unwrap();
+    let args = [
+        "bench",
+        "gap",
+        "--quick",
+        "--plants",
+        "a",
+        "--hours",
+        "24",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    common::ok(&args);
+    assert_eq!(std::fs::read_to_string(&precious).unwrap(), "t_s\n0\n");
+    assert_eq!(std::fs::read_dir(out.join("runs")).unwrap().count(), 1);
+    let mut keep = args.to_vec();
+    keep.push("--keep-runs");
+    let e = fails_one_line(&keep);
+    assert!(e.contains("exists and is not an empty folder"), "{e}");
+    assert!(precious.is_file());
 }

@@ -439,6 +439,57 @@ fn issue14_absurd_values_are_refused() {
         )),
         "{se}"
     );
+    // Valid fields each, beyond any machine together: a bearing exponent of
+    // 1000 drove T1 to 8.9e79 C in a run nothing could read back; refused
+    // at the first row out of range, nothing written. max_rpm = 1e300 ended
+    // in a NaN of the probe geometry.
+    let hot = d.join("hot.toml");
+    for (from, to, said) in [
+        (
+            "bearing_exponent = 1.6",
+            "bearing_exponent = 1000.0",
+            "of the twin reaches",
+        ),
+        (
+            "max_rpm = 12000.0",
+            "max_rpm = 1e300",
+            "max_rpm must be at most",
+        ),
+    ] {
+        assert!(machine.contains(from), "{from}");
+        std::fs::write(&hot, machine.replacen(from, to, 1)).unwrap();
+        let se = fails(&[
+            "simulate",
+            "--out",
+            p(&csv),
+            "--hours",
+            "2",
+            "--dt-s",
+            "60",
+            "--machine",
+            p(&hot),
+        ]);
+        assert!(se.contains(said), "{se}");
+        assert!(!csv.exists(), "nothing written");
+    }
+    // A file profile's power below 0, or a tool beyond the hub's 1000 mm.
+    let prof = d.join("prof.csv");
+    for (cells, said) in [
+        ("1000,-5,100", "power_kw -5 < 0 at t_s = 0"),
+        (
+            "1000,1,1e6",
+            "tool_mm 1000000 at t_s = 0 is outside the hub's 0 ..= 1000 mm",
+        ),
+    ] {
+        std::fs::write(
+            &prof,
+            format!("t_s,speed_rpm,power_kw,tool_mm\n0,{cells}\n60,{cells}\n"),
+        )
+        .unwrap();
+        let profile = format!("file:{}", p(&prof));
+        let se = fails(&["simulate", "--out", p(&csv), "--profile", &profile]);
+        assert!(se.contains(said), "{se}");
+    }
 
     let run = write_run(d, "run.csv", &(0..600).map(f64::from).collect::<Vec<_>>());
     let se = fails(&[

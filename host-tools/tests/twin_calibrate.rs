@@ -282,6 +282,9 @@ fn bad_inputs_fail_with_one_line() {
     let good = write("good.csv", &rows);
     let e = calibrate(&good, &["--calibrate-until-s", "600"]);
     assert!(e.contains("at least 30"), "{e}");
+    // Nothing before it: said so (it blamed a spindle that does turn).
+    let e = calibrate(&good, &["--calibrate-until-s", "-5"]);
+    assert!(e.contains("no row before --calibrate-until-s -5"), "{e}");
     let empty = write("empty.csv", "t_s,speed_rpm,dz_um\n");
     let e = calibrate(&empty, &[]);
     assert!(e.contains("no data rows"), "{e}");

@@ -16,11 +16,11 @@
 //! zoo; `cli::bench` reads the flags and prints.
 
 use super::cases::{self, Case, GapConfig, ProfileSpec};
-use super::outcome::{diagnose_case, run_parallel, scratch_dir};
+use super::outcome::{diagnose_case, kept_runs_dir, run_parallel};
 use super::summary::SummaryReport;
 use crate::diagnose::candidates::round;
 use crate::twin::machine::Machine;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use serde::Serialize;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -61,22 +61,30 @@ pub fn run_all(all: Vec<Case>, work: &Path, keep: bool) -> Result<Vec<Outcome<Ca
 /// Where a benchmark's cases are written while they are diagnosed.
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {
-    /// The report directory: the runs go under `OUT/runs` (else a
-    /// temporary directory).
+    /// The report directory: with `keep_runs` the runs go under
+    /// `OUT/runs` ([`kept_runs_dir`]).
     pub out: Option<PathBuf>,
-    /// Keep each case's run files (else removed when the run ends).
+    /// Keep each case's run files in `OUT/runs` (else they are written to
+    /// a temporary folder of this run's own, removed when it ends).
     pub keep_runs: bool,
 }
 
 impl Scratch {
-    /// Runs `job` in the scratch directory, then removes it unless kept.
+    /// Runs `job` in the scratch folder: `OUT/runs` when the runs are kept,
+    /// else a fresh temporary folder removed afterwards. Nothing the run
+    /// did not create is removed (`OUT/runs` used to be, user files and
+    /// all).
     pub fn run<T>(&self, job: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
-        let work = scratch_dir(self.out.as_deref())?;
-        let result = job(&work);
-        if !self.keep_runs {
-            let _ = std::fs::remove_dir_all(&work);
+        match (&self.out, self.keep_runs) {
+            (Some(out), true) => job(&kept_runs_dir(out)?),
+            _ => {
+                let tmp = tempfile::Builder::new()
+                    .prefix("thermcomp-bench-")
+                    .tempdir()
+                    .context("cannot create a temporary folder for the run files")?;
+                job(tmp.path())
+            }
         }
-        result
     }
 }
 

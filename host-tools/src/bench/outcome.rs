@@ -194,18 +194,27 @@ pub fn run_parallel<C: Send, R: Send>(
     out
 }
 
-/// A fresh scratch folder for the run files: OUT/runs, or one under the
-/// system's temporary directory named by the process id and time.
-pub fn scratch_dir(out: Option<&Path>) -> Result<PathBuf> {
-    let dir = match out {
-        Some(out) => out.join("runs"),
-        None => {
-            let nanos = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| d.subsec_nanos());
-            std::env::temp_dir().join(format!("thermcomp-bench-{}-{nanos}", std::process::id()))
-        }
-    };
+/// The folder `--keep-runs` writes the run files to, `OUT/runs`: created,
+/// or empty if it exists (a user's files there were deleted with it once).
+pub fn kept_runs_dir(out: &Path) -> Result<PathBuf> {
+    let dir = free_runs_dir(out)?;
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    Ok(dir)
+}
+
+/// `OUT/runs` if nothing is there or it is an empty folder; else why not
+/// (checked before a run starts, and again when it does).
+pub fn free_runs_dir(out: &Path) -> Result<PathBuf> {
+    let dir = out.join("runs");
+    if dir.symlink_metadata().is_ok() {
+        let empty = std::fs::read_dir(&dir).is_ok_and(|mut d| d.next().is_none());
+        if !empty {
+            anyhow::bail!(
+                "{} exists and is not an empty folder: --keep-runs writes the run files \
+                 there; give another --out or move it",
+                dir.display()
+            );
+        }
+    }
     Ok(dir)
 }

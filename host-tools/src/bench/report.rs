@@ -31,6 +31,16 @@ pub fn f1(v: Option<f64>) -> String {
         .map_or_else(String::new, |x| format!("{x:.1}"))
 }
 
+/// A percentage with one decimal, or "-" where there is none (no effect
+/// case to take a rate or a median of: it printed NaN).
+fn pct(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.1}")
+    } else {
+        "-".to_string()
+    }
+}
+
 /// A number with three decimals, or empty.
 fn f3(v: Option<f64>) -> String {
     v.filter(|x| x.is_finite())
@@ -101,18 +111,18 @@ pub fn rates_md(s: &Summary) -> String {
     let mut m = String::new();
     let _ = writeln!(
         m,
-        "\nAccuracy {:.1} % of {} cases; effect cases identified {:.1} %; false alarms {} of {} `none` cases ({:.1} %); misses (effect -> none) {}; wrong effect {} ({:.1} % of effect cases); second effect claimed {} times; median held-out shrink of the correctly identified effect cases {:.1} %.\n",
-        s.accuracy_pct,
+        "\nAccuracy {} % of {} cases; effect cases identified {} %; false alarms {} of {} `none` cases ({} %); misses (effect -> none) {}; wrong effect {} ({} % of effect cases); second effect claimed {} times; median held-out shrink of the correctly identified effect cases {} %.\n",
+        pct(s.accuracy_pct),
         s.cases,
-        s.effect_accuracy_pct,
+        pct(s.effect_accuracy_pct),
         s.false_alarms.0,
         s.false_alarms.1,
-        s.false_alarm_rate_pct(),
+        pct(s.false_alarm_rate_pct()),
         s.misses,
         s.wrong_effect,
-        s.wrong_effect_rate_pct(),
+        pct(s.wrong_effect_rate_pct()),
         s.spurious_seconds,
-        s.median_shrink_correct_pct
+        pct(s.median_shrink_correct_pct)
     );
     m.push_str("| cause | correct | held-out shrink of the verdict: min | median | max |\n|---|---|---|---|---|\n");
     for (l, n, lo, med, hi) in &s.shrink_by_effect {
@@ -176,15 +186,15 @@ pub fn text(outs: &[Outcome<Case>], s: &Summary, wall_s: f64) -> String {
     let mut t = matrix_text(s);
     let _ = writeln!(
         t,
-        "\n{} cases in {:.1} s: accuracy {:.1} %, false alarms {}/{}, misses {}, wrong effect {}, median shrink (correct effect cases) {:.1} %",
+        "\n{} cases in {:.1} s: accuracy {} %, false alarms {}/{}, misses {}, wrong effect {}, median shrink (correct effect cases) {} %",
         outs.len(),
         wall_s,
-        s.accuracy_pct,
+        pct(s.accuracy_pct),
         s.false_alarms.0,
         s.false_alarms.1,
         s.misses,
         s.wrong_effect,
-        s.median_shrink_correct_pct
+        pct(s.median_shrink_correct_pct)
     );
     t
 }

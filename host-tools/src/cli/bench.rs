@@ -58,9 +58,9 @@ pub struct GapArgs {
     #[arg(long, default_value_t = 48.0, conflicts_with = "twin")]
     pub hours: f64,
     /// Twin: seeds (independent cases) per combination of cause, profile,
-    /// magnitude and logging.
-    #[arg(long, default_value_t = 3, requires = "twin")]
-    pub seeds: usize,
+    /// magnitude and logging [default: 3].
+    #[arg(long, requires = "twin")]
+    pub seeds: Option<usize>,
     /// One seed per combination (twin) or one case per cause and plant (zoo).
     #[arg(long)]
     pub quick: bool,
@@ -77,12 +77,14 @@ pub struct GapArgs {
         default_value = "ambient,coolant,cutting,motor_loss,sensor_lag,none"
     )]
     pub effects: String,
-    /// Twin: profiles as NAME:HOURS, comma-separated (steps, spectrum, cooldown).
-    #[arg(long, default_value = DEFAULT_PROFILES, requires = "twin")]
-    pub profiles: String,
-    /// Twin: effect magnitudes, multiples of the machine file's effect parameters.
-    #[arg(long, default_value = DEFAULT_MAGNITUDES, requires = "twin")]
-    pub magnitudes: String,
+    /// Twin: profiles as NAME:HOURS, comma-separated (steps, spectrum,
+    /// cooldown) [default: steps:48,spectrum:48,spectrum:24].
+    #[arg(long, requires = "twin")]
+    pub profiles: Option<String>,
+    /// Twin: effect magnitudes, multiples of the machine file's effect
+    /// parameters [default: 0.5,1,2].
+    #[arg(long, requires = "twin")]
+    pub magnitudes: Option<String>,
     /// Half-width of the uniform parameter mismatch of the real machine, %
     /// (default 10 for the zoo, 4 for the twin).
     #[arg(long)]
@@ -98,14 +100,22 @@ pub struct GapArgs {
     pub json: bool,
 }
 
-/// Splits a comma-separated list, refusing an empty one.
+/// Splits a comma-separated list, refusing an empty one or a word given
+/// twice (`--effects ambient,ambient` ran each ambient case twice).
 pub fn parse_list<T>(flag: &str, s: &str, f: impl Fn(&str) -> Result<T>) -> Result<Vec<T>> {
-    let v: Vec<T> = s
+    let words: Vec<&str> = s
         .split(',')
         .map(str::trim)
         .filter(|w| !w.is_empty())
-        .map(f)
-        .collect::<Result<_>>()?;
+        .collect();
+    if let Some((i, w)) = words
+        .iter()
+        .enumerate()
+        .find(|(i, w)| words[..*i].contains(w))
+    {
+        bail!("{flag}: {w} is listed twice (item {})", i + 1);
+    }
+    let v: Vec<T> = words.into_iter().map(f).collect::<Result<_>>()?;
     if v.is_empty() {
         bail!("{flag} is empty");
     }
@@ -114,17 +124,25 @@ pub fn parse_list<T>(flag: &str, s: &str, f: impl Fn(&str) -> Result<T>) -> Resu
 
 /// The twin benchmark's configuration from the command line.
 pub fn config(a: &GapArgs) -> Result<GapConfig> {
-    let seeds = if a.quick { 1 } else { a.seeds };
+    let seeds = if a.quick { 1 } else { a.seeds.unwrap_or(3) };
     if !(1..=100).contains(&seeds) {
         bail!("--seeds must be in 1..=100 (got {seeds})");
     }
     Ok(GapConfig {
         effects: parse_list("--effects", &a.effects, |w| Ok(w.to_string()))?,
-        profiles: parse_list("--profiles", &a.profiles, ProfileSpec::parse)?,
-        magnitudes: parse_list("--magnitudes", &a.magnitudes, |w| {
-            w.parse::<f64>()
-                .map_err(|_| anyhow::anyhow!("--magnitudes: \"{w}\" is not a number"))
-        })?,
+        profiles: parse_list(
+            "--profiles",
+            a.profiles.as_deref().unwrap_or(DEFAULT_PROFILES),
+            ProfileSpec::parse,
+        )?,
+        magnitudes: parse_list(
+            "--magnitudes",
+            a.magnitudes.as_deref().unwrap_or(DEFAULT_MAGNITUDES),
+            |w| {
+                w.parse::<f64>()
+                    .map_err(|_| anyhow::anyhow!("--magnitudes: \"{w}\" is not a number"))
+            },
+        )?,
         seeds,
         mismatch_pct: a.mismatch_pct.unwrap_or(TWIN_MISMATCH_PCT),
         seed: a.seed,
@@ -160,10 +178,30 @@ fn scratch(a: &GapArgs) -> Scratch {
 
 /// Runs `thermcomp bench gap`: the zoo, or the twin cases with `--twin`.
 fn run_gap(a: &GapArgs) -> Result<()> {
+    if let (true, Some(out)) = (a.keep_runs, &a.out) {
+        crate::bench::outcome::free_runs_dir(out)?;
+    }
     if a.twin {
         run_twin(a)
     } else {
+        refuse_twin_flags(a)?;
         run_zoo(a, &zoo_params(a)?.check()?)
+    }
+}
+
+/// Refuses the twin's flags on a zoo run. clap's `requires = "twin"` lets
+/// them through when a zoo flag (which conflicts with `--twin`) is given:
+/// `--cases 2 --plants a` ran every zoo case without a word.
+fn refuse_twin_flags(a: &GapArgs) -> Result<()> {
+    let given = [
+        ("--seeds", a.seeds.is_some()),
+        ("--cases", a.cases.is_some()),
+        ("--profiles", a.profiles.is_some()),
+        ("--magnitudes", a.magnitudes.is_some()),
+    ];
+    match given.iter().find(|(_, g)| *g) {
+        Some((flag, _)) => bail!("{flag} is for the twin cases: add --twin, or leave it out"),
+        None => Ok(()),
     }
 }
 
@@ -192,6 +230,9 @@ fn run_zoo(a: &GapArgs, plan: &ZooPlan) -> Result<()> {
 
 /// `thermcomp bench gap --twin`.
 fn run_twin(a: &GapArgs) -> Result<()> {
+    if a.cases == Some(0) {
+        bail!("--cases must be at least 1 (0 ran every case)");
+    }
     let mut run = bench_twin(&config(a)?, a.cases, &scratch(a))?;
     if let Some(out) = &a.out {
         let summary = serde_json::to_value(&run.report)?;

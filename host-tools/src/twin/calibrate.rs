@@ -153,6 +153,13 @@ impl Measured {
             bail!("--calibrate-until-s must be finite");
         }
         let n_fit = t.partition_point(|&x| x < until_s);
+        if n_fit == 0 {
+            bail!(
+                "{}: no row before --calibrate-until-s {until_s} (the run starts at t_s = {t0}): \
+                 nothing to calibrate to",
+                path.display()
+            );
+        }
         // The twin's parameters scale the spindle's heat: a calibration part
         // where it never turns has nothing to fit them to.
         if schedule.speed_rpm[..n_fit].iter().all(|&v| v == 0.0) {

@@ -66,11 +66,17 @@ impl EffectSet {
     /// Parses `a,b,...` (empty or `none` for the nominal twin).
     pub fn parse(list: &str) -> Result<Self> {
         let mut set = Self::none();
-        for word in list.split(',').map(str::trim).filter(|w| !w.is_empty()) {
-            if word == "none" {
-                continue;
-            }
-            match Effect::ALL.iter().find(|e| e.name() == word) {
+        let words: Vec<&str> = list
+            .split(',')
+            .map(str::trim)
+            .filter(|w| !w.is_empty())
+            .collect();
+        if words.contains(&"none") && words.len() > 1 {
+            bail!("--effects {list}: none means the nominal twin, with no other effect");
+        }
+        for word in words.iter().filter(|w| **w != "none") {
+            match Effect::ALL.iter().find(|e| e.name() == *word) {
+                Some(e) if set.has(*e) => bail!("--effects {list}: {word} is listed twice"),
                 Some(e) => set = set.with(*e),
                 None => bail!(
                     "unknown effect \"{word}\" (one of {}, or none)",
@@ -283,6 +289,11 @@ mod tests {
             .err()
             .map(|e| e.to_string());
         assert!(e.is_some_and(|e| e.contains("unknown effect \"draft\"")));
+        // `none` with another effect, or one effect twice, is a
+        // contradiction or a typo (`none,ambient` ran with ambient).
+        let said = |list: &str| EffectSet::parse(list).err().map(|e| e.to_string());
+        assert!(said("none,ambient").is_some_and(|e| e.contains("none means the nominal twin")));
+        assert!(said("ambient,ambient").is_some_and(|e| e.contains("ambient is listed twice")));
     }
 
     #[test]

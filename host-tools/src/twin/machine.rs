@@ -854,10 +854,21 @@ fn check_load_effects(e: &EffectParams) -> Result<()> {
     positive(e.sensor_lag.tau_s, "effects.sensor_lag.tau_s")
 }
 
+/// The fastest `max_rpm` a machine file may give: ten times the fastest
+/// machine-tool spindles (about 100,000 rpm). 1e300 got as far as a NaN in
+/// the probe geometry, with no word of the field.
+pub const MAX_RPM_LIMIT: f64 = 1e6;
+
 /// Range checks on the numbers, naming the field (the first error in
 /// file order).
 fn validate(m: &Machine) -> Result<()> {
     positive(m.max_rpm, "max_rpm")?;
+    if m.max_rpm > MAX_RPM_LIMIT {
+        bail!(
+            "max_rpm must be at most {MAX_RPM_LIMIT} (got {:e}): no spindle turns faster",
+            m.max_rpm
+        );
+    }
     non_negative(m.tool_mm, "tool_mm")?;
     boundary_c(m.boundary.ambient_c, "boundary.ambient_c")?;
     boundary_c(m.boundary.coolant_c, "boundary.coolant_c")?;

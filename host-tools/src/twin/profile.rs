@@ -243,9 +243,19 @@ fn from_file(path: &Path, hours: Option<f64>) -> Result<Schedule> {
         .column("tool_mm")
         .map(|c| dense("tool_mm", c))
         .transpose()?;
+    if let Some(power) = &power_kw {
+        if let Some((v, t)) = power.iter().zip(&run.t_s).find(|(v, _)| **v < 0.0) {
+            bail!("{file}: power_kw {v} < 0 at t_s = {t}");
+        }
+    }
     if let Some(tool) = &tool_mm {
-        if let Some((v, t)) = tool.iter().zip(&run.t_s).find(|(v, _)| **v < 0.0) {
-            bail!("{file}: tool_mm {v} < 0 at t_s = {t}");
+        let max = firmware::pipeline::MAX_TOOL_LENGTH_MM;
+        let bad = tool
+            .iter()
+            .zip(&run.t_s)
+            .find(|(v, _)| !(0.0..=max).contains(*v));
+        if let Some((v, t)) = bad {
+            bail!("{file}: tool_mm {v} at t_s = {t} is outside the hub's 0 ..= {max} mm");
         }
     }
     Ok(Schedule {
