@@ -374,14 +374,14 @@ fn within_physics(r: &sim::Row<'_>) -> Result<()> {
     for (v, q) in judged {
         let (lo, hi) = q.range();
         if !(lo..=hi).contains(&v) {
-            let what = match q {
-                Quantity::Temperature => "a temperature",
-                Quantity::Length => "a displacement",
+            let (what, unit) = match q {
+                Quantity::Temperature => ("a temperature", "C"),
+                Quantity::Length => ("a displacement", "um"),
             };
             anyhow::bail!(
-                "t_s = {}: {what} of the twin reaches {v:e}, outside {lo} ..= {hi}: the \
-                 machine's parameters (or the profile's power) drive it beyond any machine; \
-                 check the machine file",
+                "t_s = {}: {what} of the twin reaches {v:e} {unit}, outside {lo} ..= {hi} {unit}: \
+                 the machine's parameters (or the profile's power) drive it beyond any \
+                 machine; check the machine file",
                 r.t_s
             );
         }

@@ -261,13 +261,13 @@ pub fn svg_titled(s: &Summary, title: &str) -> String {
     }
     let _ = write!(
         g,
-        r##"<text x="{}" y="{}" text-anchor="middle">accuracy {:.1} %, false alarms {}/{}, median shrink of correct effect cases {:.1} %</text></svg>"##,
+        r##"<text x="{}" y="{}" text-anchor="middle">accuracy {} %, false alarms {}/{}, median shrink of correct effect cases {} %</text></svg>"##,
         left + n * cell / 2.0,
         h - 12.0,
-        s.accuracy_pct,
+        pct(s.accuracy_pct),
         s.false_alarms.0,
         s.false_alarms.1,
-        s.median_shrink_correct_pct
+        pct(s.median_shrink_correct_pct)
     );
     g.push('\n');
     g

@@ -92,7 +92,8 @@ pub struct GapArgs {
     /// Write the case table, confusion matrices, summary.json and SVGs here.
     #[arg(long)]
     pub out: Option<std::path::PathBuf>,
-    /// Keep each case's real.csv and sim.csv (under OUT/runs).
+    /// Keep each case's real.csv and sim.csv under OUT/runs (which must be
+    /// absent or an empty folder).
     #[arg(long, requires = "out")]
     pub keep_runs: bool,
     /// Print one JSON object (every case and the summary).

@@ -869,7 +869,13 @@ fn validate(m: &Machine) -> Result<()> {
             m.max_rpm
         );
     }
-    non_negative(m.tool_mm, "tool_mm")?;
+    let max_tool = firmware::pipeline::MAX_TOOL_LENGTH_MM;
+    if !(0.0..=max_tool).contains(&m.tool_mm) {
+        bail!(
+            "tool_mm must be in 0 ..= {max_tool} mm, the hub's range (got {})",
+            m.tool_mm
+        );
+    }
     boundary_c(m.boundary.ambient_c, "boundary.ambient_c")?;
     boundary_c(m.boundary.coolant_c, "boundary.coolant_c")?;
     check_nodes(m)?;

@@ -243,11 +243,6 @@ fn from_file(path: &Path, hours: Option<f64>) -> Result<Schedule> {
         .column("tool_mm")
         .map(|c| dense("tool_mm", c))
         .transpose()?;
-    if let Some(power) = &power_kw {
-        if let Some((v, t)) = power.iter().zip(&run.t_s).find(|(v, _)| **v < 0.0) {
-            bail!("{file}: power_kw {v} < 0 at t_s = {t}");
-        }
-    }
     if let Some(tool) = &tool_mm {
         let max = firmware::pipeline::MAX_TOOL_LENGTH_MM;
         let bad = tool
