@@ -27,6 +27,10 @@ use serde::Serialize;
 pub const PROBE_COLUMNS: [&str; 5] = ["S1", "S2", "S3", "S4", "S5"];
 /// The run column a row's tool length is read from when no fixed one is given.
 pub const TOOL_COLUMN: &str = "tool_mm";
+/// The tool lengths the hub takes, mm (`firmware::pipeline::MAX_TOOL_LENGTH_MM`;
+/// it refuses others and keeps its last one): `hub set-tool`, a machine
+/// file and a file profile are held to them.
+pub const HUB_TOOL_MM: std::ops::RangeInclusive<f64> = 0.0..=firmware::pipeline::MAX_TOOL_LENGTH_MM;
 /// Columns the job writes, after `t_s`, in this order.
 pub const OUTPUT_COLUMNS: [&str; 6] = [
     "e_um",

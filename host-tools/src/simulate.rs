@@ -371,22 +371,19 @@ fn within_physics(r: &sim::Row<'_>) -> Result<()> {
     let judged = temps
         .map(|v| (v, Quantity::Temperature))
         .chain(lengths.map(|v| (v, Quantity::Length)));
-    for (v, q) in judged {
-        let (lo, hi) = q.range();
-        if !(lo..=hi).contains(&v) {
-            let (what, unit) = match q {
-                Quantity::Temperature => ("a temperature", "C"),
-                Quantity::Length => ("a displacement", "um"),
-            };
+    match judged.into_iter().find(|&(v, q)| !q.admits(v)) {
+        Some((v, q)) => {
+            let (lo, hi) = q.range();
             anyhow::bail!(
-                "t_s = {}: {what} of the twin reaches {v:e} {unit}, outside {lo} ..= {hi} {unit}: \
-                 the machine's parameters (or the profile's power) drive it beyond any \
-                 machine; check the machine file",
-                r.t_s
-            );
+                "t_s = {}: {} of the twin reaches {v:e}, outside {lo} ..= {hi}: the machine's \
+                 parameters (or the profile's power) drive it beyond any machine; check the \
+                 machine file",
+                r.t_s,
+                q.what()
+            )
         }
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Appends `v` with four decimals (0.1 mK, 0.1 nm: below every noise

@@ -35,6 +35,8 @@ pub use super::summary::{median, summarise, Summary};
 pub const DEFAULT_PROFILES: &str = "steps:48,spectrum:48,spectrum:24";
 /// Effect magnitudes of the full twin benchmark, multiples of the machine file's.
 pub const DEFAULT_MAGNITUDES: &str = "0.5,1,2";
+/// Default seeds per combination of the twin cases (`--seeds`).
+pub const DEFAULT_SEEDS: usize = 3;
 /// Mismatch of the twin cases, %.
 pub const TWIN_MISMATCH_PCT: f64 = 4.0;
 /// Mismatch of the zoo cases, %.

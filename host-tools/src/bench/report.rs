@@ -34,11 +34,7 @@ pub fn f1(v: Option<f64>) -> String {
 /// A percentage with one decimal, or "-" where there is none (no effect
 /// case to take a rate or a median of: it printed NaN).
 fn pct(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x:.1}")
-    } else {
-        "-".to_string()
-    }
+    crate::num::shown::figure(Some(x), 0, 1)
 }
 
 /// A number with three decimals, or empty.

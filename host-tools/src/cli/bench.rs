@@ -4,7 +4,8 @@
 
 use crate::bench::cases::{GapConfig, ProfileSpec};
 use crate::bench::gap::{
-    bench_twin, Scratch, DEFAULT_MAGNITUDES, DEFAULT_PROFILES, TWIN_MISMATCH_PCT, ZOO_MISMATCH_PCT,
+    bench_twin, Scratch, DEFAULT_MAGNITUDES, DEFAULT_PROFILES, DEFAULT_SEEDS, TWIN_MISMATCH_PCT,
+    ZOO_MISMATCH_PCT,
 };
 use crate::bench::outcome::Outcome;
 use crate::bench::zoo::{self, ZooParams};
@@ -125,7 +126,11 @@ pub fn parse_list<T>(flag: &str, s: &str, f: impl Fn(&str) -> Result<T>) -> Resu
 
 /// The twin benchmark's configuration from the command line.
 pub fn config(a: &GapArgs) -> Result<GapConfig> {
-    let seeds = if a.quick { 1 } else { a.seeds.unwrap_or(3) };
+    let seeds = if a.quick {
+        1
+    } else {
+        a.seeds.unwrap_or(DEFAULT_SEEDS)
+    };
     if !(1..=100).contains(&seeds) {
         bail!("--seeds must be in 1..=100 (got {seeds})");
     }

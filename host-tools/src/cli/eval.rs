@@ -150,11 +150,8 @@ fn table_text(out: &Map<String, Value>) -> String {
     s
 }
 
-/// The number `key` of `v` in `width` columns with `decimals`, or "-"
-/// where it is absent or not finite (a run with nothing to score).
+/// The number `key` of `v` as a table figure ("-" where it is absent: a
+/// run with nothing to score).
 fn figure(v: &Value, key: &str, width: usize, decimals: usize) -> String {
-    match v.get(key).and_then(Value::as_f64).filter(|x| x.is_finite()) {
-        Some(x) => format!("{x:>width$.decimals$}"),
-        None => format!("{:>width$}", "-"),
-    }
+    crate::num::shown::figure(v.get(key).and_then(Value::as_f64), width, decimals)
 }

@@ -151,14 +151,13 @@ fn upload(a: &UploadArgs) -> Result<()> {
 fn set_tool(a: &SetToolArgs) -> Result<()> {
     // Read as f64 and judged before the wire's f32 (1e300 was reported as
     // "got inf"), against the range the hub itself takes.
-    let max = firmware::pipeline::MAX_TOOL_LENGTH_MM;
-    if !(0.0..=max).contains(&a.mm) {
-        let got = if a.mm.abs() < 1e9 {
-            format!("{}", a.mm)
-        } else {
-            format!("{:e}", a.mm)
-        };
-        bail!("--mm must be a tool length in 0 ..= {max} mm, got {got}");
+    let tools = crate::fivepoint::HUB_TOOL_MM;
+    if !tools.contains(&a.mm) {
+        bail!(
+            "--mm must be a tool length in 0 ..= {} mm, got {}",
+            tools.end(),
+            crate::num::shown::Num(a.mm)
+        );
     }
     let timeout = a.port.timeout()?;
     let mut s = a.port.open()?;

@@ -234,20 +234,13 @@ fn calibration_table(cal: &calibrate::Calibration) -> String {
     s
 }
 
-/// `x` in `width` columns with `decimals`, then `unit` in two; "-" where
-/// there is no figure (nothing held out, a flat channel's fit).
+/// `x` as a table figure, then `unit` in two columns (blank beside "-":
+/// nothing held out, a flat channel's fit).
 fn figure(x: f64, width: usize, decimals: usize, unit: &str) -> String {
-    let (n, unit) = if x.is_finite() {
-        (format!("{x:>width$.decimals$}"), unit)
-    } else {
-        (
-            format!("{:>width$}", "-"),
-            if unit.is_empty() { "" } else { "  " },
-        )
-    };
-    if unit.is_empty() {
-        n
-    } else {
-        format!("{n} {unit:<2}")
+    let n = crate::num::shown::figure(Some(x), width, decimals);
+    match (unit, x.is_finite()) {
+        ("", _) => n,
+        (_, true) => format!("{n} {unit:<2}"),
+        (_, false) => format!("{n}   "),
     }
 }

@@ -20,6 +20,7 @@
 //! [`resample_linear`].
 
 use crate::data::cells::{self, Cells};
+use crate::num::shown::Num;
 use std::borrow::Cow;
 use std::collections::{HashMap, VecDeque};
 use std::fmt;
@@ -1100,6 +1101,20 @@ impl Quantity {
         }
     }
 
+    /// Whether a reading `v` lies in [`Quantity::range`].
+    pub fn admits(self, v: f64) -> bool {
+        let (lo, hi) = self.range();
+        (lo..=hi).contains(&v)
+    }
+
+    /// The quantity and its unit as messages name them.
+    pub fn what(self) -> &'static str {
+        match self {
+            Quantity::Temperature => "a temperature in deg C",
+            Quantity::Length => "a length in um",
+        }
+    }
+
     /// `v` if it lies in [`Quantity::range`]; else the cell's error, its
     /// text from `text`.
     fn check(
@@ -1109,8 +1124,7 @@ impl Quantity {
         name: &str,
         text: impl FnOnce() -> String,
     ) -> Result<(), RowErrorKind> {
-        let (lo, hi) = self.range();
-        if (lo..=hi).contains(&v) {
+        if self.admits(v) {
             Ok(())
         } else {
             Err(RowErrorKind::Unphysical {
@@ -1263,21 +1277,6 @@ fn shown_cell(cell: &[u8]) -> String {
         let mut short: String = text.chars().take(MAX_SHOWN_CELL_CHARS).collect();
         short.push('…');
         short
-    }
-}
-
-/// A number as shown in messages: plain notation for everyday magnitudes,
-/// scientific otherwise, because Rust prints `1e300` as 301 digits.
-struct Num(f64);
-
-impl fmt::Display for Num {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let magnitude = self.0.abs();
-        if magnitude == 0.0 || (1e-4..1e15).contains(&magnitude) {
-            write!(f, "{}", self.0)
-        } else {
-            write!(f, "{:e}", self.0)
-        }
     }
 }
 
@@ -1547,16 +1546,13 @@ impl fmt::Display for RowError {
                 text,
                 quantity,
             } => {
-                let what = match quantity {
-                    Quantity::Temperature => "a temperature in deg C",
-                    Quantity::Length => "a length in um",
-                };
                 let (lo, hi) = quantity.range();
                 write!(
                     f,
-                    "{file}:{line}:{column} ({}): value {text:?} is not {what} (its name says \
+                    "{file}:{line}:{column} ({}): value {text:?} is not {} (its name says \
                      so; readings lie in {lo} ..= {hi})",
-                    Name(name)
+                    Name(name),
+                    quantity.what()
                 )
             }
             RowErrorKind::MissingTime { column } => {

@@ -1,5 +1,5 @@
 //! Shared numerics: least squares (dense and blocked QR), statistics and distributions, the seeded
-//! random numbers. Every job that needs one of these takes it from here,
+//! random numbers, numbers as text ([`shown`]). Every job that needs one of these takes it from here,
 //! never from a sibling job.
 
 pub mod batch;
@@ -10,5 +10,6 @@ pub mod lp3;
 pub mod lsq;
 pub mod progress;
 pub mod rng;
+pub mod shown;
 pub mod stats;
 pub mod tsqr;

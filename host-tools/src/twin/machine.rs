@@ -854,9 +854,9 @@ fn check_load_effects(e: &EffectParams) -> Result<()> {
     positive(e.sensor_lag.tau_s, "effects.sensor_lag.tau_s")
 }
 
-/// The fastest `max_rpm` a machine file may give: ten times the fastest
-/// machine-tool spindles (about 100,000 rpm). 1e300 got as far as a NaN in
-/// the probe geometry, with no word of the field.
+/// The fastest `max_rpm` a machine file may give, a bound well beyond
+/// machine-tool spindles rather than a measured figure: 1e300 got as far
+/// as a NaN in the probe geometry, with no word of the field.
 pub const MAX_RPM_LIMIT: f64 = 1e6;
 
 /// Range checks on the numbers, naming the field (the first error in
@@ -869,10 +869,11 @@ fn validate(m: &Machine) -> Result<()> {
             m.max_rpm
         );
     }
-    let max_tool = firmware::pipeline::MAX_TOOL_LENGTH_MM;
-    if !(0.0..=max_tool).contains(&m.tool_mm) {
+    let tools = crate::fivepoint::HUB_TOOL_MM;
+    if !tools.contains(&m.tool_mm) {
         bail!(
-            "tool_mm must be in 0 ..= {max_tool} mm, the hub's range (got {})",
+            "tool_mm must be in 0 ..= {} mm, the hub's range (got {})",
+            tools.end(),
             m.tool_mm
         );
     }

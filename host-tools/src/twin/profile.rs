@@ -244,13 +244,13 @@ fn from_file(path: &Path, hours: Option<f64>) -> Result<Schedule> {
         .map(|c| dense("tool_mm", c))
         .transpose()?;
     if let Some(tool) = &tool_mm {
-        let max = firmware::pipeline::MAX_TOOL_LENGTH_MM;
-        let bad = tool
-            .iter()
-            .zip(&run.t_s)
-            .find(|(v, _)| !(0.0..=max).contains(*v));
+        let tools = crate::fivepoint::HUB_TOOL_MM;
+        let bad = tool.iter().zip(&run.t_s).find(|(v, _)| !tools.contains(*v));
         if let Some((v, t)) = bad {
-            bail!("{file}: tool_mm {v} at t_s = {t} is outside the hub's 0 ..= {max} mm");
+            bail!(
+                "{file}: tool_mm {v} at t_s = {t} is outside the hub's 0 ..= {} mm",
+                tools.end()
+            );
         }
     }
     Ok(Schedule {
