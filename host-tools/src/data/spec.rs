@@ -400,29 +400,18 @@ fn name(s: &str) -> Result<Name> {
         bail!("empty column name");
     }
     if s.chars().any(char::is_control) {
-        bail!(
-            "column name \"{}\" holds a control character: a model's column names must be printable",
-            shown(s)
-        );
+        bail!("column name \"{s}\" holds a control character: a model's column names must be printable");
     }
     Name::try_from(s).map_err(|_| {
         anyhow!(
-            "column name \"{}\" is longer than {} bytes",
-            shown(s),
+            "column name \"{s}\" is longer than {} bytes",
             model_core::model::NAME_LEN
         )
     })
 }
 
-/// A name as error messages show it: its first 40 characters, control
-/// characters escaped, then "..." if there is more (a 900,000-character
-/// name made a 1.8 MB "one-line" error; a line break split it).
-fn shown(s: &str) -> String {
-    shown_first(s, 40)
-}
-
-/// `s`'s first `n` characters, control characters escaped, then "..." if
-/// there is more.
+/// `s`'s first `n` characters, control characters escaped (a name holding
+/// a line break split the line), then "..." if there is more.
 fn shown_first(s: &str, n: usize) -> String {
     let mut out: String = s
         .chars()
@@ -550,13 +539,7 @@ fn tf_params(
                 b: vec_of(&t.b, "b")?,
             })
         })()
-        .map_err(|err| {
-            anyhow!(
-                "{at}: [[tf]] {} <- {}: {err}",
-                shown(&t.output),
-                shown(&t.input)
-            )
-        })?;
+        .map_err(|err| anyhow!("{at}: [[tf]] {} <- {}: {err}", t.output, t.input))?;
         entries
             .push(entry)
             .map_err(|_| anyhow!("{at}: more than {} [[tf]] entries", entries.capacity()))?;
@@ -604,7 +587,7 @@ fn linear_params(
                 position: b.position(&l.position)?,
             })
         })()
-        .map_err(|err| anyhow!("{at}: [[linear]] {}: {err}", shown(&l.output)))?;
+        .map_err(|err| anyhow!("{at}: [[linear]] {}: {err}", l.output))?;
         outputs
             .push(eq)
             .map_err(|_| anyhow!("{at}: more than {MAX_OUTPUTS} [[linear]] entries"))?;
@@ -764,7 +747,7 @@ fn pcr_params(
                 },
             })
         })()
-        .map_err(|err| anyhow!("{at}: [[pcr]] {}: {err}", shown(&p.output)))?;
+        .map_err(|err| anyhow!("{at}: [[pcr]] {}: {err}", p.output))?;
         entries.push(entry);
         spans.push(span);
     }
@@ -1021,7 +1004,7 @@ fn bounded(msg: &str) -> String {
         .split(' ')
         .map(|word| {
             if word.chars().nth(LONG).is_some() {
-                shown(word)
+                shown_first(word, 40)
             } else {
                 shown_first(word, LONG)
             }

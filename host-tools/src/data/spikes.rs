@@ -26,7 +26,7 @@ pub struct Isolated {
 impl Isolated {
     /// The note for `run`'s file; `taker` ("the fit", "the diagnosis")
     /// takes the readings as they are.
-    pub fn note(&self, run: &RunFile, taker: &str) -> String {
+    fn note(&self, run: &RunFile, taker: &str) -> String {
         format!(
             "{}: {}: {} reading(s) jump away from both neighbours faster than a temperature \
              moves (the first {} at t_s = {}): broken readings? {taker} takes them as they \
@@ -52,7 +52,7 @@ pub fn notes(runs: &[RunFile], columns: &[String], taker: &str) -> Vec<String> {
 }
 
 /// The isolated readings of `run`'s temperature columns among `columns`.
-pub fn isolated(run: &RunFile, columns: &[String]) -> Vec<Isolated> {
+fn isolated(run: &RunFile, columns: &[String]) -> Vec<Isolated> {
     columns
         .iter()
         .filter(|c| Quantity::of(c) == Some(Quantity::Temperature))

@@ -381,8 +381,8 @@ impl Builder {
     /// speed (the real log's, else the simulation's) and the optional
     /// inputs of the real run.
     fn add(&mut self, sim: &RunFile, real: &RunFile, names: &[String], inputs: bool) -> Result<()> {
-        for found in crate::data::spikes::isolated(real, names) {
-            eprintln!("note: {}", found.note(real, "The diagnosis"));
+        for note in crate::data::spikes::notes(std::slice::from_ref(real), names, "The diagnosis") {
+            eprintln!("note: {note}");
         }
         let grid = &self.grid;
         if inputs {

@@ -259,8 +259,10 @@ pub struct ReplayOutcome {
 /// slot may hold bytes after its blob; an uploaded file may not.
 fn uploaded(model: &Path) -> Result<Vec<u8>> {
     let bytes = crate::data::fsio::read_capped(model, model_core::blob::MAX_BLOB_LEN as u64)?;
-    match model_core::blob::decode(&bytes) {
-        Ok(_) => Ok(bytes),
+    // The upload's own check (decoded in its own frame and dropped; the
+    // hub then loads the bytes once).
+    match model_core::blob::check_split(&[], &bytes) {
+        Ok(()) => Ok(bytes),
         Err(e) => {
             eprintln!(
                 "note: {}: the hub refuses this blob ({e}): it runs without a model and sends zero offsets",
