@@ -377,34 +377,24 @@ fn issue14_absurd_values_are_refused() {
     }
 
     let csv = d.join("sim.csv");
-    let se = fails(&[
-        "simulate",
-        "--out",
-        p(&csv),
-        "--hours",
-        "1",
-        "--dt-s",
-        "1e-300",
-    ]);
+    // `simulate --out sim.csv ARGS`, expected to fail with one line.
+    let simulate = |args: &[&str]| {
+        let mut all = vec!["simulate", "--out", p(&csv)];
+        all.extend_from_slice(args);
+        fails(&all)
+    };
+    let se = simulate(&["--hours", "1", "--dt-s", "1e-300"]);
     assert!(
         se.contains("--dt-s") && se.contains("not a sample time"),
         "{se}"
     );
     // A negative number is a value, judged as one (not "unexpected argument").
-    let se = fails(&["simulate", "--out", p(&csv), "--hours", "-1"]);
+    let se = simulate(&["--hours", "-1"]);
     assert!(se.contains("--hours must be finite and > 0"), "{se}");
     // A speed above the machine's top speed is refused, not extrapolated
     // (constant:1e12 heated the bearings some 5e12 times as hard as the top speed).
     for rpm in ["constant:12001", "constant:1e12"] {
-        let se = fails(&[
-            "simulate",
-            "--out",
-            p(&csv),
-            "--hours",
-            "1",
-            "--profile",
-            rpm,
-        ]);
+        let se = simulate(&["--hours", "1", "--profile", rpm]);
         assert!(
             se.contains("is above the machine's max_rpm 12000") && se.contains("--machine"),
             "{se}"
@@ -419,15 +409,7 @@ fn issue14_absurd_values_are_refused() {
         machine.replacen("ambient_c = 20.0", "ambient_c = -300.0", 1),
     )
     .unwrap();
-    let se = fails(&[
-        "simulate",
-        "--out",
-        p(&csv),
-        "--hours",
-        "1",
-        "--machine",
-        p(&cold),
-    ]);
+    let se = simulate(&["--hours", "1", "--machine", p(&cold)]);
     let line = machine
         .lines()
         .position(|l| l.starts_with("ambient_c = 20.0"))
@@ -464,17 +446,7 @@ fn issue14_absurd_values_are_refused() {
     ] {
         assert!(machine.contains(from), "{from}");
         std::fs::write(&hot, machine.replacen(from, to, 1)).unwrap();
-        let se = fails(&[
-            "simulate",
-            "--out",
-            p(&csv),
-            "--hours",
-            "2",
-            "--dt-s",
-            "60",
-            "--machine",
-            p(&hot),
-        ]);
+        let se = simulate(&["--hours", "2", "--dt-s", "60", "--machine", p(&hot)]);
         assert!(se.contains(said), "{se}");
         assert!(!csv.exists(), "nothing written");
     }
@@ -490,7 +462,7 @@ fn issue14_absurd_values_are_refused() {
         .unwrap();
     };
     with("1000,1,1e6");
-    let se = fails(&["simulate", "--out", p(&csv), "--profile", &profile]);
+    let se = simulate(&["--profile", &profile]);
     assert!(
         se.contains("tool_mm 1000000 at t_s = 0 is outside the hub's 0 ..= 1000 mm"),
         "{se}"

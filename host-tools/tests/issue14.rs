@@ -806,18 +806,25 @@ fn run_names_with_commas_quotes_and_line_breaks_stay_one_field() {
 fn a_broken_reading_in_the_calibration_runs_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let text = edited(&run_text(50, false), |i, c| {
-        if i == 10 {
-            c[3] = "900".into();
-        }
-    });
-    let data = write(d, "spike.csv", &text);
+    // `rows` rows of run_text, T2 at 900 C on line 10 (t_s = 9) if `spike`.
+    let run = |name: &str, rows: usize, spike: bool| {
+        let text = edited(&run_text(rows, false), |i, c| {
+            if spike && i == 10 {
+                c[3] = "900".into();
+            }
+        });
+        write(d, name, &text)
+    };
     let out = p(&d.join("m.bin")).to_string();
-    let args = [
-        "fit", "--data", &data, "--model", "mlr", "--inputs", "T1,T2", "--target", "dz_um",
-        "--out", &out,
-    ];
-    let (_, se) = common::ok(&args);
+    let fit = |data: &str| {
+        common::ok(&[
+            "fit", "--data", data, "--model", "mlr", "--inputs", "T1,T2", "--target", "dz_um",
+            "--out", &out,
+        ])
+        .1
+    };
+    let data = run("spike.csv", 50, true);
+    let se = fit(&data);
     assert!(
         se.contains(&format!(
             "note: {data}: T2: 1 reading(s) jump away from both neighbours faster than a \
@@ -825,23 +832,11 @@ fn a_broken_reading_in_the_calibration_runs_is_named() {
         )) && se.matches("jump away").count() == 1,
         "{se}"
     );
-    let clean = write(d, "clean.csv", &run_text(50, false));
-    let (_, se) = common::ok(&[
-        "fit", "--data", &clean, "--model", "mlr", "--inputs", "T1,T2", "--target", "dz_um",
-        "--out", &out,
-    ]);
+    let se = fit(&run("clean.csv", 50, false));
     assert!(!se.contains("jump away"), "{se}");
     // diagnose names it in the real run too.
-    let sim = write(d, "sim.csv", &run_text(400, false));
-    let real = write(
-        d,
-        "real.csv",
-        &edited(&run_text(400, false), |i, c| {
-            if i == 10 {
-                c[3] = "900".into();
-            }
-        }),
-    );
+    let sim = run("sim.csv", 400, false);
+    let real = run("real.csv", 400, true);
     let r = run_bounded(
         &["diagnose", "--sim", &sim, "--real", &real, "--json"],
         Stdio::null(),
