@@ -19,7 +19,10 @@ scored runs, for `auto`, for a numpy ridge with one fixed feature recipe
 (temperature changes raw and low-pass filtered at 15 and 60 min, penalty by
 leave-one-run-out CV: the "new user with numpy" baseline), and for numpy
 least squares on the raw temperature changes alone (`ols`: no filter, no
-penalty, no intercept; the plainest model there is). Inputs: the
+penalty, no intercept; the plainest model there is), and the same on the
+temperatures `auto` kept (`ols*`: without the inputs it left out because
+they did not move in calibration, so that the rule is not what separates
+the two). Inputs: the
 temperature columns only (`--inputs T1..Tn`), as that machine's criterion.
 Also: the band's coverage and mean half-width on the scored runs, the share
 of scored samples the hub flags as extrapolating, and the rmse on the second
@@ -136,6 +139,14 @@ def ols_changes(xs, ys):
     return lambda xn: xn @ w
 
 
+def ols_error(cal_d, test_d, col, temps, t):
+    """Errors on the scored runs of `ols_changes` on `temps`."""
+    raw = [features(d, col, temps)[:, :len(temps)] for d in cal_d]
+    ols = ols_changes(raw, [d[:, col[t]] for d in cal_d])
+    return np.concatenate([ols(features(d, col, temps)[:, :len(temps)]) - d[:, col[t]]
+                           for d in test_d])
+
+
 def rmse(e):
     return float(np.sqrt(np.mean(np.square(e))))
 
@@ -211,17 +222,18 @@ def main():
         refit = refit_on_room1(exe, tmp, f"{tmp}/m.bin", test)
         cal_d = [read(p)[0] for p in cal]
         test_d = [read(p)[0] for p in test]
-        print(f"{'target':8} {'auto':>8} {'ridge':>8} {'ols':>8} {'sd y':>8} {'cover%':>7} {'half':>7} {'flag%':>6}"
+        quiet = [q["input"] for q in fit_json["details"].get("quiet_inputs", [])]
+        kept = [c for c in temps if c not in quiet]
+        print(f"left out by auto (did not move in calibration): {', '.join(quiet) or 'none'}")
+        print(f"{'target':8} {'auto':>8} {'ridge':>8} {'ols':>8} {'ols*':>8} {'sd y':>8} {'cover%':>7} {'half':>7} {'flag%':>6}"
               f" {'room2':>6} {'refit':>6} {'rcover':>6}  auto's first member (of n)")
         for t in TARGETS:
             xs = [features(d, col, temps) for d in cal_d]
             ys = [d[:, col[t]] for d in cal_d]
             model = ridge_loro(xs, ys)
             e = np.concatenate([model(features(d, col, temps)) - d[:, col[t]] for d in test_d])
-            raw = [features(d, col, temps)[:, :len(temps)] for d in cal_d]
-            ols = ols_changes(raw, ys)
-            e_ols = np.concatenate([ols(features(d, col, temps)[:, :len(temps)]) - d[:, col[t]]
-                                    for d in test_d])
+            e_ols = ols_error(cal_d, test_d, col, temps, t)
+            e_kept = ols_error(cal_d, test_d, col, kept, t)
             y = np.concatenate([d[:, col[t]] for d in test_d])
             lo, hi = pred[:, pcol[f"{t}_lo95"]], pred[:, pcol[f"{t}_hi95"]]
             cover = coverage(y, lo, hi)
@@ -232,7 +244,7 @@ def main():
             flagged = 100.0 * np.mean((hi - lo) / 2 >= at_flag * (1 - 1e-9))
             chosen = [r for r in tj["cv_table"] if r["chosen"]] or tj["cv_table"][:1]
             w = chosen[0]
-            print(f"{t:8} {ev_json[t]['rmse_um']:8.2f} {rmse(e):8.2f} {rmse(e_ols):8.2f} {y.std():8.2f} {cover:7.1f} "
+            print(f"{t:8} {ev_json[t]['rmse_um']:8.2f} {rmse(e):8.2f} {rmse(e_ols):8.2f} {rmse(e_kept):8.2f} {y.std():8.2f} {cover:7.1f} "
                   f"{half:7.2f} {flagged:6.1f} {refit[t][0]:6.2f} {refit[t][1]:6.2f} {refit[t][2]:6.1f}  "
                   f"{tj['family']} {w['form']} temps {w['temp_taus_s']} lambda {w['lambda']:g}"
                   f" (of {len(chosen)})")

@@ -748,3 +748,125 @@ fn a_flat_target_is_refused_before_training() {
         assert!(!out.exists(), "no blob written");
     }
 }
+
+/// One 8 h run at 60 s: T1 warms with the spindle (off, then 3000 rpm);
+/// T2 is a room sensor logging `room(k)` plus 0.02 K of white noise (its
+/// own stream, `seed`); dz = 5 (T1 - T1(0)) + 2 (room - room(0)) and
+/// does not see T2's noise.
+fn quiet_room_run(dir: &Path, name: &str, room: &dyn Fn(usize) -> f64, seed: u64) -> String {
+    let n = 8 * 60;
+    let heat: Vec<f64> = (0..n).map(|k| if k < n / 4 { 0.0 } else { 9.0 }).collect();
+    let warm = lag(&heat, 1800.0, 60.0);
+    let noise = common::white(n, 0.02, seed);
+    let mut s = String::from("t_s,speed_rpm,T1,T2,dz_um\n");
+    for k in 0..n {
+        let t1 = room(k) + 0.4 * warm[k];
+        let dz = 5.0 * 0.4 * (warm[k] - warm[0]) + 2.0 * (room(k) - room(0));
+        let rpm = if heat[k] > 0.0 { 3000.0 } else { 0.0 };
+        let t2 = room(k) + noise[k];
+        s.push_str(&format!("{},{rpm},{t1:.6},{t2:.6},{dz:.6}\n", k * 60));
+    }
+    write(dir, name, &s)
+}
+
+/// A room sensor that held its level within its noise in every calibration
+/// run (three runs at constant rooms of 18, 22 and 20 C) carries no weight
+/// that could be calibrated: auto leaves it out, says so (stderr and the
+/// report page), reports its swing
+/// and noise (both the 0.02 K of noise, within 15 %: the median's spread
+/// over 1440 samples), and its model does not read it, so a held-out run
+/// whose room swings 2 K moves no offset through that sensor (on the
+/// twin's room protocol such a weight cost 30-58 um, docs/fit.md). `mlr`
+/// reads it and says so. With no input left that moved, auto refuses the
+/// fit in one line.
+#[test]
+fn an_input_that_did_not_move_in_calibration_is_left_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs: Vec<String> = [18.0, 22.0, 20.0]
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| quiet_room_run(dir.path(), &format!("c{i}.csv"), &move |_| c, 11 + i as u64))
+        .collect();
+    let swing = |k: usize| 20.0 + 2.0 * (k as f64 / 480.0);
+    let held = quiet_room_run(dir.path(), "room.csv", &swing, 99);
+    let out = dir.path().join("m.bin");
+    let mut args = vec!["fit", "--model", "auto", "--target", "dz_um"];
+    for r in &runs {
+        args.extend(["--data", r.as_str()]);
+    }
+    args.extend([
+        "--validate",
+        held.as_str(),
+        "--out",
+        p(&out),
+        "--auto-families",
+        "ridge",
+    ]);
+    let (_, err) = ok(&args);
+    assert!(
+        err.contains("note: auto left out T2 swing 0.02") && err.contains("no more than 3 times"),
+        "{err}"
+    );
+    let mut json = args.clone();
+    json.push("--json");
+    let v = ok_json(&json);
+    let page = dir.path().join("page");
+    let mut report = args.clone();
+    report.extend(["--report", p(&page)]);
+    ok(&report);
+    let html = std::fs::read_to_string(page.join("index.html")).unwrap();
+    assert!(
+        html.contains("<p>Left out (each moved no more than 3 times"),
+        "page"
+    );
+    assert!(html.contains("T2 swing 0.02"), "page");
+    let quiet = v["details"]["quiet_inputs"].as_array().unwrap();
+    assert_eq!(quiet.len(), 1, "{quiet:?}");
+    assert_eq!(quiet[0]["input"], "T2");
+    for key in ["swing", "noise"] {
+        let x = quiet[0][key].as_f64().unwrap();
+        assert!((0.017..0.023).contains(&x), "{key} {x}");
+    }
+    let show = ok_json(&["model", "show", "--model", p(&out), "--json"]);
+    let inputs: Vec<&str> = show["inputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(inputs, ["speed_rpm", "T1"]);
+    // The room's 4 um the model cannot know of, no more (ramp: rms 4/sqrt 3
+    // = 2.31 um, plus the penalty's shrinkage of the spindle's 18 um).
+    let held_rmse = |v: &Value| {
+        v["targets"]["dz_um"]["holdout"]["rmse_um"]
+            .as_f64()
+            .unwrap()
+    };
+    let auto = held_rmse(&v);
+    assert!(auto < 2.5, "auto on the room swing: {auto} um");
+
+    // A kind that reads what it is given fits T2 anyway, and says so.
+    let mlr = dir.path().join("mlr.bin");
+    let (_, err) = ok(&[
+        "fit",
+        "--model",
+        "mlr",
+        "--target",
+        "dz_um",
+        "--data",
+        &runs[0],
+        "--out",
+        p(&mlr),
+    ]);
+    let note = err.lines().find(|l| l.starts_with("note: T2 swing 0.02"));
+    assert!(
+        note.is_some_and(|l| l.contains("its weight is fitted to noise")),
+        "{err}"
+    );
+    let none = dir.path().join("none.bin");
+    let e = fit_fails(runs[0].as_str(), &none, &["--inputs", "T2"]);
+    assert!(
+        e.starts_with("error: auto: no input moved beyond 3 times its noise in the calibration rows (T2 swing"),
+        "{e}"
+    );
+}

@@ -511,6 +511,38 @@ fn warn_unmeasured_band(o: &FitOutcome) {
     }
 }
 
+/// Says on stderr which inputs did not move beyond their noise in the
+/// calibration rows: those an auto fit left out, or those another kind
+/// fitted a weight to anyway.
+fn warn_quiet_inputs(a: &FitArgs, o: &FitOutcome, runs: &[RunFile]) {
+    let at = crate::fit::quiet::MIN_SWING_OVER_NOISE;
+    let listed = |q: &[crate::fit::quiet::QuietInput]| {
+        q.iter()
+            .map(|q| q.to_string())
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    match o.auto_report() {
+        Some(report) if !report.quiet_inputs.is_empty() => eprintln!(
+            "note: auto left out {}: in the calibration rows each moved no more than {at} times \
+             its white noise, so no weight on it can be calibrated (the model does not read it)",
+            listed(&report.quiet_inputs)
+        ),
+        Some(_) => {}
+        None => {
+            let quiet = crate::fit::quiet::in_runs(runs, &o.inputs, a.holdout_from_s);
+            if !quiet.is_empty() {
+                eprintln!(
+                    "note: {}: in the calibration rows each moved no more than {at} times its \
+                     white noise, so its weight is fitted to noise and scales any later swing of \
+                     it into the offset (auto leaves such inputs out; or leave it out of --inputs)",
+                    listed(&quiet)
+                );
+            }
+        }
+    }
+}
+
 /// Says on stderr when `--holdout-from-s` held nothing out (it lies at or
 /// after every run's last row): the figures are then calibration figures.
 fn warn_nothing_held_out(a: &FitArgs, o: &FitOutcome) {
@@ -528,6 +560,7 @@ fn warn_nothing_held_out(a: &FitArgs, o: &FitOutcome) {
 pub fn run(a: &FitArgs) -> Result<()> {
     let (o, runs, validate) = read_and_fit(a)?;
     warn_unmeasured_band(&o);
+    warn_quiet_inputs(a, &o, &runs);
     warn_nothing_held_out(a, &o);
     let (table, json) = (scores_text(&o.scores), report_json(&o, &a.out)?);
     write_report(a, &o, [&runs, &validate], &table, &json)?;

@@ -15,6 +15,7 @@ pub mod gain;
 pub mod job;
 pub mod mlr;
 pub mod pcr;
+pub mod quiet;
 pub mod tfbank;
 
 pub use job::{fit, FitOptions, FitOutcome, FitParams, FitReport, ValidFitParams};

@@ -270,7 +270,17 @@ pub fn noise_sigma(x: &[f64]) -> f64 {
 /// stretches, so smooth motion (a chiller's ramps included) does not count
 /// as noise, only its turning points.
 pub fn white_sigma(x: &[f64]) -> f64 {
-    median_abs_sigma(x.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]), 6.0)
+    white_sigma_pooled(std::iter::once(x))
+}
+
+/// [`white_sigma`] of several series together (one median over the second
+/// differences within each, none across their joins): the noise of one
+/// sensor logged in several runs.
+pub fn white_sigma_pooled<'a>(runs: impl IntoIterator<Item = &'a [f64]>) -> f64 {
+    let d = runs
+        .into_iter()
+        .flat_map(|x| x.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]));
+    median_abs_sigma(d, 6.0)
 }
 
 /// The sigma of white noise whose differences `d` have variance `var_factor`

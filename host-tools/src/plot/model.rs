@@ -92,6 +92,16 @@ fn names<'a>(v: impl Iterator<Item = &'a str>) -> String {
 /// Each target's CV table as bars, best first, and its band's calibration.
 fn cv_html(auto: &AutoReport) -> String {
     let mut html = String::from("<h2>Cross-validation (calibration rows only)</h2>");
+    if !auto.quiet_inputs.is_empty() {
+        let quiet = auto.quiet_inputs.iter().map(|q| esc(&q.to_string()));
+        let _ = write!(
+            html,
+            "<p>Left out (each moved no more than {} times its white noise in the calibration \
+             rows, so no weight on it can be calibrated): {}.</p>",
+            crate::fit::quiet::MIN_SWING_OVER_NOISE,
+            quiet.collect::<Vec<_>>().join("; ")
+        );
+    }
     for t in &auto.targets {
         // The best CV_ROWS, and every member of the model below them (the
         // members are the best candidates of the winner's form that fit the

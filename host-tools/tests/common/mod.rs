@@ -85,6 +85,19 @@ pub fn rows_from(path: &str, from_s: f64) -> (String, Vec<String>) {
 /// the slow, correlated wander of real thermal residuals.
 pub fn ar1(n: usize, sd: f64, seed: u64) -> Vec<f64> {
     let phi: f64 = 0.99;
+    let mut e = 0.0;
+    white(n, 1.0, seed)
+        .into_iter()
+        .map(|z| {
+            e = phi * e + sd * (1.0 - phi * phi).sqrt() * z;
+            e
+        })
+        .collect()
+}
+
+/// White Gaussian noise of sd `sd` (xorshift64 + Box-Muller): a sensor's
+/// own noise.
+pub fn white(n: usize, sd: f64, seed: u64) -> Vec<f64> {
     let mut s = seed;
     let mut uni = move || {
         s ^= s << 13;
@@ -92,12 +105,7 @@ pub fn ar1(n: usize, sd: f64, seed: u64) -> Vec<f64> {
         s ^= s << 17;
         ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
     };
-    let mut e = 0.0;
     (0..n)
-        .map(|_| {
-            let z = (-2.0 * uni().ln()).sqrt() * (2.0 * std::f64::consts::PI * uni()).cos();
-            e = phi * e + sd * (1.0 - phi * phi).sqrt() * z;
-            e
-        })
+        .map(|_| sd * (-2.0 * uni().ln()).sqrt() * (2.0 * std::f64::consts::PI * uni()).cos())
         .collect()
 }

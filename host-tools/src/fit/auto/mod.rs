@@ -33,6 +33,7 @@ pub mod ridge;
 pub mod search;
 pub mod table;
 
+use super::quiet;
 use super::{outputs, Details, Fitted};
 use crate::data::dataset::{Dataset, GridRun};
 use anyhow::{anyhow, bail, Result};
@@ -355,6 +356,9 @@ pub struct AutoReport {
     pub targets: Vec<TargetChoice>,
     /// The model family chosen for every target together.
     pub families: FamilyChoice,
+    /// Inputs left out because they did not move beyond their noise in the
+    /// calibration rows (fit/quiet.rs): the model does not read them.
+    pub quiet_inputs: Vec<quiet::QuietInput>,
 }
 
 /// Reference-adjusted inputs of every grid run in `form`, `[run][input][k]`.
@@ -513,10 +517,45 @@ fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&f
 }
 
 /// Trains an auto model on `ds` (inputs in absolute form); its details
-/// are the [`AutoReport`].
+/// are the [`AutoReport`]. Inputs that did not move in calibration are
+/// left out first (fit/quiet.rs).
 pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
+    let mut grid = super::dynamic::grid::grid_runs(ds, params.settings.dt_s, "auto")?;
+    let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
+    let quiet = quiet::quiet_inputs(&grid, &roles, &ds.inputs);
+    let kept: Vec<usize> = (0..ds.inputs.len())
+        .filter(|i| !quiet.iter().any(|(q, _)| q == i))
+        .collect();
+    if kept.is_empty() {
+        let moved = quiet.iter().map(|(_, q)| q.to_string()).collect::<Vec<_>>();
+        bail!(
+            "auto: no input moved beyond {} times its noise in the calibration rows ({}): nothing to calibrate a model on",
+            quiet::MIN_SWING_OVER_NOISE,
+            moved.join(", ")
+        );
+    }
+    for g in &mut grid {
+        g.x = kept.iter().map(|&i| std::mem::take(&mut g.x[i])).collect();
+        if !g.x_lead.is_empty() {
+            g.x_lead = kept
+                .iter()
+                .map(|&i| std::mem::take(&mut g.x_lead[i]))
+                .collect();
+        }
+    }
+    let quiet = quiet.into_iter().map(|(_, q)| q).collect();
+    fit_moved(&ds.with_inputs(&kept), grid, params, quiet)
+}
+
+/// [`fit`] on the inputs that moved (`ds` and `grid` hold only those;
+/// `quiet`, the ones left out, go to the report).
+fn fit_moved(
+    ds: &Dataset,
+    grid: Vec<GridRun>,
+    params: &ValidAutoParams,
+    quiet: Vec<quiet::QuietInput>,
+) -> Result<Fitted> {
     let s = &params.settings;
-    let grid = super::dynamic::grid::grid_runs(ds, s.dt_s, "auto")?;
     let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
     let folds = Folds::of_grid(&grid, params.folds);
     let xs: Vec<FormX> = Form::ALL
@@ -572,6 +611,7 @@ pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
         settings: s.clone(),
         targets: ridge.choices,
         families: cmp.choice,
+        quiet_inputs: quiet,
     };
     Ok(Fitted {
         model,
