@@ -117,10 +117,17 @@ fn holdout_rmse(v: &Value) -> f64 {
 /// Three 8 h runs (r0..r2.csv) at rooms of 18, 22 and 20 C, the spindle off
 /// then at 3000 rpm.
 fn three_rooms(dir: &Path, f: &Target) -> Vec<String> {
+    three_rooms_at(dir, f, [3000.0; 3])
+}
+
+/// [`three_rooms`] with the spindle's speed after the first half `tops`
+/// (rpm, one per run).
+fn three_rooms_at(dir: &Path, f: &Target, tops: [f64; 3]) -> Vec<String> {
     [18.0, 22.0, 20.0]
         .iter()
+        .zip(tops)
         .enumerate()
-        .map(|(i, room)| run_file(dir, &format!("r{i}.csv"), 8, *room, &[0.0, 3000.0], f))
+        .map(|(i, (room, top))| run_file(dir, &format!("r{i}.csv"), 8, *room, &[0.0, top], f))
         .collect()
 }
 
@@ -130,14 +137,21 @@ fn three_rooms(dir: &Path, f: &Target) -> Vec<String> {
 /// within 0.05 um rms (the 6-digit rounding of the files and the ridge
 /// penalty's shrinkage).
 fn form_across_runs(f: &Target, held_room_c: f64, form: &str) {
-    form_across_edited_runs(f, held_room_c, form, &|_| {});
+    form_across_edited_runs(f, held_room_c, form, [3000.0; 3], &|_| {});
 }
 
-/// [`form_across_runs`] with each calibration file passed through `edit`
-/// (its path) before the fit; the fit's JSON.
-fn form_across_edited_runs(f: &Target, held_room_c: f64, form: &str, edit: &dyn Fn(&str)) -> Value {
+/// [`form_across_runs`] with the calibration runs' top speeds `tops` and
+/// each calibration file passed through `edit` (its path) before the fit;
+/// the fit's JSON.
+fn form_across_edited_runs(
+    f: &Target,
+    held_room_c: f64,
+    form: &str,
+    tops: [f64; 3],
+    edit: &dyn Fn(&str),
+) -> Value {
     let dir = tempfile::tempdir().unwrap();
-    let runs = three_rooms(dir.path(), f);
+    let runs = three_rooms_at(dir.path(), f, tops);
     for r in &runs {
         edit(r);
     }
@@ -200,16 +214,23 @@ fn a_target_that_starts_late_is_fitted_from_where_the_inputs_start() {
     };
     // 0.05 um rms (`form_across_runs`) is far under the 2.3 um of a late
     // reference (1.9 um measured with the grid starting at the target).
-    let v = form_across_edited_runs(&f, 25.0, "change", &blank_two_hours);
-    // The other families are scored from the same start: arx and tf on
-    // T1's change are exact here (1e-6 um measured; 2.26 um when their
-    // blobs were stepped from the grid's start), asserted at 0.05 um as
-    // above.
+    // The runs' top speeds differ (2000, 4000, 3000 rpm), so the run at
+    // 4000 leaves the others' envelope and the CV weighs arx and tf (alike
+    // runs would leave them out: `Sight`).
+    let tops = [2000.0, 4000.0, 3000.0];
+    let v = form_across_edited_runs(&f, 25.0, "change", tops, &blank_two_hours);
+    assert_eq!(v["details"]["sight"]["static_only"], false);
+    // The other families are scored from the same start (2.26 um when
+    // their blobs were stepped from the grid's start): arx on T1's change
+    // is exact here (1.4e-6 um measured), asserted at 0.05 um as above; tf,
+    // fitted for simulation, also gives the speed a gain, which the run at
+    // 4000 rpm extrapolates (0.126 um measured), asserted at 0.3 um, under
+    // a seventh of a late start's error.
     let rows = family_rows(&v);
-    for family in ["arx", "tf"] {
+    for (family, within) in [("arx", 0.05), ("tf", 0.3)] {
         let row = rows.iter().find(|r| r.0 == family && r.1 == "change");
         let cv = row.and_then(|r| r.2).unwrap_or(f64::NAN);
-        assert!(cv < 0.05, "{family}: {rows:?}");
+        assert!(cv < within, "{family}: {rows:?}");
     }
 }
 
@@ -241,6 +262,10 @@ fn alike_runs_leave_the_band_growth_unmeasured_and_fit_says_so() {
     assert_eq!(band["growth"], 1.0);
 
     let v = lagged_squared_speed(dir.path(), &["--auto-families", "ridge"]);
+    // Its forward-chained blocks leave the envelope: filters stay candidates.
+    let sight = &v["details"]["sight"];
+    assert_eq!(sight["static_only"], false, "{sight}");
+    assert!(sight["outside_samples"].as_u64().unwrap() >= 20, "{sight}");
     let band = &v["details"]["targets"][0]["band"];
     // The floor of measured growth is 20 extrapolating CV samples.
     assert!(
@@ -835,15 +860,17 @@ fn an_input_that_did_not_move_in_calibration_is_left_out() {
         .map(|i| i["name"].as_str().unwrap())
         .collect();
     assert_eq!(inputs, ["speed_rpm", "T1"]);
-    // The room's 4 um the model cannot know of, no more (ramp: rms 4/sqrt 3
-    // = 2.31 um, plus the penalty's shrinkage of the spindle's 18 um).
+    // T1 is the room plus the spindle's warming, so a model on it (and the
+    // speed) takes 5 um/K of the room's 2 K ramp where the machine moves
+    // 2 um/K: 3 um/K x 2 K, rms 6/sqrt 3 = 3.46 um, and nothing from T2
+    // (3.457 measured; 3.6 leaves room for the penalty's shrinkage).
     let held_rmse = |v: &Value| {
         v["targets"]["dz_um"]["holdout"]["rmse_um"]
             .as_f64()
             .unwrap()
     };
     let auto = held_rmse(&v);
-    assert!(auto < 2.5, "auto on the room swing: {auto} um");
+    assert!(auto < 3.6, "auto on the room swing: {auto} um");
 
     // A kind that reads what it is given fits T2 anyway, and says so.
     let mlr = dir.path().join("mlr.bin");
@@ -869,4 +896,142 @@ fn an_input_that_did_not_move_in_calibration_is_left_out() {
         e.starts_with("error: auto: no input moved beyond 3 times its noise in the calibration rows (T2 swing"),
         "{e}"
     );
+}
+
+/// `thermcomp simulate` of 8 h at 40 s into `dir/name.csv` (`extra`: its
+/// options), every `*_um` column zeroed at the run's first row (as issue
+/// 12's lathe logs them); the path.
+fn simulated_zeroed(dir: &Path, name: &str, extra: &[&str]) -> String {
+    let path = dir.join(format!("{name}.csv"));
+    let mut args = vec![
+        "simulate",
+        "--out",
+        p(&path),
+        "--hours",
+        "8",
+        "--dt-s",
+        "40",
+    ];
+    args.extend_from_slice(extra);
+    ok(&args);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    let mut out = head.join(",") + "\n";
+    for r in &rows {
+        let cells: Vec<String> = r
+            .iter()
+            .zip(&head)
+            .enumerate()
+            .map(|(j, (v, h))| {
+                let v = if h.ends_with("_um") {
+                    v - rows[0][j]
+                } else {
+                    *v
+                };
+                format!("{v}")
+            })
+            .collect();
+        out.push_str(&(cells.join(",") + "\n"));
+    }
+    write(dir, &format!("{name}.csv"), &out)
+}
+
+/// Issue 12's lathe protocol on the thermal twin (`scripts/auto_room_split.py
+/// --seed 6`, where `auto` used to fail worst): calibrated on three runs at
+/// constant rooms of 18, 20 and 23 C (steps, spectrum, steps), scored on two
+/// runs whose room moves (the `ambient` effect), on the ten temperatures.
+/// The calibration runs are alike, so the CV sees no extrapolation:
+/// temperatures enter unfiltered and arx and tf are not tried
+/// (`sight.static_only`, said on stderr); T7
+/// and T8, which only the room moves, held within their noise and are left
+/// out. Scored: dx within 10 um and dz within 5 um (the lathe's criterion;
+/// measured 0.96 and 1.97 um, where the filter bank and the noise-fitted
+/// weights gave 55.6 and 11.2 um), dy within 5 um (measured 3.12, was 57.9).
+#[test]
+fn calibrated_at_constant_rooms_auto_holds_when_the_room_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    let (machine, _) = ok(&["simulate", "--print-machine"]);
+    let mut cal = Vec::new();
+    for (i, (room, profile)) in [(18, "steps"), (20, "spectrum"), (23, "steps")]
+        .iter()
+        .enumerate()
+    {
+        let toml = machine
+            .replace("ambient_c = 20.0", &format!("ambient_c = {room}.0"))
+            .replace("coolant_c = 20.0", &format!("coolant_c = {room}.0"));
+        let m = write(dir.path(), &format!("m{room}.toml"), &toml);
+        let seed = (61 + i).to_string();
+        cal.push(simulated_zeroed(
+            dir.path(),
+            &format!("cal{room}"),
+            &[
+                "--profile",
+                profile,
+                "--seed",
+                &seed,
+                "--effects",
+                "",
+                "--machine",
+                &m,
+            ],
+        ));
+    }
+    let room: Vec<String> = [("steps", "64"), ("spectrum", "65")]
+        .iter()
+        .map(|(profile, seed)| {
+            let name = format!("room{seed}");
+            simulated_zeroed(
+                dir.path(),
+                &name,
+                &["--profile", profile, "--seed", seed, "--effects", "ambient"],
+            )
+        })
+        .collect();
+    let temps = (1..=10)
+        .map(|i| format!("T{i}"))
+        .collect::<Vec<_>>()
+        .join(",");
+    let out = dir.path().join("m.bin");
+    let mut args = vec!["fit", "--model", "auto", "--target", "dx_um,dy_um,dz_um"];
+    for c in &cal {
+        args.extend(["--data", c.as_str()]);
+    }
+    // The default families but bp (the slowest, and static like pcr).
+    let families = ["--auto-families", "ridge,pcr,arx,tf", "--json"];
+    args.extend(["--inputs", &temps, "--out", p(&out)]);
+    args.extend(families);
+    let (so, err) = ok(&args);
+    assert!(
+        err.contains("note: auto: 0 cross-validation samples left"),
+        "{err}"
+    );
+    let v: Value = serde_json::from_str(&so).unwrap();
+    assert_eq!(v["details"]["sight"]["static_only"], true);
+    for t in v["details"]["targets"].as_array().unwrap() {
+        for row in t["cv_table"].as_array().unwrap() {
+            let family = row["family"].as_str().unwrap();
+            assert!(family == "ridge" || family == "pcr", "{row}");
+            assert_eq!(row["temp_taus_s"], serde_json::json!([]), "{row}");
+        }
+    }
+    let quiet: Vec<&str> = v["details"]["quiet_inputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|q| q["input"].as_str().unwrap())
+        .collect();
+    assert_eq!(quiet, ["T7", "T8"]);
+    let mut eval = vec!["eval", "--model", p(&out), "--json"];
+    for r in &room {
+        eval.extend(["--data", r.as_str()]);
+    }
+    let e = ok_json(&eval);
+    for (t, bound) in [("dx_um", 10.0), ("dy_um", 5.0), ("dz_um", 5.0)] {
+        let rmse = e[t]["rmse_um"].as_f64().unwrap();
+        assert!(rmse < bound, "{t}: {rmse} um on the room runs");
+    }
 }

@@ -543,6 +543,24 @@ fn warn_quiet_inputs(a: &FitArgs, o: &FitOutcome, runs: &[RunFile]) {
     }
 }
 
+/// Says on stderr when an auto fit's CV could not see extrapolation, and
+/// what it left out for that reason.
+fn warn_static_only(o: &FitOutcome) {
+    let Some(sight) = o.auto_report().map(|r| r.sight) else {
+        return;
+    };
+    if sight.static_only {
+        eprintln!(
+            "note: auto: {} cross-validation samples left the other folds' input envelope \
+             (fewer than {}: the calibration runs are alike), so the CV cannot judge how a model extrapolates: \
+             temperatures enter unfiltered and arx/tf are not tried; calibrate on runs that \
+             differ (room, programme) for the CV to weigh their dynamics",
+            sight.outside_samples,
+            auto::MIN_EXTRAPOLATING
+        );
+    }
+}
+
 /// Says on stderr when `--holdout-from-s` held nothing out (it lies at or
 /// after every run's last row): the figures are then calibration figures.
 fn warn_nothing_held_out(a: &FitArgs, o: &FitOutcome) {
@@ -561,6 +579,7 @@ pub fn run(a: &FitArgs) -> Result<()> {
     let (o, runs, validate) = read_and_fit(a)?;
     warn_unmeasured_band(&o);
     warn_quiet_inputs(a, &o, &runs);
+    warn_static_only(&o);
     warn_nothing_held_out(a, &o);
     let (table, json) = (scores_text(&o.scores), report_json(&o, &a.out)?);
     write_report(a, &o, [&runs, &validate], &table, &json)?;

@@ -11,7 +11,7 @@
 //! 2 K where it held 0.02 K) the model extrapolates by that weight times the
 //! swing. On the thermal twin's "room moves" protocol such weights sent
 //! `auto`'s dx and dy on new runs to 31-58 um rms against displacements
-//! that move about 1.3 um (docs/fit.md, "Inputs that did not move").
+//! that move about 1.3 um (docs/fit.md, "When the room moves").
 //!
 //! So each measured input (a temperature's role: not a commanded heat
 //! source) is judged on the calibration samples: its *swing*, the rms of

@@ -102,6 +102,16 @@ fn cv_html(auto: &AutoReport) -> String {
             quiet.collect::<Vec<_>>().join("; ")
         );
     }
+    if auto.sight.static_only {
+        let _ = write!(
+            html,
+            "<p>{} cross-validation samples left the other folds' input envelope (fewer than \
+             {}: the calibration runs are alike): the CV cannot judge how a model extrapolates, so \
+             temperatures entered unfiltered and arx/tf were not tried.</p>",
+            auto.sight.outside_samples,
+            crate::fit::auto::MIN_EXTRAPOLATING
+        );
+    }
     for t in &auto.targets {
         // The best CV_ROWS, and every member of the model below them (the
         // members are the best candidates of the winner's form that fit the
