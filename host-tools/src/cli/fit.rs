@@ -337,9 +337,10 @@ pub struct AutoArgs {
     #[arg(long, default_value_t = 0)]
     pub auto_eliminate: usize,
     /// auto: model families weighed by the same cross-validation: ridge
-    /// (the filter bank, always), pcr, arx, tf, bp, gabp. Another family
+    /// (the filter bank; must be listed), pcr, arx, tf, bp, gabp. Another family
     /// replaces the ridge only when its CV error is lower beyond noise;
-    /// "ridge" alone: the filter bank only.
+    /// "ridge" alone: the filter bank only. arx and tf are tried only when
+    /// the CV sees extrapolation (not over alike calibration runs).
     #[arg(long, value_delimiter = ',', default_value = auto::table::DEFAULT_FAMILIES, value_name = "LIST")]
     pub auto_families: Vec<String>,
 }
@@ -515,49 +516,24 @@ fn warn_unmeasured_band(o: &FitOutcome) {
 /// calibration rows: those an auto fit left out, or those another kind
 /// fitted a weight to anyway.
 fn warn_quiet_inputs(a: &FitArgs, o: &FitOutcome, runs: &[RunFile]) {
-    let at = crate::fit::quiet::MIN_SWING_OVER_NOISE;
-    let listed = |q: &[crate::fit::quiet::QuietInput]| {
-        q.iter()
-            .map(|q| q.to_string())
-            .collect::<Vec<_>>()
-            .join("; ")
-    };
-    match o.auto_report() {
-        Some(report) if !report.quiet_inputs.is_empty() => eprintln!(
-            "note: auto left out {}: in the calibration rows each moved no more than {at} times \
-             its white noise, so no weight on it can be calibrated (the model does not read it)",
-            listed(&report.quiet_inputs)
-        ),
-        Some(_) => {}
+    use crate::fit::quiet;
+    let note = match o.auto_report() {
+        Some(r) => (!r.quiet_inputs.is_empty()).then(|| quiet::left_out(&r.quiet_inputs)),
         None => {
-            let quiet = crate::fit::quiet::in_runs(runs, &o.inputs, a.holdout_from_s);
-            if !quiet.is_empty() {
-                eprintln!(
-                    "note: {}: in the calibration rows each moved no more than {at} times its \
-                     white noise, so its weight is fitted to noise and scales any later swing of \
-                     it into the offset (auto leaves such inputs out; or leave it out of --inputs)",
-                    listed(&quiet)
-                );
-            }
+            let found = quiet::in_runs(runs, &o.inputs, a.holdout_from_s);
+            (!found.is_empty()).then(|| quiet::fitted_anyway(&found))
         }
+    };
+    if let Some(note) = note {
+        eprintln!("note: {note}");
     }
 }
 
 /// Says on stderr when an auto fit's CV could not see extrapolation, and
 /// what it left out for that reason.
 fn warn_static_only(o: &FitOutcome) {
-    let Some(sight) = o.auto_report().map(|r| r.sight) else {
-        return;
-    };
-    if sight.static_only {
-        eprintln!(
-            "note: auto: {} cross-validation samples left the other folds' input envelope \
-             (fewer than {}: the calibration runs are alike), so the CV cannot judge how a model extrapolates: \
-             temperatures enter unfiltered and arx/tf are not tried; calibrate on runs that \
-             differ (room, programme) for the CV to weigh their dynamics",
-            sight.outside_samples,
-            auto::MIN_EXTRAPOLATING
-        );
+    if let Some(sentence) = o.auto_report().and_then(|r| r.sight.sentence()) {
+        eprintln!("note: auto: {sentence}; calibrate on runs that differ (room, programme) for the CV to weigh their dynamics");
     }
 }
 

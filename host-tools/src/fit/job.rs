@@ -268,10 +268,19 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
     let flashed = model_core::decode(&bytes).map_err(|e| anyhow!("written blob: {e}"))?;
     let split = ds.scoring_split(runs, validate);
     let scores = score(&flashed, &split)?;
+    // What the blob reads, in the fit's order (auto leaves out inputs that
+    // did not move; a channel read in both forms is one input here).
+    let reads = |n: &&String| {
+        flashed
+            .inputs()
+            .iter()
+            .any(|c| c.name.as_str() == n.as_str())
+    };
+    let inputs: Vec<String> = ds.inputs.iter().filter(reads).cloned().collect();
     let report = FitReport {
         model: flashed.kind().name().to_string(),
         bytes: bytes.len(),
-        inputs: ds.inputs.clone(),
+        inputs: inputs.clone(),
         reference: ds.form.name().to_string(),
         holdout_from_s: a.holdout_from_s,
         calibration_rows: ds.calibration_len(),
@@ -289,7 +298,7 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
         bytes,
         scores,
         calibration_rows: report.calibration_rows,
-        inputs: ds.inputs,
+        inputs,
         report,
     })
 }

@@ -13,23 +13,26 @@
 //! `auto`'s dx and dy on new runs to 31-58 um rms against displacements
 //! that move about 1.3 um (docs/fit.md, "When the room moves").
 //!
-//! So each measured input (a temperature's role: not a commanded heat
-//! source) is judged on the calibration samples: its *swing*, the rms of
-//! its deviation from each run's mean (pooled over the runs, so a sensor
-//! that only sat at another level in another run has not moved), against
-//! its *noise*, the white-noise sigma from second differences within each
-//! stretch of consecutive samples ([`white_sigma_pooled`], blind to smooth
-//! motion), at least that of its resolution (the smallest step it took,
-//! over sqrt 12). An input whose swing is at most [`MIN_SWING_OVER_NOISE`]
+//! So each measured input (a temperature's role) is judged on the
+//! calibration rows as logged (a resampling grid would bridge gaps with
+//! straight lines, which have no noise): its *swing*, the rms of its
+//! deviation from each run's mean (pooled over the runs, so a sensor that
+//! only sat at another level in another run has not moved: [`judge`] says
+//! why), against its *noise*, the white-noise sigma from second
+//! differences of its present cells within each run
+//! ([`white_sigma_pooled`], blind to smooth motion), at least that of its
+//! resolution (the smallest step over sqrt 12) when its readings dither
+//! between levels. An input whose swing is at most [`MIN_SWING_OVER_NOISE`]
 //! times its noise is quiet. White noise alone has a ratio of about 1;
 //! every temperature of the real FL_THERMAL run has 9.9 or more over each
 //! of its calibration parts (the first 16 h and 24 h, the first 40 % and
-//! 60 % of the rows), the twin's heated sensors 19 or more.
+//! 60 % of the rows), the twin's heated sensors 19 or more. A heat source
+//! (speed, power) is a commanded value: quiet only when it never changes.
 //!
 //! [`white_sigma_pooled`]: crate::num::lsq::white_sigma_pooled
 
 use super::auto::features::Role;
-use crate::data::dataset::GridRun;
+use crate::data::dataset::Dataset;
 use crate::data::runfile::RunFile;
 use crate::num;
 use serde::Serialize;
@@ -40,15 +43,16 @@ use serde::Serialize;
 /// alone and 9.9 or more for every temperature we have seen move.
 pub const MIN_SWING_OVER_NOISE: f64 = 3.0;
 
-/// An input left out: it moved no more than its noise in calibration.
+/// An input that did not move beyond its noise in calibration.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct QuietInput {
     /// The input column.
     pub input: String,
     /// Rms of its deviation from each run's mean over the calibration
-    /// samples, in the column's unit.
+    /// samples, in the column's unit (a heat source's: from the mean of
+    /// every run's together).
     pub swing: f64,
-    /// Its white-noise sigma, same unit.
+    /// Its white-noise sigma, same unit (0 for a heat source).
     pub noise: f64,
 }
 
@@ -60,72 +64,98 @@ impl std::fmt::Display for QuietInput {
     }
 }
 
-/// The inputs of `names` (roles `roles`) that did not move beyond
-/// [`MIN_SWING_OVER_NOISE`] times their noise in the calibration samples
-/// of `grid`, with their dataset indices.
-pub fn quiet_inputs(
-    grid: &[GridRun],
-    roles: &[Role],
-    names: &[String],
-) -> Vec<(usize, QuietInput)> {
-    roles
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| **r == Role::Temperature)
-        .filter_map(|(i, _)| {
-            let runs: Vec<Vec<&[f64]>> =
-                grid.iter().map(|g| vec![&g.x[i][..g.calib_end]]).collect();
-            judge(&names[i], &runs).map(|q| (i, q))
+/// What an auto fit left out, as a sentence (stderr's note, the report
+/// page): the inputs, and why no weight on them can be calibrated.
+pub fn left_out(quiet: &[QuietInput]) -> String {
+    let listed: Vec<String> = quiet.iter().map(ToString::to_string).collect();
+    format!(
+        "auto left out {}: in the calibration rows each moved no more than {} times its white \
+         noise, so no weight on it can be calibrated",
+        listed.join("; "),
+        MIN_SWING_OVER_NOISE
+    )
+}
+
+/// The same of inputs a kind fitted anyway (`fit`'s note for the kinds
+/// that read whatever they are given).
+pub fn fitted_anyway(quiet: &[QuietInput]) -> String {
+    let listed: Vec<String> = quiet.iter().map(ToString::to_string).collect();
+    format!(
+        "{}: in the calibration rows each moved no more than {} times its white noise, so the \
+         weights on them are fitted to noise and turn any later swing of theirs into offset \
+         (auto leaves such inputs out; or leave them out of --inputs)",
+        listed.join("; "),
+        MIN_SWING_OVER_NOISE
+    )
+}
+
+/// The inputs of `ds` (absolute form) that did not move beyond
+/// [`MIN_SWING_OVER_NOISE`] times their noise in its calibration rows (as
+/// logged: a resampling grid would bridge gaps with straight lines, which
+/// have no noise), with their indices.
+pub fn quiet_inputs(ds: &Dataset) -> Vec<(usize, QuietInput)> {
+    (0..ds.inputs.len())
+        .filter_map(|i| {
+            let runs: Vec<Vec<Vec<f64>>> = ds
+                .runs
+                .iter()
+                .map(|r| stretches((0..r.calib_end).map(|row| r.x(i, row))))
+                .collect();
+            let name = &ds.inputs[i];
+            judge(name, Role::of(name), &borrowed(&runs)).map(|q| (i, q))
         })
         .collect()
 }
 
-/// The columns of `columns` (measured ones: not heat sources) that did not
-/// move beyond [`MIN_SWING_OVER_NOISE`] times their noise in the rows of
-/// `runs` before `until_s` (every row: `None`), each run's missing cells
-/// splitting it into stretches: what `fit` says of the inputs of a kind
-/// that reads whatever it is given.
+/// The columns of `columns` that did not move beyond
+/// [`MIN_SWING_OVER_NOISE`] times their noise in the rows of `runs` before
+/// `until_s` (every row: `None`), missing cells skipped: what `fit` says
+/// of the inputs of a kind that reads whatever it is given.
 pub fn in_runs(runs: &[RunFile], columns: &[String], until_s: Option<f64>) -> Vec<QuietInput> {
     columns
         .iter()
-        .filter(|c| Role::of(c) == Role::Temperature)
         .filter_map(|c| {
-            let stretches: Vec<Vec<Vec<f64>>> =
-                runs.iter().map(|r| stretches(r, c, until_s)).collect();
-            let runs: Vec<Vec<&[f64]>> = stretches
+            let runs: Vec<Vec<Vec<f64>>> = runs
                 .iter()
-                .map(|run| run.iter().map(Vec::as_slice).collect())
+                .map(|r| {
+                    let rows = r.t_s.iter().take_while(|t| until_s.is_none_or(|u| **t < u));
+                    let cells = r.column(c);
+                    stretches((0..rows.count()).map(|k| cells.and_then(|v| v.get(k))))
+                })
                 .collect();
-            judge(c, &runs)
+            judge(c, Role::of(c), &borrowed(&runs))
         })
         .collect()
 }
 
-/// The stretches of present cells of `column` in `run` before `until_s`.
-fn stretches(run: &RunFile, column: &str, until_s: Option<f64>) -> Vec<Vec<f64>> {
-    let Some(cells) = run.column(column) else {
-        return Vec::new();
-    };
-    let mut out = vec![Vec::new()];
-    for (k, t) in run.t_s.iter().enumerate() {
-        if until_s.is_some_and(|u| *t >= u) {
-            break;
-        }
-        match cells.get(k) {
-            Some(v) => out.last_mut().expect("one").push(v),
-            None if out.last().is_some_and(|s| !s.is_empty()) => out.push(Vec::new()),
-            None => {}
-        }
-    }
-    out.retain(|s| !s.is_empty());
-    out
+/// The present cells of one run's column, in order (a missing cell is
+/// skipped, not a break: second differences across it still see the
+/// noise, and a sparsely filled column would otherwise have none to see).
+fn stretches(cells: impl Iterator<Item = Option<f64>>) -> Vec<Vec<f64>> {
+    vec![cells.flatten().collect()]
 }
 
-/// `input` judged over `runs` (each run's stretches of consecutive
-/// samples): quiet when its swing is at most [`MIN_SWING_OVER_NOISE`]
-/// times its noise.
-pub fn judge(input: &str, runs: &[Vec<&[f64]>]) -> Option<QuietInput> {
-    let (swing, noise) = (swing(runs), noise(runs));
+/// `runs[run][stretch]` as slices.
+fn borrowed(runs: &[Vec<Vec<f64>>]) -> Vec<Vec<&[f64]>> {
+    runs.iter()
+        .map(|run| run.iter().map(Vec::as_slice).collect())
+        .collect()
+}
+
+/// `input` (of `role`) judged over `runs` (each run's stretches of
+/// consecutive samples). A temperature is quiet when its swing within the
+/// runs is at most [`MIN_SWING_OVER_NOISE`] times its noise. Its level in
+/// one run against another does not count: with displacements zeroed at
+/// each run's start it teaches the absolute form that the room's level
+/// moves nothing, and on the twin's room protocol (docs/fit.md, "When the
+/// room moves") letting such sensors into the absolute form sent dz on
+/// three of 18 seeds from 1.7-3.6 to 9.0-10.2 um. A heat source is a
+/// commanded value without noise: quiet only when it never changes.
+pub fn judge(input: &str, role: Role, runs: &[Vec<&[f64]>]) -> Option<QuietInput> {
+    let (swing, noise) = match role {
+        Role::Temperature => (swing(runs, false), noise(runs)),
+        Role::HeatSource => (swing(runs, true), 0.0),
+    };
     (swing <= MIN_SWING_OVER_NOISE * noise).then(|| QuietInput {
         input: input.to_string(),
         swing,
@@ -133,18 +163,26 @@ pub fn judge(input: &str, runs: &[Vec<&[f64]>]) -> Option<QuietInput> {
     })
 }
 
-/// The input's noise: its white-noise sigma from second differences, and
-/// at least the noise of its resolution, `q / sqrt 12` with `q` the smallest
-/// step it ever took (a room sensor logged to 0.1 K that sits at one
-/// reading and flips to the next now and then has second differences of
-/// median 0, yet moved no more than its last digit).
+/// The input's noise: its white-noise sigma from second differences, and,
+/// when its readings dither (consecutive steps of opposite sign), at least
+/// the noise of its resolution, `q / sqrt 12` with `q` its smallest step: a
+/// room sensor logged to 0.1 K that sits at one reading and flips to the
+/// next now and then has second differences of median 0, yet moved no more
+/// than its last digit. Readings that only climb or fall in steps (a
+/// coarse sensor warming, a single jump) have no such floor.
 fn noise(runs: &[Vec<&[f64]>]) -> f64 {
     let stretches = || runs.iter().flatten().copied();
+    let steps = |x: &'_ [f64]| -> Vec<f64> {
+        x.windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d != 0.0)
+            .collect()
+    };
+    let dithers = stretches().any(|x| steps(x).windows(2).any(|d| d[0] * d[1] < 0.0));
     let step = stretches()
-        .flat_map(|x| x.windows(2).map(|w| (w[1] - w[0]).abs()))
-        .filter(|d| *d > 0.0)
+        .flat_map(|x| steps(x).into_iter().map(f64::abs))
         .fold(f64::INFINITY, f64::min);
-    let resolution = if step.is_finite() {
+    let resolution = if dithers && step.is_finite() {
         step / 12f64.sqrt()
     } else {
         0.0
@@ -152,23 +190,26 @@ fn noise(runs: &[Vec<&[f64]>]) -> f64 {
     crate::num::lsq::white_sigma_pooled(stretches()).max(resolution)
 }
 
-/// Rms of each sample's deviation from its run's mean, over every run.
-fn swing(runs: &[Vec<&[f64]>]) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for run in runs {
-        let x: Vec<f64> = run.iter().flat_map(|s| s.iter().copied()).collect();
-        if x.is_empty() {
-            continue;
-        }
-        let mean = crate::num::stats::mean(&x);
+/// Rms of each sample's deviation from its run's mean over every run, or
+/// (`across`) from the mean of all of them together.
+fn swing(runs: &[Vec<&[f64]>], across: bool) -> f64 {
+    let values =
+        |run: &Vec<&[f64]>| -> Vec<f64> { run.iter().flat_map(|s| s.iter().copied()).collect() };
+    let all: Vec<f64> = runs.iter().flat_map(values).collect();
+    if all.is_empty() {
+        return 0.0;
+    }
+    let overall = crate::num::stats::mean(&all);
+    let mut sum = 0.0;
+    for x in runs.iter().map(values).filter(|x| !x.is_empty()) {
+        let mean = if across {
+            overall
+        } else {
+            crate::num::stats::mean(&x)
+        };
         sum += x.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
-        n += x.len();
     }
-    if n == 0 {
-        0.0
-    } else {
-        (sum / n as f64).sqrt()
-    }
+    (sum / all.len() as f64).sqrt()
 }
 
 #[cfg(test)]
@@ -176,90 +217,114 @@ mod tests {
     use super::*;
     use crate::twin::rng::{Rng, Stream};
 
-    /// A grid run of the given input columns, every sample calibration.
-    fn run(x: Vec<Vec<f64>>) -> GridRun {
-        let n = x[0].len();
-        GridRun {
-            name: "r".into(),
-            t_s: (0..n).map(|k| k as f64).collect(),
-            x,
-            x_lead: Vec::new(),
-            y: vec![vec![0.0; n]],
-            calib_end: n,
-        }
-    }
-
     fn noise(n: usize, sigma: f64, rng: &mut Rng) -> Vec<f64> {
         (0..n).map(|_| sigma * rng.normal()).collect()
     }
 
-    /// Of four columns over two runs of 720 samples (8 h at 40 s, the
-    /// twin's calibration runs): noise of 0.02 K alone, and sitting at
-    /// another level in the second run, are quiet (ratio about 1); a
-    /// heating of 1 K over the run under the same noise is not (ratio
-    /// ~14); a heat source is never judged.
+    /// `judge` of one temperature over runs of one stretch each.
+    fn judged(runs: &[Vec<f64>]) -> Option<QuietInput> {
+        let runs: Vec<Vec<&[f64]>> = runs.iter().map(|r| vec![r.as_slice()]).collect();
+        judge("T", Role::Temperature, &runs)
+    }
+
+    /// Over two runs of 720 samples (8 h at 40 s, the twin's calibration
+    /// runs): noise of 0.02 K alone is quiet (ratio about 1), and so is the
+    /// same noise at 20 C in one run and 23 C in the other (only the level
+    /// differs); a heating of 1 K over each run under the same noise is not
+    /// (ratio ~14).
     #[test]
-    fn noise_is_quiet_and_a_heating_under_it_is_not() {
+    fn noise_is_quiet_at_any_level_a_heating_under_it_is_not() {
         let mut rng = Rng::new(7, Stream::SensorNoise);
         let n = 720;
         let heat = |k: usize| 1.0 - (-(k as f64) / 200.0).exp();
-        let mut runs = Vec::new();
-        for level in [20.0, 23.0] {
-            let cols = vec![
-                noise(n, 0.02, &mut rng),
-                noise(n, 0.02, &mut rng).iter().map(|v| v + level).collect(),
-                (0..n).map(|k| heat(k) + 0.02 * rng.normal()).collect(),
-                vec![0.0; n],
-            ];
-            runs.push(run(cols));
-        }
-        let roles = [
-            Role::Temperature,
-            Role::Temperature,
-            Role::Temperature,
-            Role::HeatSource,
-        ];
-        let names: Vec<String> = ["T1", "ambient_c", "T2", "speed_rpm"]
-            .map(String::from)
-            .into();
-        let quiet = quiet_inputs(&runs, &roles, &names);
-        let found: Vec<&str> = quiet.iter().map(|(_, q)| q.input.as_str()).collect();
-        assert_eq!(found, ["T1", "ambient_c"]);
-        for (_, q) in &quiet {
-            // 1440 samples: the ratio of noise alone is 1 within ~10 %
-            // (the median's sampling spread at this count).
-            let ratio = q.swing / q.noise;
-            assert!((0.85..1.15).contains(&ratio), "{}: {ratio}", q.input);
-        }
+        let alone = judged(&[noise(n, 0.02, &mut rng), noise(n, 0.02, &mut rng)]).unwrap();
+        // 1440 samples: the ratio of noise alone is 1 within ~10 % (the
+        // median's sampling spread at this count).
+        let ratio = alone.swing / alone.noise;
+        assert!((0.85..1.15).contains(&ratio), "{ratio}");
+        let at = |level: f64, rng: &mut Rng| -> Vec<f64> {
+            noise(n, 0.02, rng).iter().map(|v| v + level).collect()
+        };
+        let levels = judged(&[at(20.0, &mut rng), at(23.0, &mut rng)]).unwrap();
+        assert!(levels.swing < 0.03, "{}", levels.swing);
+        let heating =
+            |rng: &mut Rng| -> Vec<f64> { (0..n).map(|k| heat(k) + 0.02 * rng.normal()).collect() };
+        assert_eq!(judged(&[heating(&mut rng), heating(&mut rng)]), None);
+    }
+
+    /// A heat source is a commanded value: quiet only when constant over
+    /// every run (an on/off programme of two levels is not, however few
+    /// its steps, nor one speed per run at different speeds).
+    #[test]
+    fn a_heat_source_is_quiet_only_when_constant() {
+        let on_off: Vec<f64> = (0..100)
+            .map(|k| if k % 40 < 20 { 0.0 } else { 3000.0 })
+            .collect();
+        let speed = |runs: &[Vec<&[f64]>]| judge("speed_rpm", Role::HeatSource, runs);
+        assert_eq!(speed(&[vec![on_off.as_slice()]]), None);
+        let (slow, fast) = ([2000.0; 50], [4000.0; 50]);
+        assert_eq!(speed(&[vec![&slow[..]], vec![&fast[..]]]), None);
+        let constant = [2400.0; 100];
+        let q = speed(&[vec![&constant[..]], vec![&constant[..]]]).unwrap();
+        assert_eq!((q.swing, q.noise), (0.0, 0.0));
     }
 
     /// A room sensor logged to 0.1 K that sits at 20.1 and reads 20.2 for
     /// one sample in ten is quiet (swing 0.03 K against its resolution's
-    /// 0.029 K; its second differences have median 0); one that climbs
-    /// 1 K at that resolution is not (swing ~0.3 K).
+    /// 0.029 K; its second differences have median 0). Readings that only
+    /// climb in steps are not, whatever the step: 1 K at 0.1 K resolution,
+    /// 20 -> 21 -> 22 at 1 K, and a single 100 K jump (its one step is not
+    /// its resolution).
     #[test]
-    fn a_sensor_that_moves_by_its_last_digit_is_quiet() {
+    fn a_sensor_that_moves_by_its_last_digit_is_quiet_a_climb_in_steps_is_not() {
         let flips: Vec<f64> = (0..500)
             .map(|k| if k % 10 == 3 { 20.2 } else { 20.1 })
             .collect();
-        let climbs: Vec<f64> = (0..500).map(|k| 20.0 + (k / 50) as f64 * 0.1).collect();
-        let names: Vec<String> = ["T1", "T2"].map(String::from).into();
-        let quiet = quiet_inputs(&[run(vec![flips, climbs])], &[Role::Temperature; 2], &names);
-        assert_eq!(quiet.len(), 1);
-        let q = &quiet[0].1;
-        assert_eq!(q.input, "T1");
+        let q = judged(&[flips]).unwrap();
         // sd of a 0/0.1 flip with p = 0.1: 0.1 * sqrt(0.09) = 0.03.
         assert!((q.swing - 0.03).abs() < 1e-9, "{}", q.swing);
         assert!((q.noise - 0.1 / 12f64.sqrt()).abs() < 1e-9, "{}", q.noise);
+        let climbs: Vec<f64> = (0..500).map(|k| 20.0 + (k / 50) as f64 * 0.1).collect();
+        let coarse: Vec<f64> = (0..300).map(|k| 20.0 + (k / 100) as f64).collect();
+        let jump: Vec<f64> = (0..300)
+            .map(|k| if k < 150 { 20.0 } else { 120.0 })
+            .collect();
+        for x in [climbs, coarse, jump] {
+            assert_eq!(judged(&[x]), None);
+        }
     }
 
-    /// `fit`'s note on a run file: a gap splits the stretches (a sensor that
-    /// sat at 20 C before a gap and at 23 C after moved: swing 1.5 K about
-    /// the run's mean, the noise from within the stretches, 0), and rows
-    /// from `until_s` on are not judged (the same sensor before the gap
-    /// alone is quiet); a heat source is never judged.
+    /// A noise-only sensor logged in one row of three (the others empty) is
+    /// quiet: its second differences are taken over the cells it has.
     #[test]
-    fn in_run_files_gaps_split_and_held_out_rows_are_not_judged() {
+    fn a_sparsely_logged_noise_is_quiet() {
+        let mut rng = Rng::new(3, Stream::SensorNoise);
+        let n = 900;
+        let t: Vec<f64> = (0..n).map(|k| k as f64 * 40.0).collect();
+        let sparse: Vec<f64> = (0..n)
+            .map(|k| {
+                if k % 3 == 0 {
+                    20.0 + 0.02 * rng.normal()
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        let run = RunFile::from_columns("r.csv", t, vec![("T7".into(), Some(sparse))]).unwrap();
+        let q = in_runs(&[run], &["T7".to_string()], None);
+        assert_eq!(q.len(), 1);
+        // 300 cells: noise alone within ~20 % of ratio 1.
+        let ratio = q[0].swing / q[0].noise;
+        assert!((0.8..1.2).contains(&ratio), "{ratio}");
+    }
+
+    /// `fit`'s note on a run file: a sensor that sat at 20 C before a missing
+    /// cell and at 23 C after it moved (swing 1.5 K about the run's mean;
+    /// the jump is one second difference of many, so the noise stays 0);
+    /// rows from `until_s` on are not judged (the same sensor before the
+    /// jump alone is quiet); a heat source held at one speed is quiet.
+    #[test]
+    fn in_run_files_a_jump_moves_and_held_out_rows_are_not_judged() {
         let t: Vec<f64> = (0..100).map(f64::from).collect();
         let mut level: Vec<f64> = (0..100).map(|k| if k < 50 { 20.0 } else { 23.0 }).collect();
         level[50] = f64::NAN;
@@ -270,26 +335,15 @@ mod tests {
         ];
         let run = RunFile::from_columns("r.csv", t, columns).unwrap();
         let names: Vec<String> = ["T1", "speed_rpm"].map(String::from).into();
-        assert!(in_runs(std::slice::from_ref(&run), &names, None).is_empty());
+        let found = |q: Vec<QuietInput>| -> Vec<(String, f64)> {
+            q.into_iter().map(|q| (q.input, q.swing)).collect()
+        };
+        let all = in_runs(std::slice::from_ref(&run), &names, None);
+        assert_eq!(found(all), [("speed_rpm".to_string(), 0.0)]);
         let before = in_runs(&[run], &names, Some(50.0));
-        assert_eq!(before.len(), 1);
-        assert_eq!((before[0].input.as_str(), before[0].swing), ("T1", 0.0));
-    }
-
-    /// A column that never changes is quiet (swing 0, noise 0); with the
-    /// calibration ending before its only movement, it is judged on the
-    /// calibration samples alone.
-    #[test]
-    fn a_constant_column_and_a_move_after_calibration_are_quiet() {
-        let mut moved = vec![5.0; 100];
-        for v in &mut moved[60..] {
-            *v = 9.0;
-        }
-        let mut g = run(vec![vec![1.5; 100], moved]);
-        g.calib_end = 50;
-        let names: Vec<String> = ["T1", "T2"].map(String::from).into();
-        let quiet = quiet_inputs(&[g], &[Role::Temperature; 2], &names);
-        assert_eq!(quiet.len(), 2);
-        assert!(quiet.iter().all(|(_, q)| q.swing == 0.0 && q.noise == 0.0));
+        assert_eq!(
+            found(before),
+            [("T1".to_string(), 0.0), ("speed_rpm".to_string(), 0.0)]
+        );
     }
 }

@@ -93,24 +93,11 @@ fn names<'a>(v: impl Iterator<Item = &'a str>) -> String {
 fn cv_html(auto: &AutoReport) -> String {
     let mut html = String::from("<h2>Cross-validation (calibration rows only)</h2>");
     if !auto.quiet_inputs.is_empty() {
-        let quiet = auto.quiet_inputs.iter().map(|q| esc(&q.to_string()));
-        let _ = write!(
-            html,
-            "<p>Left out (each moved no more than {} times its white noise in the calibration \
-             rows, so no weight on it can be calibrated): {}.</p>",
-            crate::fit::quiet::MIN_SWING_OVER_NOISE,
-            quiet.collect::<Vec<_>>().join("; ")
-        );
+        let sentence = crate::fit::quiet::left_out(&auto.quiet_inputs);
+        let _ = write!(html, "<p>{}.</p>", esc(&sentence));
     }
-    if auto.sight.static_only {
-        let _ = write!(
-            html,
-            "<p>{} cross-validation samples left the other folds' input envelope (fewer than \
-             {}: the calibration runs are alike): the CV cannot judge how a model extrapolates, so \
-             temperatures entered unfiltered and arx/tf were not tried.</p>",
-            auto.sight.outside_samples,
-            crate::fit::auto::MIN_EXTRAPOLATING
-        );
+    if let Some(sentence) = auto.sight.sentence() {
+        let _ = write!(html, "<p>{}.</p>", esc(&sentence));
     }
     for t in &auto.targets {
         // The best CV_ROWS, and every member of the model below them (the

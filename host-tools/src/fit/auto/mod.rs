@@ -88,9 +88,10 @@ pub struct AutoOptions {
     /// docs/validation-auto.md).
     pub auto_eliminate: usize,
     /// auto: model families weighed by the same cross-validation: ridge
-    /// (the filter bank, always), pcr, arx, tf, bp, gabp. Another family
+    /// (the filter bank; must be listed), pcr, arx, tf, bp, gabp. Another family
     /// replaces the ridge only when its CV error is lower beyond noise;
-    /// "ridge" alone: the filter bank only.
+    /// "ridge" alone: the filter bank only. arx and tf are tried only when
+    /// the CV sees extrapolation (not over alike calibration runs).
     pub auto_families: Vec<String>,
 }
 
@@ -413,6 +414,20 @@ impl Sight {
         }
     }
 
+    /// What it means for the fit, as a sentence (stderr's note, the report
+    /// page); `None` when the CV saw extrapolation.
+    pub fn sentence(&self) -> Option<String> {
+        self.static_only.then(|| {
+            format!(
+                "cross-validation samples outside the other folds' input envelope: {}, fewer \
+                 than {MIN_EXTRAPOLATING} (the calibration runs, or one run's blocks, are alike), \
+                 so the CV cannot judge how a model extrapolates: temperatures enter unfiltered \
+                 and arx/tf are not tried",
+                self.outside_samples
+            )
+        })
+    }
+
     /// The search settings and families to weigh: unfiltered temperatures
     /// and no ARX/TF when the CV cannot see extrapolation.
     fn restrict(&self, s: &SearchSettings, families: &[Family]) -> (SearchSettings, Vec<Family>) {
@@ -592,31 +607,26 @@ fn merge_families(choices: &mut [TargetChoice], cmp: &Comparison, won: Option<&f
 /// are the [`AutoReport`]. Inputs that did not move in calibration are
 /// left out first (fit/quiet.rs).
 pub fn fit(ds: &Dataset, params: &ValidAutoParams) -> Result<Fitted> {
-    let mut grid = super::dynamic::grid::grid_runs(ds, params.settings.dt_s, "auto")?;
-    let roles: Vec<Role> = ds.inputs.iter().map(|c| Role::of(c)).collect();
-    let quiet = quiet::quiet_inputs(&grid, &roles, &ds.inputs);
+    let quiet = quiet::quiet_inputs(ds);
     let kept: Vec<usize> = (0..ds.inputs.len())
         .filter(|i| !quiet.iter().any(|(q, _)| q == i))
         .collect();
     if kept.is_empty() {
-        let moved = quiet.iter().map(|(_, q)| q.to_string()).collect::<Vec<_>>();
+        let shown: Vec<String> = quiet.iter().take(3).map(|(_, q)| q.to_string()).collect();
+        let more = match quiet.len().saturating_sub(3) {
+            0 => String::new(),
+            n => format!("; {n} more"),
+        };
         bail!(
-            "auto: no input moved beyond {} times its noise in the calibration rows ({}): nothing to calibrate a model on",
+            "auto: no input moved beyond {} times its noise in the calibration rows ({}{more}): nothing to calibrate a model on",
             quiet::MIN_SWING_OVER_NOISE,
-            moved.join(", ")
+            shown.join("; ")
         );
     }
-    for g in &mut grid {
-        g.x = kept.iter().map(|&i| std::mem::take(&mut g.x[i])).collect();
-        if !g.x_lead.is_empty() {
-            g.x_lead = kept
-                .iter()
-                .map(|&i| std::mem::take(&mut g.x_lead[i]))
-                .collect();
-        }
-    }
+    let ds = ds.with_inputs(&kept);
+    let grid = super::dynamic::grid::grid_runs(&ds, params.settings.dt_s, "auto")?;
     let quiet = quiet.into_iter().map(|(_, q)| q).collect();
-    fit_moved(&ds.with_inputs(&kept), grid, params, quiet)
+    fit_moved(&ds, grid, params, quiet)
 }
 
 /// [`fit`] on the inputs that moved (`ds` and `grid` hold only those;
