@@ -519,6 +519,8 @@ fn warn_quiet_inputs(a: &FitArgs, o: &FitOutcome, runs: &[RunFile]) {
     use crate::fit::quiet;
     let note = match o.auto_report() {
         Some(r) => (!r.quiet_inputs.is_empty()).then(|| quiet::left_out(&r.quiet_inputs)),
+        // arma reads its target's own past, not inputs.
+        None if a.model == FitKind::Arma => None,
         None => {
             let found = quiet::in_runs(runs, &o.inputs, a.holdout_from_s);
             (!found.is_empty()).then(|| quiet::fitted_anyway(&found))

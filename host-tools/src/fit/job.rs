@@ -191,7 +191,9 @@ pub struct FitReport {
     pub model: String,
     /// Size of the blob, bytes.
     pub bytes: usize,
-    /// The inputs the model reads, in order.
+    /// The inputs the fit was given, in order (the blob may read fewer:
+    /// auto's `details.quiet_inputs`, arx's forward selection; `model show`
+    /// lists what it reads).
     pub inputs: Vec<String>,
     /// `change` or `absolute`.
     pub reference: String,
@@ -268,19 +270,10 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
     let flashed = model_core::decode(&bytes).map_err(|e| anyhow!("written blob: {e}"))?;
     let split = ds.scoring_split(runs, validate);
     let scores = score(&flashed, &split)?;
-    // What the blob reads, in the fit's order (auto leaves out inputs that
-    // did not move; a channel read in both forms is one input here).
-    let reads = |n: &&String| {
-        flashed
-            .inputs()
-            .iter()
-            .any(|c| c.name.as_str() == n.as_str())
-    };
-    let inputs: Vec<String> = ds.inputs.iter().filter(reads).cloned().collect();
     let report = FitReport {
         model: flashed.kind().name().to_string(),
         bytes: bytes.len(),
-        inputs: inputs.clone(),
+        inputs: ds.inputs.clone(),
         reference: ds.form.name().to_string(),
         holdout_from_s: a.holdout_from_s,
         calibration_rows: ds.calibration_len(),
@@ -298,7 +291,7 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
         bytes,
         scores,
         calibration_rows: report.calibration_rows,
-        inputs,
+        inputs: ds.inputs,
         report,
     })
 }

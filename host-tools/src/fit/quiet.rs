@@ -20,9 +20,10 @@
 //! only sat at another level in another run has not moved: [`judge`] says
 //! why), against its *noise*, the white-noise sigma from second
 //! differences of its present cells within each run
-//! ([`white_sigma_pooled`], blind to smooth motion), at least that of its
-//! resolution (the smallest step over sqrt 12) when its readings dither
-//! between levels. An input whose swing is at most [`MIN_SWING_OVER_NOISE`]
+//! ([`white_sigma_pooled`], blind to smooth motion), and when its readings
+//! repeat in short holds (a logger faster than its sensor, a reading
+//! dithering by its last digit) at least that of the readings with the
+//! repeats taken out. An input whose swing is at most [`MIN_SWING_OVER_NOISE`]
 //! times its noise is quiet. White noise alone has a ratio of about 1;
 //! every temperature of the real FL_THERMAL run has 9.9 or more over each
 //! of its calibration parts (the first 16 h and 24 h, the first 40 % and
@@ -152,6 +153,9 @@ fn borrowed(runs: &[Vec<Vec<f64>>]) -> Vec<Vec<&[f64]>> {
 /// three of 18 seeds from 1.7-3.6 to 9.0-10.2 um. A heat source is a
 /// commanded value without noise: quiet only when it never changes.
 pub fn judge(input: &str, role: Role, runs: &[Vec<&[f64]>]) -> Option<QuietInput> {
+    if runs.iter().flatten().all(|s| s.is_empty()) {
+        return None; // no calibration value: nothing to judge (the fit says so)
+    }
     let (swing, noise) = match role {
         Role::Temperature => (swing(runs, false), noise(runs)),
         Role::HeatSource => (swing(runs, true), 0.0),
@@ -163,45 +167,69 @@ pub fn judge(input: &str, role: Role, runs: &[Vec<&[f64]>]) -> Option<QuietInput
     })
 }
 
-/// The input's noise: its white-noise sigma from second differences, and,
-/// when its readings dither (consecutive steps of opposite sign), at least
-/// the noise of its resolution, `q / sqrt 12` with `q` its smallest step: a
-/// room sensor logged to 0.1 K that sits at one reading and flips to the
-/// next now and then has second differences of median 0, yet moved no more
-/// than its last digit. Readings that only climb or fall in steps (a
-/// coarse sensor warming, a single jump) have no such floor.
+/// Longest median hold, in samples, at which repeated readings are taken
+/// for a logger sampling faster than its sensor updates (or a reading
+/// dithering by its last digit) rather than for levels held on purpose: a
+/// logger 20 times faster than its sensor; a programme or a controller
+/// holds a level for longer.
+pub const MAX_HOLD_SAMPLES: usize = 20;
+
+/// The input's noise: its white-noise sigma from second differences; and
+/// when its readings repeat in short holds (median at most
+/// [`MAX_HOLD_SAMPLES`]), at least that of the readings with the repeats
+/// taken out. A room sensor logged to 0.1 K that sits at one reading and
+/// flips to the next now and then, or one logged ten times per update, has
+/// second differences of median 0, yet what it reports is its noise: with
+/// the repeats out it is a plain noisy series. A coarse sensor that climbs
+/// or falls level by level has straight stretches there too, so it keeps
+/// the sigma of its climb.
 fn noise(runs: &[Vec<&[f64]>]) -> f64 {
     let stretches = || runs.iter().flatten().copied();
-    let steps = |x: &'_ [f64]| -> Vec<f64> {
-        x.windows(2)
-            .map(|w| w[1] - w[0])
-            .filter(|d| *d != 0.0)
-            .collect()
-    };
-    let dithers = stretches().any(|x| steps(x).windows(2).any(|d| d[0] * d[1] < 0.0));
-    let step = stretches()
-        .flat_map(|x| steps(x).into_iter().map(f64::abs))
-        .fold(f64::INFINITY, f64::min);
-    let resolution = if dithers && step.is_finite() {
-        step / 12f64.sqrt()
-    } else {
-        0.0
-    };
-    crate::num::lsq::white_sigma_pooled(stretches()).max(resolution)
+    let plain = crate::num::lsq::white_sigma_pooled(stretches());
+    let holds: Vec<usize> = stretches().flat_map(hold_lengths).collect();
+    if holds.is_empty() || median(holds) > MAX_HOLD_SAMPLES {
+        return plain;
+    }
+    let distinct: Vec<Vec<f64>> = stretches().map(without_repeats).collect();
+    plain.max(crate::num::lsq::white_sigma_pooled(
+        distinct.iter().map(Vec::as_slice),
+    ))
+}
+
+/// The lengths of the runs of equal consecutive readings in `x`.
+fn hold_lengths(x: &[f64]) -> Vec<usize> {
+    x.chunk_by(|a, b| a == b).map(<[f64]>::len).collect()
+}
+
+/// `x` with each run of equal consecutive readings kept once.
+fn without_repeats(x: &[f64]) -> Vec<f64> {
+    x.chunk_by(|a, b| a == b).map(|c| c[0]).collect()
+}
+
+/// The median of `v` (the upper one of an even count).
+fn median(mut v: Vec<usize>) -> usize {
+    let k = v.len() / 2;
+    *v.select_nth_unstable(k).1
 }
 
 /// Rms of each sample's deviation from its run's mean over every run, or
-/// (`across`) from the mean of all of them together.
+/// (`across`) from the mean of all of them together; exactly 0 where the
+/// readings never change (a mean of equal readings can miss them by a
+/// rounding, which would count as a swing against a noise of 0).
 fn swing(runs: &[Vec<&[f64]>], across: bool) -> f64 {
     let values =
         |run: &Vec<&[f64]>| -> Vec<f64> { run.iter().flat_map(|s| s.iter().copied()).collect() };
     let all: Vec<f64> = runs.iter().flat_map(values).collect();
-    if all.is_empty() {
+    let constant = |x: &[f64]| x.iter().all(|v| Some(v) == x.first());
+    if all.is_empty() || (across && constant(&all)) {
         return 0.0;
     }
     let overall = crate::num::stats::mean(&all);
     let mut sum = 0.0;
-    for x in runs.iter().map(values).filter(|x| !x.is_empty()) {
+    for x in runs.iter().map(values) {
+        if x.is_empty() || (!across && constant(&x)) {
+            continue;
+        }
         let mean = if across {
             overall
         } else {
@@ -252,6 +280,21 @@ mod tests {
         assert_eq!(judged(&[heating(&mut rng), heating(&mut rng)]), None);
     }
 
+    /// A noise-only sensor logged ten times per update (sample and hold)
+    /// is quiet: with the repeats out its second differences are its noise.
+    /// A constant at a value whose mean is inexact (2.2) is quiet too.
+    #[test]
+    fn a_held_noise_and_an_inexact_constant_are_quiet() {
+        let mut rng = Rng::new(5, Stream::SensorNoise);
+        let updates = noise(200, 0.02, &mut rng);
+        let held: Vec<f64> = updates.iter().flat_map(|v| [20.0 + v; 10]).collect();
+        let q = judged(&[held]).unwrap();
+        // 200 updates: noise alone within ~25 % of ratio 1.
+        assert!((0.75..1.25).contains(&(q.swing / q.noise)), "{q:?}");
+        let q = judged(&[vec![2.2; 333]]).unwrap();
+        assert_eq!((q.swing, q.noise), (0.0, 0.0));
+    }
+
     /// A heat source is a commanded value: quiet only when constant over
     /// every run (an on/off programme of two levels is not, however few
     /// its steps, nor one speed per run at different speeds).
@@ -264,28 +307,32 @@ mod tests {
         assert_eq!(speed(&[vec![on_off.as_slice()]]), None);
         let (slow, fast) = ([2000.0; 50], [4000.0; 50]);
         assert_eq!(speed(&[vec![&slow[..]], vec![&fast[..]]]), None);
-        let constant = [2400.0; 100];
+        let constant = [2.2; 100];
         let q = speed(&[vec![&constant[..]], vec![&constant[..]]]).unwrap();
         assert_eq!((q.swing, q.noise), (0.0, 0.0));
     }
 
     /// A room sensor logged to 0.1 K that sits at 20.1 and reads 20.2 for
-    /// one sample in ten is quiet (swing 0.03 K against its resolution's
-    /// 0.029 K; its second differences have median 0). Readings that only
-    /// climb in steps are not, whatever the step: 1 K at 0.1 K resolution,
-    /// 20 -> 21 -> 22 at 1 K, and a single 100 K jump (its one step is not
-    /// its resolution).
+    /// one sample in ten is quiet (its second differences have median 0;
+    /// without its repeats it is a noisy series). Readings held for longer
+    /// are levels, not noise: a climb of 1 K at 0.1 K resolution, 20 -> 21
+    /// -> 22 -> 21 -> 20 at 1 K, and a single 100 K jump all moved.
     #[test]
     fn a_sensor_that_moves_by_its_last_digit_is_quiet_a_climb_in_steps_is_not() {
         let flips: Vec<f64> = (0..500)
             .map(|k| if k % 10 == 3 { 20.2 } else { 20.1 })
             .collect();
         let q = judged(&[flips]).unwrap();
-        // sd of a 0/0.1 flip with p = 0.1: 0.1 * sqrt(0.09) = 0.03.
+        // sd of a 0/0.1 flip with p = 0.1: 0.1 * sqrt(0.09) = 0.03; without
+        // its repeats it alternates, second differences +-0.2 K: sigma
+        // 0.2 / 0.6745 / sqrt 6 = 0.121 K.
         assert!((q.swing - 0.03).abs() < 1e-9, "{}", q.swing);
-        assert!((q.noise - 0.1 / 12f64.sqrt()).abs() < 1e-9, "{}", q.noise);
+        let alternating = 0.2 / 0.6745 / 6f64.sqrt();
+        assert!((q.noise - alternating).abs() < 1e-9, "{}", q.noise);
         let climbs: Vec<f64> = (0..500).map(|k| 20.0 + (k / 50) as f64 * 0.1).collect();
-        let coarse: Vec<f64> = (0..300).map(|k| 20.0 + (k / 100) as f64).collect();
+        let coarse: Vec<f64> = (0..500)
+            .map(|k| 20.0 + [0.0, 1.0, 2.0, 1.0, 0.0][k / 100])
+            .collect();
         let jump: Vec<f64> = (0..300)
             .map(|k| if k < 150 { 20.0 } else { 120.0 })
             .collect();

@@ -379,15 +379,18 @@ pub struct AutoReport {
 /// temperature's own column is a sensitivity per kelvin, which carries
 /// over to another cause of the same temperature change. So when fewer
 /// than [`MIN_EXTRAPOLATING`] scored samples lie beyond the hub's flag
-/// outside the other folds' envelope (change form, every input: the hub's
-/// measure), temperatures enter unfiltered and the dynamic families are
-/// not tried; heat sources keep their filters (they act only through the
-/// structure's lag). On the thermal twin's room protocol this took `auto`
-/// from 59.4 to 28.5 um summed over seeds 1-6, and from 54.0 to 29.3 over
-/// seeds 7-12 held out (docs/fit.md, "When the room moves"). A single
-/// run's forward-chained blocks
-/// extrapolate in time (FL_THERMAL: 2,733 to 4,481 such samples, the demo
-/// 367): there the rule does nothing.
+/// outside the other folds' envelope (every input in the change form: how
+/// the inputs move, which is what the filters model; the runs' levels,
+/// which leave the envelope in the absolute form when the rooms differ,
+/// test no dynamics), temperatures enter unfiltered and the dynamic
+/// families are not tried; heat sources keep their filters (they act only
+/// through the structure's lag). On the thermal twin's room protocol this
+/// took `auto` from 59.4 to 28.5 um summed over seeds 1-6, and from 54.0 to
+/// 29.3 over seeds 7-12 held out (docs/fit.md, "When the room moves"). On
+/// FL_THERMAL's forward-chained blocks (2,733 to 4,481 such samples) and
+/// the demo's (367) the rule did nothing. The count is not the band's
+/// (`Band::growth_measured` counts the blob's channels each in its own
+/// form), so the two notes can differ.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Sight {
     /// Scored CV samples beyond the flag threshold outside the envelope of
