@@ -28,7 +28,10 @@
 //! 256 features (`settings.max_features` 128 -> 256, nothing else), and
 //! once more when every CV-table row gained `cv_geo_se` (2026-11-28; with
 //! that key removed the new capture equals the old, `out` and `seconds`
-//! aside).
+//! aside), and once more when `details` gained `quiet_inputs` and `sight`
+//! (2026-11-28, fit/quiet.rs and `Sight`: none left out and the CV sees
+//! extrapolation on this run, so with those two keys removed the new
+//! capture equals the old, `out` and `seconds` aside).
 //!
 //! Every command runs in the repository root with the relative paths the
 //! fixtures were captured with (`eval` names each run's file). `fit --model
