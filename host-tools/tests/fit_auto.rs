@@ -807,7 +807,7 @@ fn quiet_room_run(dir: &Path, name: &str, room: &dyn Fn(usize) -> f64, seed: u64
 /// and noise (both the 0.02 K of noise, within 15 %: the median's spread
 /// over 1440 samples), and its model does not read it, so a held-out run
 /// whose room swings 2 K moves no offset through that sensor (on the
-/// twin's room protocol such a weight cost 30-58 um, docs/fit.md). `mlr`
+/// twin's room protocol such weights cost 31-58 um, docs/fit.md). `mlr`
 /// reads it and says so. With no input left that moved, auto refuses the
 /// fit in one line.
 #[test]

@@ -515,16 +515,11 @@ fn warn_unmeasured_band(o: &FitOutcome) {
 /// Says on stderr which inputs did not move beyond their noise in the
 /// calibration rows: those an auto fit left out, or those another kind
 /// fitted a weight to anyway.
-fn warn_quiet_inputs(a: &FitArgs, o: &FitOutcome, runs: &[RunFile]) {
+fn warn_quiet_inputs(o: &FitOutcome) {
     use crate::fit::quiet;
     let note = match o.auto_report() {
         Some(r) => (!r.quiet_inputs.is_empty()).then(|| quiet::left_out(&r.quiet_inputs)),
-        // arma reads its target's own past, not inputs.
-        None if a.model == FitKind::Arma => None,
-        None => {
-            let found = quiet::in_runs(runs, &o.inputs, a.holdout_from_s);
-            (!found.is_empty()).then(|| quiet::fitted_anyway(&found))
-        }
+        None => (!o.unmoved.is_empty()).then(|| quiet::fitted_anyway(&o.unmoved)),
     };
     if let Some(note) = note {
         eprintln!("note: {note}");
@@ -556,7 +551,7 @@ fn warn_nothing_held_out(a: &FitArgs, o: &FitOutcome) {
 pub fn run(a: &FitArgs) -> Result<()> {
     let (o, runs, validate) = read_and_fit(a)?;
     warn_unmeasured_band(&o);
-    warn_quiet_inputs(a, &o, &runs);
+    warn_quiet_inputs(&o);
     warn_static_only(&o);
     warn_nothing_held_out(a, &o);
     let (table, json) = (scores_text(&o.scores), report_json(&o, &a.out)?);

@@ -224,6 +224,10 @@ pub struct FitOutcome {
     pub scores: Vec<TargetScore>,
     /// The inputs the model reads, in order.
     pub inputs: Vec<String>,
+    /// Inputs that did not move beyond their noise in the calibration rows
+    /// and that the model weighs anyway (fit/quiet.rs; kinds other than
+    /// auto, which leaves them out, and arma, which reads no input).
+    pub unmoved: Vec<super::quiet::QuietInput>,
     /// Calibration rows used.
     pub calibration_rows: usize,
     /// The figures, serialisable.
@@ -262,6 +266,13 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
         a.holdout_from_s,
     )?;
     refuse_constant_targets(&ds)?;
+    let unmoved = match a.kind {
+        FitKind::Auto | FitKind::Arma => Vec::new(),
+        _ => super::quiet::quiet_inputs(&ds)
+            .into_iter()
+            .map(|(_, q)| q)
+            .collect(),
+    };
     let fitted = train(p, &ds, runs, validate)?;
     let model = crate::fivepoint::with_geometry(fitted.model, a.l_defl_mm)?;
     let bytes = model_core::blob::encode_to_vec(&model)
@@ -292,6 +303,7 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
         scores,
         calibration_rows: report.calibration_rows,
         inputs: ds.inputs,
+        unmoved,
         report,
     })
 }

@@ -27,14 +27,14 @@
 //! times its noise is quiet. White noise alone has a ratio of about 1;
 //! every temperature of the real FL_THERMAL run has 9.9 or more over each
 //! of its calibration parts (the first 16 h and 24 h, the first 40 % and
-//! 60 % of the rows), the twin's heated sensors 19 or more. A heat source
+//! 60 % of the rows), the twin's heated sensors 19 or more
+//! (`scripts/quiet_ratios.py`). A heat source
 //! (speed, power) is a commanded value: quiet only when it never changes.
 //!
 //! [`white_sigma_pooled`]: crate::num::lsq::white_sigma_pooled
 
 use super::auto::features::Role;
 use crate::data::dataset::Dataset;
-use crate::data::runfile::RunFile;
 use crate::num;
 use serde::Serialize;
 
@@ -68,11 +68,10 @@ impl std::fmt::Display for QuietInput {
 /// What an auto fit left out, as a sentence (stderr's note, the report
 /// page): the inputs, and why no weight on them can be calibrated.
 pub fn left_out(quiet: &[QuietInput]) -> String {
-    let listed: Vec<String> = quiet.iter().map(ToString::to_string).collect();
     format!(
         "auto left out {}: in the calibration rows each moved no more than {} times its white \
          noise, so no weight on it can be calibrated",
-        listed.join("; "),
+        listed(quiet),
         MIN_SWING_OVER_NOISE
     )
 }
@@ -80,71 +79,45 @@ pub fn left_out(quiet: &[QuietInput]) -> String {
 /// The same of inputs a kind fitted anyway (`fit`'s note for the kinds
 /// that read whatever they are given).
 pub fn fitted_anyway(quiet: &[QuietInput]) -> String {
-    let listed: Vec<String> = quiet.iter().map(ToString::to_string).collect();
     format!(
         "{}: in the calibration rows each moved no more than {} times its white noise, so the \
          weights on them are fitted to noise and turn any later swing of theirs into offset \
          (auto leaves such inputs out; or leave them out of --inputs)",
-        listed.join("; "),
+        listed(quiet),
         MIN_SWING_OVER_NOISE
     )
 }
 
-/// The inputs of `ds` (absolute form) that did not move beyond
-/// [`MIN_SWING_OVER_NOISE`] times their noise in its calibration rows (as
-/// logged: a resampling grid would bridge gaps with straight lines, which
-/// have no noise), with their indices.
+/// The inputs with their swing and noise, `; `-separated.
+fn listed(quiet: &[QuietInput]) -> String {
+    let each: Vec<String> = quiet.iter().map(ToString::to_string).collect();
+    each.join("; ")
+}
+
+/// The inputs of `ds` that did not move beyond [`MIN_SWING_OVER_NOISE`]
+/// times their noise in its calibration rows, with their indices. The
+/// rows are taken as logged, each run's missing cells skipped (not a
+/// resampling grid, whose straight lines across a gap have no noise; and
+/// second differences across a missing cell still see the noise, where a
+/// sparsely filled column would otherwise have none). A run's reference
+/// (the change form's first sample) shifts it whole, which neither the
+/// swing within it nor its differences see.
 pub fn quiet_inputs(ds: &Dataset) -> Vec<(usize, QuietInput)> {
     (0..ds.inputs.len())
         .filter_map(|i| {
-            let runs: Vec<Vec<Vec<f64>>> = ds
+            let runs: Vec<Vec<f64>> = ds
                 .runs
                 .iter()
-                .map(|r| stretches((0..r.calib_end).map(|row| r.x(i, row))))
+                .map(|r| (0..r.calib_end).filter_map(|row| r.x(i, row)).collect())
                 .collect();
             let name = &ds.inputs[i];
-            judge(name, Role::of(name), &borrowed(&runs)).map(|q| (i, q))
+            judge(name, Role::of(name), &runs).map(|q| (i, q))
         })
         .collect()
 }
 
-/// The columns of `columns` that did not move beyond
-/// [`MIN_SWING_OVER_NOISE`] times their noise in the rows of `runs` before
-/// `until_s` (every row: `None`), missing cells skipped: what `fit` says
-/// of the inputs of a kind that reads whatever it is given.
-pub fn in_runs(runs: &[RunFile], columns: &[String], until_s: Option<f64>) -> Vec<QuietInput> {
-    columns
-        .iter()
-        .filter_map(|c| {
-            let runs: Vec<Vec<Vec<f64>>> = runs
-                .iter()
-                .map(|r| {
-                    let rows = r.t_s.iter().take_while(|t| until_s.is_none_or(|u| **t < u));
-                    let cells = r.column(c);
-                    stretches((0..rows.count()).map(|k| cells.and_then(|v| v.get(k))))
-                })
-                .collect();
-            judge(c, Role::of(c), &borrowed(&runs))
-        })
-        .collect()
-}
-
-/// The present cells of one run's column, in order (a missing cell is
-/// skipped, not a break: second differences across it still see the
-/// noise, and a sparsely filled column would otherwise have none to see).
-fn stretches(cells: impl Iterator<Item = Option<f64>>) -> Vec<Vec<f64>> {
-    vec![cells.flatten().collect()]
-}
-
-/// `runs[run][stretch]` as slices.
-fn borrowed(runs: &[Vec<Vec<f64>>]) -> Vec<Vec<&[f64]>> {
-    runs.iter()
-        .map(|run| run.iter().map(Vec::as_slice).collect())
-        .collect()
-}
-
-/// `input` (of `role`) judged over `runs` (each run's stretches of
-/// consecutive samples). A temperature is quiet when its swing within the
+/// `input` (of `role`) judged over `runs` (each run's calibration
+/// readings, in order). A temperature is quiet when its swing within the
 /// runs is at most [`MIN_SWING_OVER_NOISE`] times its noise. Its level in
 /// one run against another does not count: with displacements zeroed at
 /// each run's start it teaches the absolute form that the room's level
@@ -152,8 +125,8 @@ fn borrowed(runs: &[Vec<Vec<f64>>]) -> Vec<Vec<&[f64]>> {
 /// room moves") letting such sensors into the absolute form sent dz on
 /// three of 18 seeds from 1.7-3.6 to 9.0-10.2 um. A heat source is a
 /// commanded value without noise: quiet only when it never changes.
-pub fn judge(input: &str, role: Role, runs: &[Vec<&[f64]>]) -> Option<QuietInput> {
-    if runs.iter().flatten().all(|s| s.is_empty()) {
+pub fn judge(input: &str, role: Role, runs: &[Vec<f64>]) -> Option<QuietInput> {
+    if runs.iter().all(Vec::is_empty) {
         return None; // no calibration value: nothing to judge (the fit says so)
     }
     let (swing, noise) = match role {
@@ -183,22 +156,25 @@ pub const MAX_HOLD_SAMPLES: usize = 20;
 /// the repeats out it is a plain noisy series. A coarse sensor that climbs
 /// or falls level by level has straight stretches there too, so it keeps
 /// the sigma of its climb.
-fn noise(runs: &[Vec<&[f64]>]) -> f64 {
-    let stretches = || runs.iter().flatten().copied();
-    let plain = crate::num::lsq::white_sigma_pooled(stretches());
-    let holds: Vec<usize> = stretches().flat_map(hold_lengths).collect();
-    if holds.is_empty() || median(holds) > MAX_HOLD_SAMPLES {
+fn noise(runs: &[Vec<f64>]) -> f64 {
+    let plain = crate::num::lsq::white_sigma_pooled(runs.iter().map(Vec::as_slice));
+    let mut holds: Vec<f64> = runs.iter().flat_map(|x| hold_lengths(x)).collect();
+    if holds.is_empty() {
         return plain;
     }
-    let distinct: Vec<Vec<f64>> = stretches().map(without_repeats).collect();
+    let k = holds.len() / 2;
+    if crate::num::stats::kth_smallest(&mut holds, k) > MAX_HOLD_SAMPLES as f64 {
+        return plain;
+    }
+    let distinct: Vec<Vec<f64>> = runs.iter().map(|x| without_repeats(x)).collect();
     plain.max(crate::num::lsq::white_sigma_pooled(
         distinct.iter().map(Vec::as_slice),
     ))
 }
 
 /// The lengths of the runs of equal consecutive readings in `x`.
-fn hold_lengths(x: &[f64]) -> Vec<usize> {
-    x.chunk_by(|a, b| a == b).map(<[f64]>::len).collect()
+fn hold_lengths(x: &[f64]) -> Vec<f64> {
+    x.chunk_by(|a, b| a == b).map(|c| c.len() as f64).collect()
 }
 
 /// `x` with each run of equal consecutive readings kept once.
@@ -206,34 +182,26 @@ fn without_repeats(x: &[f64]) -> Vec<f64> {
     x.chunk_by(|a, b| a == b).map(|c| c[0]).collect()
 }
 
-/// The median of `v` (the upper one of an even count).
-fn median(mut v: Vec<usize>) -> usize {
-    let k = v.len() / 2;
-    *v.select_nth_unstable(k).1
-}
-
 /// Rms of each sample's deviation from its run's mean over every run, or
 /// (`across`) from the mean of all of them together; exactly 0 where the
 /// readings never change (a mean of equal readings can miss them by a
 /// rounding, which would count as a swing against a noise of 0).
-fn swing(runs: &[Vec<&[f64]>], across: bool) -> f64 {
-    let values =
-        |run: &Vec<&[f64]>| -> Vec<f64> { run.iter().flat_map(|s| s.iter().copied()).collect() };
-    let all: Vec<f64> = runs.iter().flat_map(values).collect();
+fn swing(runs: &[Vec<f64>], across: bool) -> f64 {
+    let all: Vec<f64> = runs.iter().flatten().copied().collect();
     let constant = |x: &[f64]| x.iter().all(|v| Some(v) == x.first());
     if all.is_empty() || (across && constant(&all)) {
         return 0.0;
     }
     let overall = crate::num::stats::mean(&all);
     let mut sum = 0.0;
-    for x in runs.iter().map(values) {
-        if x.is_empty() || (!across && constant(&x)) {
-            continue;
-        }
+    for x in runs
+        .iter()
+        .filter(|x| !x.is_empty() && (across || !constant(x)))
+    {
         let mean = if across {
             overall
         } else {
-            crate::num::stats::mean(&x)
+            crate::num::stats::mean(x)
         };
         sum += x.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
     }
@@ -243,16 +211,38 @@ fn swing(runs: &[Vec<&[f64]>], across: bool) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::data::dataset::InputForm;
+    use crate::data::runfile::RunFile;
     use crate::twin::rng::{Rng, Stream};
 
     fn noise(n: usize, sigma: f64, rng: &mut Rng) -> Vec<f64> {
         (0..n).map(|_| sigma * rng.normal()).collect()
     }
 
-    /// `judge` of one temperature over runs of one stretch each.
+    /// `judge` of one temperature.
     fn judged(runs: &[Vec<f64>]) -> Option<QuietInput> {
-        let runs: Vec<Vec<&[f64]>> = runs.iter().map(|r| vec![r.as_slice()]).collect();
-        judge("T", Role::Temperature, &runs)
+        judge("T", Role::Temperature, runs)
+    }
+
+    /// [`quiet_inputs`] of run files with `inputs` (a `dz_um` target),
+    /// calibrated before `until_s`.
+    fn in_files(runs: &[RunFile], inputs: &[&str], until_s: Option<f64>) -> Vec<QuietInput> {
+        let inputs: Vec<String> = inputs.iter().map(|c| c.to_string()).collect();
+        let targets = ["dz_um".to_string()];
+        let ds = Dataset::new(runs, &[], &inputs, &targets, InputForm::Absolute, until_s).unwrap();
+        quiet_inputs(&ds).into_iter().map(|(_, q)| q).collect()
+    }
+
+    /// A run file of `columns` at 1 s with a `dz_um` ramp.
+    fn run_file(columns: Vec<(&str, Vec<f64>)>) -> RunFile {
+        let n = columns[0].1.len();
+        let t: Vec<f64> = (0..n).map(|k| k as f64).collect();
+        let mut cols: Vec<(String, Option<Vec<f64>>)> = columns
+            .into_iter()
+            .map(|(c, v)| (c.to_string(), Some(v)))
+            .collect();
+        cols.push(("dz_um".into(), Some(t.clone())));
+        RunFile::from_columns("r.csv", t, cols).unwrap()
     }
 
     /// Over two runs of 720 samples (8 h at 40 s, the twin's calibration
@@ -303,12 +293,10 @@ mod tests {
         let on_off: Vec<f64> = (0..100)
             .map(|k| if k % 40 < 20 { 0.0 } else { 3000.0 })
             .collect();
-        let speed = |runs: &[Vec<&[f64]>]| judge("speed_rpm", Role::HeatSource, runs);
-        assert_eq!(speed(&[vec![on_off.as_slice()]]), None);
-        let (slow, fast) = ([2000.0; 50], [4000.0; 50]);
-        assert_eq!(speed(&[vec![&slow[..]], vec![&fast[..]]]), None);
-        let constant = [2.2; 100];
-        let q = speed(&[vec![&constant[..]], vec![&constant[..]]]).unwrap();
+        let speed = |runs: &[Vec<f64>]| judge("speed_rpm", Role::HeatSource, runs);
+        assert_eq!(speed(&[on_off]), None);
+        assert_eq!(speed(&[vec![2000.0; 50], vec![4000.0; 50]]), None);
+        let q = speed(&[vec![2.2; 100], vec![2.2; 100]]).unwrap();
         assert_eq!((q.swing, q.noise), (0.0, 0.0));
     }
 
@@ -347,7 +335,6 @@ mod tests {
     fn a_sparsely_logged_noise_is_quiet() {
         let mut rng = Rng::new(3, Stream::SensorNoise);
         let n = 900;
-        let t: Vec<f64> = (0..n).map(|k| k as f64 * 40.0).collect();
         let sparse: Vec<f64> = (0..n)
             .map(|k| {
                 if k % 3 == 0 {
@@ -357,37 +344,31 @@ mod tests {
                 }
             })
             .collect();
-        let run = RunFile::from_columns("r.csv", t, vec![("T7".into(), Some(sparse))]).unwrap();
-        let q = in_runs(&[run], &["T7".to_string()], None);
+        let q = in_files(&[run_file(vec![("T7", sparse)])], &["T7"], None);
         assert_eq!(q.len(), 1);
         // 300 cells: noise alone within ~20 % of ratio 1.
         let ratio = q[0].swing / q[0].noise;
         assert!((0.8..1.2).contains(&ratio), "{ratio}");
     }
 
-    /// `fit`'s note on a run file: a sensor that sat at 20 C before a missing
+    /// From a run file: a sensor that sat at 20 C before a missing
     /// cell and at 23 C after it moved (swing 1.5 K about the run's mean;
     /// the jump is one second difference of many, so the noise stays 0);
-    /// rows from `until_s` on are not judged (the same sensor before the
+    /// rows held out are not judged (the same sensor before the
     /// jump alone is quiet); a heat source held at one speed is quiet.
     #[test]
-    fn in_run_files_a_jump_moves_and_held_out_rows_are_not_judged() {
-        let t: Vec<f64> = (0..100).map(f64::from).collect();
+    fn from_run_files_a_jump_moves_and_held_out_rows_are_not_judged() {
         let mut level: Vec<f64> = (0..100).map(|k| if k < 50 { 20.0 } else { 23.0 }).collect();
         level[50] = f64::NAN;
         let speed = vec![0.0; 100];
-        let columns = vec![
-            ("T1".to_string(), Some(level)),
-            ("speed_rpm".to_string(), Some(speed)),
-        ];
-        let run = RunFile::from_columns("r.csv", t, columns).unwrap();
-        let names: Vec<String> = ["T1", "speed_rpm"].map(String::from).into();
+        let run = run_file(vec![("T1", level), ("speed_rpm", speed)]);
+        let names = ["T1", "speed_rpm"];
         let found = |q: Vec<QuietInput>| -> Vec<(String, f64)> {
             q.into_iter().map(|q| (q.input, q.swing)).collect()
         };
-        let all = in_runs(std::slice::from_ref(&run), &names, None);
+        let all = in_files(std::slice::from_ref(&run), &names, None);
         assert_eq!(found(all), [("speed_rpm".to_string(), 0.0)]);
-        let before = in_runs(&[run], &names, Some(50.0));
+        let before = in_files(&[run], &names, Some(50.0));
         assert_eq!(
             found(before),
             [("T1".to_string(), 0.0), ("speed_rpm".to_string(), 0.0)]
