@@ -529,6 +529,57 @@ fn issue14_absurd_values_are_refused() {
     );
 }
 
+/// A run file's (quoted) column name with a control character in it: `fit`
+/// refuses it in one line, with the name escaped, before fitting (it used
+/// to write the blob, and `model show` printed the escape raw), for every
+/// kind; an unused such column stays ignored, as any unknown column.
+#[test]
+fn fit_refuses_a_column_name_with_a_control_character() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = write_run(
+        d,
+        "r.csv",
+        &(0..200).map(|k| 30.0 * f64::from(k)).collect::<Vec<_>>(),
+    );
+    let text = std::fs::read_to_string(&run).unwrap();
+    std::fs::write(&run, text.replacen("T1,", "\"T1\u{1b}[2J\",", 1)).unwrap();
+    let out = d.join("m.bin");
+    for model in ["mlr", "auto"] {
+        let se = fails(&[
+            "fit",
+            "--data",
+            p(&run),
+            "--target",
+            "dz_um",
+            "--model",
+            model,
+            "--inputs",
+            "T1\u{1b}[2J",
+            "--out",
+            p(&out),
+        ]);
+        assert!(
+            se.contains("column name \"T1\\u{1b}[2J\" holds a control character"),
+            "{model}: {se}"
+        );
+        assert!(!out.exists(), "{model}");
+    }
+    ok(&[
+        "fit",
+        "--data",
+        p(&run),
+        "--target",
+        "dz_um",
+        "--model",
+        "mlr",
+        "--inputs",
+        "ambient_c",
+        "--out",
+        p(&out),
+    ]);
+}
+
 /// Issue 14: clap's usage errors are one line like every other error.
 #[test]
 fn issue14_usage_errors_are_one_line() {

@@ -143,12 +143,14 @@ impl Arma {
         st.seen = st.seen.saturating_add(1);
     }
 
-    /// Every coefficient is finite.
+    /// Every coefficient is finite and within
+    /// [`crate::capacity::MAX_MAGNITUDE`].
     pub fn is_finite(&self) -> bool {
-        self.mean.is_finite()
-            && self.std.is_finite()
-            && self.constant.is_finite()
-            && self.phi.iter().chain(&self.theta).all(|c| c.is_finite())
+        [self.mean, self.std, self.constant]
+            .iter()
+            .chain(&self.phi)
+            .chain(&self.theta)
+            .all(|c| crate::capacity::bounded(*c))
     }
 
     /// The model can run for ever: `std` a normal positive number, `d` at

@@ -136,7 +136,8 @@ impl BpNet {
             && self.y_min.iter().zip(&self.y_max).all(|(lo, hi)| lo <= hi)
     }
 
-    /// Every weight, bias and scale is finite.
+    /// Every weight, bias and scale is finite and within
+    /// [`crate::capacity::MAX_MAGNITUDE`].
     pub fn is_finite(&self) -> bool {
         [
             &self.w1[..],
@@ -149,7 +150,7 @@ impl BpNet {
             &self.y_max[..],
         ]
         .iter()
-        .all(|s| s.iter().all(|v| v.is_finite()))
+        .all(|s| s.iter().all(|v| crate::capacity::bounded(*v)))
     }
 
     /// Runs the net on the model inputs `x`, calling `emit(output, value)`

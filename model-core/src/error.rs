@@ -14,11 +14,16 @@ pub enum ModelError {
     NoInputsOrOutputs,
     /// An input or output name is empty.
     EmptyName,
+    /// An input or output name holds a control character (a line break,
+    /// an escape sequence): it would be printed raw by whatever shows the
+    /// model.
+    ControlInName,
     /// Two outputs share a name, or two inputs share name and reference.
     DuplicateName,
     /// A coefficient refers to an input or output that does not exist.
     IndexOutOfRange,
-    /// A coefficient, reference or scale is NaN or infinite.
+    /// A coefficient, reference or scale is NaN, infinite or beyond
+    /// [`crate::capacity::MAX_MAGNITUDE`] in magnitude.
     NonFinite,
     /// Sizes do not agree (weights vs inputs, betas vs components, ...).
     ShapeMismatch,
@@ -65,9 +70,16 @@ impl core::fmt::Display for ModelError {
         match self {
             Self::NoInputsOrOutputs => write!(f, "the model has no inputs or no outputs"),
             Self::EmptyName => write!(f, "an input or output name is empty"),
+            Self::ControlInName => {
+                write!(f, "an input or output name holds a control character")
+            }
             Self::DuplicateName => write!(f, "an input or output name is repeated"),
             Self::IndexOutOfRange => write!(f, "a coefficient refers to a missing input/output"),
-            Self::NonFinite => write!(f, "a coefficient is NaN or infinite"),
+            Self::NonFinite => write!(
+                f,
+                "a coefficient is NaN, infinite or beyond {:e} in magnitude",
+                crate::capacity::MAX_MAGNITUDE
+            ),
             Self::ShapeMismatch => write!(f, "coefficient counts do not agree"),
             Self::OutputUnused { output } => write!(f, "output #{output} is computed by nothing"),
             Self::BadSampleTime => write!(f, "bad sample time (dynamic models need dt_s > 0)"),

@@ -39,7 +39,7 @@
 //! f64"). The coefficients are immutable; the filter memories `s_j` live in
 //! the [`ModelState`](crate::model::ModelState), one f64 per feature.
 
-use crate::capacity::MAX_OUTPUTS;
+use crate::capacity::{bounded, MAX_OUTPUTS};
 use crate::error::ModelError;
 use serde::{Deserialize, Serialize};
 
@@ -164,7 +164,7 @@ impl FilterBank {
             if usize::from(f.input) >= n_in {
                 return Err(ModelError::IndexOutOfRange);
             }
-            if !f.tau_s.is_finite() {
+            if !(bounded(f.tau_s) || f.tau_s == HOLD_TAU_S) {
                 return Err(ModelError::NonFinite);
             }
             if !(f.power == 1 || f.power == 2) || f.tau_s < 0.0 {
@@ -184,7 +184,7 @@ impl FilterBank {
             if eq.coef.len() != self.features.len() {
                 return Err(ModelError::ShapeMismatch);
             }
-            if !eq.intercept.is_finite() || !eq.coef.iter().all(|c| c.is_finite()) {
+            if !bounded(eq.intercept) || !eq.coef.iter().all(|c| bounded(*c)) {
                 return Err(ModelError::NonFinite);
             }
         }

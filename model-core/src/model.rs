@@ -248,10 +248,20 @@ impl Bounds {
 }
 
 fn finite(values: &[f64]) -> Result<(), ModelError> {
-    if values.iter().all(|v| v.is_finite()) {
+    if values.iter().all(|v| crate::capacity::bounded(*v)) {
         Ok(())
     } else {
         Err(ModelError::NonFinite)
+    }
+}
+
+fn check_name(name: &str) -> Result<(), ModelError> {
+    if name.is_empty() {
+        Err(ModelError::EmptyName)
+    } else if name.chars().any(char::is_control) {
+        Err(ModelError::ControlInName)
+    } else {
+        Ok(())
     }
 }
 
@@ -304,9 +314,7 @@ impl Model {
             return Err(ModelError::NoInputsOrOutputs);
         }
         for (i, ch) in self.inputs.iter().enumerate() {
-            if ch.name.is_empty() {
-                return Err(ModelError::EmptyName);
-            }
+            check_name(&ch.name)?;
             if let Reference::Value(v) = ch.reference {
                 finite(&[v])?;
             }
@@ -315,9 +323,7 @@ impl Model {
             }
         }
         for (i, name) in self.outputs.iter().enumerate() {
-            if name.is_empty() {
-                return Err(ModelError::EmptyName);
-            }
+            check_name(name)?;
             if self.outputs.iter().skip(i + 1).any(|o| o == name) {
                 return Err(ModelError::DuplicateName);
             }

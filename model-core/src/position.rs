@@ -49,8 +49,10 @@ impl PositionTerm {
         k - self.k0
     }
 
-    /// All coefficients are finite.
+    /// All coefficients are finite and within
+    /// [`crate::capacity::MAX_MAGNITUDE`].
     pub fn is_finite(&self) -> bool {
-        self.k0.is_finite() && self.poly.iter().all(|c| c.is_finite())
+        use crate::capacity::bounded;
+        bounded(self.k0) && self.poly.iter().all(|c| bounded(*c))
     }
 }

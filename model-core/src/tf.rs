@@ -67,7 +67,8 @@ pub struct TfEntry {
 pub enum TfError {
     /// `b` is empty or `b0` is zero: Eq. 1 cannot be solved for `y(k)`.
     ZeroLeadingDenominator,
-    /// A coefficient is NaN or infinite.
+    /// A coefficient is NaN, infinite or beyond
+    /// [`crate::capacity::MAX_MAGNITUDE`] in magnitude.
     NonFinite,
     /// More than [`MAX_ORDER`] delays.
     OrderTooHigh,
@@ -94,7 +95,11 @@ impl core::fmt::Display for TfError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::ZeroLeadingDenominator => write!(f, "b0 is zero or b is empty"),
-            Self::NonFinite => write!(f, "a coefficient is not finite"),
+            Self::NonFinite => write!(
+                f,
+                "a coefficient is not finite or beyond {:e} in magnitude",
+                crate::capacity::MAX_MAGNITUDE
+            ),
             Self::OrderTooHigh => write!(f, "order above {MAX_ORDER}"),
             Self::Unstable { re, im } => {
                 write!(f, "unstable: pole {re}{im:+}i lies outside the unit circle")
@@ -127,7 +132,7 @@ pub struct RealisedTf {
 impl RealisedTf {
     /// Checks and realises `a / b` (seed 004 Eq. 1 coefficients).
     pub fn new(a: &[f64], b: &[f64]) -> Result<Self, TfError> {
-        if a.iter().chain(b).any(|c| !c.is_finite()) {
+        if a.iter().chain(b).any(|c| !crate::capacity::bounded(*c)) {
             return Err(TfError::NonFinite);
         }
         let a = poly::trim(a);

@@ -543,10 +543,18 @@ fn with_arma(f: impl FnOnce(&mut Arma)) -> Model {
     m
 }
 
+/// A number no model needs: just beyond `capacity::MAX_MAGNITUDE` (1e12), on
+/// either side, and the 1e300 a hand-made blob carried (it decoded, and its
+/// products overflow to infinity).
+const ABSURD: [f64; 3] = [1.000_001e12, -1.000_001e12, 1e300];
+
 #[test]
 fn non_finite_coefficients_are_refused() {
     use ModelError::NonFinite;
-    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY]
+        .into_iter()
+        .chain(ABSURD)
+    {
         let cases: Vec<(&str, Model)> = vec![
             ("tf a", with_tf(|e| e[0].a[1] = bad)),
             ("tf b", with_tf(|e| e[1].b[2] = bad)),
@@ -596,6 +604,9 @@ fn non_finite_coefficients_are_refused() {
         ] {
             refused_both_ways(&format!("{label} = {bad}"), model, NonFinite);
         }
+        if bad.is_finite() {
+            continue;
+        }
         // A dynamic model's sample time.
         refused_both_ways(
             &format!("dt_s = {bad}"),
@@ -624,6 +635,14 @@ fn non_finite_coefficients_are_refused() {
         with_bp(|n| n.x_max[2] = f64::NAN),
         NonFinite,
     );
+    refused_both_ways(
+        "bp x_min = -1e300",
+        with_bp(|n| n.x_min[0] = -1e300),
+        NonFinite,
+    );
+    // The bound itself is a number a model may hold.
+    let at_bound = with_linear(|o| o.coef[3].value = model_core::capacity::MAX_MAGNITUDE);
+    assert!(at_bound.validate().is_ok());
 }
 
 /// Seed 004's printed example of what validation must stop: a pole at 1.2
@@ -705,6 +724,24 @@ fn decoder_applies_every_structural_check() {
                 m
             },
             EmptyName,
+        ),
+        (
+            "line break in an input name",
+            {
+                let mut m = bp_3_4_2();
+                m.inputs[1].name = name("T1\nT2");
+                m
+            },
+            ControlInName,
+        ),
+        (
+            "escape in an output name",
+            {
+                let mut m = bp_3_4_2();
+                m.outputs[0] = name("dz\u{1b}[2J");
+                m
+            },
+            ControlInName,
         ),
         (
             "duplicate output",
@@ -948,12 +985,27 @@ fn fbank_and_bounds_refusals() {
             BadBounds,
         ),
         (
-            "width beyond f64",
+            "span beyond MAX_MAGNITUDE",
             with_bounds(|b| {
                 b.envelope[0].min = -f64::MAX;
                 b.envelope[0].max = f64::MAX;
             }),
-            BadBounds,
+            NonFinite,
+        ),
+        (
+            "half_width 1e300",
+            with_bounds(|b| b.half_width[0] = 1e300),
+            NonFinite,
+        ),
+        (
+            "fbank coef 1e300",
+            with_fbank(|b| b.outputs[0].coef[1] = 1e300),
+            NonFinite,
+        ),
+        (
+            "fbank tau_s 1e300 (only the hold's f64::MAX is beyond the bound)",
+            with_fbank(|b| b.features[0].tau_s = 1e300),
+            NonFinite,
         ),
         (
             "half_width < 0",

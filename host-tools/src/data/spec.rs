@@ -235,8 +235,9 @@ fn number(v: &toml::Value, what: &str) -> Result<f64> {
 /// The largest magnitude a spec number may have (but for a feature's
 /// hold, below): a coefficient of 1e300 was built, and `predict` then wrote
 /// 300-digit offsets. 1e12 leaves room for any physical gain (um per K, um
-/// per rpm^2), time constant (s, 30,000 years) or reference.
-pub const MAX_SPEC_MAGNITUDE: f64 = 1e12;
+/// per rpm^2), time constant (s, 30,000 years) or reference. model-core's
+/// own bound on every number a model holds (so on a blob from anywhere).
+pub const MAX_SPEC_MAGNITUDE: f64 = model_core::capacity::MAX_MAGNITUDE;
 
 /// TOML reads `nan` and `inf` as floats; a coefficient must be finite, and
 /// at most [`MAX_SPEC_MAGNITUDE`] in magnitude. Checked here, per entry, so

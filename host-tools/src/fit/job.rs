@@ -257,6 +257,7 @@ pub fn fit(p: &ValidFitParams, runs: &[RunFile], validate: &[RunFile]) -> Result
     let (common, _) = common_columns(&heads);
     let inputs = p.inputs_for(&common, &first.path.display().to_string())?;
     let a = &p.params;
+    refuse_unprintable(inputs.iter().chain(&a.targets))?;
     let ds = Dataset::new(
         runs,
         validate,
@@ -324,6 +325,18 @@ pub fn common_columns(runs: &[(String, Vec<String>)]) -> (Vec<String>, Vec<(Stri
         }
     }
     (common, missing)
+}
+
+/// Refuses a column a model would name with a control character in it (a
+/// line break, an escape sequence: `model show` would print it raw), before
+/// the fit runs: model-core refuses such a blob (`ModelError::ControlInName`).
+fn refuse_unprintable<'a>(names: impl IntoIterator<Item = &'a String>) -> Result<()> {
+    match names.into_iter().find(|n| n.chars().any(char::is_control)) {
+        Some(n) => bail!(
+            "column name {n:?} holds a control character: a model's column names must be printable"
+        ),
+        None => Ok(()),
+    }
 }
 
 /// Refuses a target that never moves over the calibration rows: there is
