@@ -30,7 +30,10 @@ scored run before and after `thermcomp refit` of the auto blob on the first
 (seed 002's self-adaptive update, what a user does after such a day), and
 the refitted blob's band coverage there (`rcover`: refit carries the band).
 
-usage: scripts/auto_room_split.py [path/to/thermcomp] [--seed S] [-- fit options]
+`--rooms 20,20,20` holds every calibration room at one level (the protocol
+where the runs start alike, docs/fit.md "When the room moves").
+
+usage: scripts/auto_room_split.py [path/to/thermcomp] [--seed S] [--rooms A,B,C] [-- fit options]
 """
 import csv
 import json
@@ -159,11 +162,10 @@ def data_args(paths):
     return [a for p in paths for a in ("--data", p)]
 
 
-def make_runs(exe, tmp, seed):
+def make_runs(exe, tmp, seed, rooms=(18.0, 20.0, 23.0)):
     s = 10 * seed
-    cal = [simulate(exe, tmp, "cal18", "steps", s + 1, 18.0),
-           simulate(exe, tmp, "cal20", "spectrum", s + 2, 20.0),
-           simulate(exe, tmp, "cal23", "steps", s + 3, 23.0)]
+    cal = [simulate(exe, tmp, f"cal{i}", profile, s + 1 + i, room)
+           for i, (profile, room) in enumerate(zip(("steps", "spectrum", "steps"), rooms))]
     test = [simulate(exe, tmp, "room1", "steps", s + 4, effects="ambient"),
             simulate(exe, tmp, "room2", "spectrum", s + 5, effects="ambient")]
     return cal, test
@@ -207,9 +209,13 @@ def main():
     if "--seed" in args:
         seed = int(args[args.index("--seed") + 1])
         del args[args.index("--seed"):args.index("--seed") + 2]
+    rooms = (18.0, 20.0, 23.0)
+    if "--rooms" in args:
+        rooms = tuple(float(r) for r in args[args.index("--rooms") + 1].split(","))
+        del args[args.index("--rooms"):args.index("--rooms") + 2]
     exe = args[0] if args else str(ROOT / "target/release/thermcomp")
     with tempfile.TemporaryDirectory() as tmp:
-        cal, test = make_runs(exe, tmp, seed)
+        cal, test = make_runs(exe, tmp, seed, rooms)
         _, col = read(cal[0])
         temps = [c for c in col if c.startswith("T") and c[1:].isdigit()]
         fit_json = json.loads(run(exe, "fit", *data_args(cal), "--target", ",".join(TARGETS),

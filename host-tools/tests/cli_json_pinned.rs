@@ -31,7 +31,10 @@
 //! aside), and once more when `details` gained `quiet_inputs` and `sight`
 //! (2026-11-28, fit/quiet.rs and `Sight`: none left out and the CV sees
 //! extrapolation on this run, so with those two keys removed the new
-//! capture equals the old, `out` and `seconds` aside).
+//! capture equals the old, `out` and `seconds` aside), and once more when
+//! `sight` gained `unexcited`, `level_spread` and `change_only`
+//! (2026-11-28, fit/auto/sight.rs: one run, so `[]`, `null` and `false`;
+//! every other byte as before, `seconds` aside).
 //!
 //! Every command runs in the repository root with the relative paths the
 //! fixtures were captured with (`eval` names each run's file). `fit --model

@@ -526,11 +526,15 @@ fn warn_quiet_inputs(o: &FitOutcome) {
     }
 }
 
-/// Says on stderr when an auto fit's CV could not see extrapolation, and
-/// what it left out for that reason.
+/// Says on stderr where an auto fit's CV could not see extrapolation, and
+/// what it left out for that reason (`Sight`).
 fn warn_static_only(o: &FitOutcome) {
-    if let Some(sentence) = o.auto_report().and_then(|r| r.sight.sentence()) {
-        eprintln!("note: auto: {sentence}; calibrate on runs that differ (room, programme) for the CV to weigh their dynamics");
+    for sentence in o
+        .auto_report()
+        .map(|r| r.sight.sentences())
+        .unwrap_or_default()
+    {
+        eprintln!("note: auto: {sentence}; calibrate on runs that differ (room, programme) for the CV to weigh them");
     }
 }
 

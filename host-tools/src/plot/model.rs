@@ -96,7 +96,7 @@ fn cv_html(auto: &AutoReport) -> String {
         let sentence = crate::fit::quiet::left_out(&auto.quiet_inputs);
         let _ = write!(html, "<p>{}.</p>", esc(&sentence));
     }
-    if let Some(sentence) = auto.sight.sentence() {
+    for sentence in auto.sight.sentences() {
         let _ = write!(html, "<p>{}.</p>", esc(&sentence));
     }
     for t in &auto.targets {

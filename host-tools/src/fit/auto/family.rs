@@ -593,11 +593,11 @@ pub struct Comparison {
     pub winner: Option<Candidate>,
 }
 
-/// Scores every family of `families` but the ridge in both forms on the
-/// bench, and decides against the ridge winner's residuals `ridge`.
+/// Scores every family of `families` but the ridge in each of `forms` on
+/// the bench, and decides against the ridge winner's residuals `ridge`.
 pub fn compare(
     b: &Bench,
-    families: &[Family],
+    (families, forms): (&[Family], &[Form]),
     ridge: &Residuals,
     progress: &dyn Fn(),
 ) -> Comparison {
@@ -605,7 +605,7 @@ pub fn compare(
     let mut cands: Vec<Candidate> = families
         .iter()
         .filter(|&&f| f != Family::Ridge)
-        .flat_map(|&f| Form::ALL.map(|form| (f, form)))
+        .flat_map(|&f| forms.iter().map(move |&form| (f, form)))
         .map(|(f, form)| candidate(b, f, form, &ridge_errors, progress))
         .collect();
     cands.sort_by(|a, c| {

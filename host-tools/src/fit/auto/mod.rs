@@ -31,6 +31,7 @@ pub mod folds;
 pub mod layout;
 pub mod ridge;
 pub mod search;
+pub mod sight;
 pub mod table;
 
 use super::quiet;
@@ -46,6 +47,7 @@ use model_core::model::{Bounds, Name, Span};
 use model_core::{Channel, Model, Params};
 use search::{FormData, Member, SearchSettings};
 use serde::Serialize;
+use sight::Sight;
 use table::{CvRow, Family, Form};
 
 /// Filter time constants, s, that the temperature banks draw from: 5 min
@@ -364,93 +366,6 @@ pub struct AutoReport {
     pub sight: Sight,
 }
 
-/// What the cross-validation can judge of extrapolation.
-///
-/// Every candidate is scored on calibration samples its model did not see,
-/// but where those samples lie inside the envelope of the ones it was
-/// fitted on, the CV error says how a candidate interpolates, not how it
-/// extrapolates. When the calibration runs are alike (leave one run out
-/// over runs of one kind: the same room, the same spindle programme), no
-/// fold leaves the others' envelope, and every day unlike them is an
-/// extrapolation the CV never tested: the hub flags it, and what a model
-/// does there is whatever its form makes of it. A temperature's filter
-/// features (and the ARX and TF families) fit the shape of the responses
-/// in time, which the calibration's one way of heating fixed; a
-/// temperature's own column is a sensitivity per kelvin, which carries
-/// over to another cause of the same temperature change. So when fewer
-/// than [`MIN_EXTRAPOLATING`] scored samples lie beyond the hub's flag
-/// outside the other folds' envelope (every input in the change form: how
-/// the inputs move, which is what the filters model; the runs' levels,
-/// which leave the envelope in the absolute form when the rooms differ,
-/// test no dynamics), temperatures enter unfiltered and the dynamic
-/// families are not tried; heat sources keep their filters (they act only
-/// through the structure's lag). On the thermal twin's room protocol this
-/// took `auto` from 59.4 to 28.5 um summed over seeds 1-6, and from 54.0 to
-/// 29.3 over seeds 7-12 held out (docs/fit.md, "When the room moves"). On
-/// FL_THERMAL's forward-chained blocks (2,733 to 4,481 such samples) and
-/// the demo's (367) the rule did nothing. The count is not the band's
-/// (`Band::growth_measured` counts the blob's channels each in its own
-/// form), so the two notes can differ.
-#[derive(Clone, Copy, Debug, Serialize)]
-pub struct Sight {
-    /// Scored CV samples beyond the flag threshold outside the envelope of
-    /// the folds their model was fitted on.
-    pub outside_samples: usize,
-    /// Whether temperatures entered unfiltered and ARX/TF were left out
-    /// (`outside_samples` below [`MIN_EXTRAPOLATING`]).
-    pub static_only: bool,
-}
-
-impl Sight {
-    /// Measured on the change-form inputs `x` (`[run][input][k]`).
-    fn of(x: &[Vec<Vec<f64>>], folds: &Folds) -> Self {
-        let n = x.first().map_or(0, Vec::len);
-        let columns: Vec<(&[Vec<Vec<f64>>], usize)> = (0..n).map(|i| (x, i)).collect();
-        let flag = model_core::model::EXTRAPOLATION_FLAG_AT;
-        let outside_samples = cv_extrapolation(&columns, folds)
-            .iter()
-            .filter(|d| **d > flag)
-            .count();
-        Self {
-            outside_samples,
-            static_only: outside_samples < MIN_EXTRAPOLATING,
-        }
-    }
-
-    /// What it means for the fit, as a sentence (stderr's note, the report
-    /// page); `None` when the CV saw extrapolation.
-    pub fn sentence(&self) -> Option<String> {
-        self.static_only.then(|| {
-            format!(
-                "cross-validation samples outside the other folds' input envelope: {}, fewer \
-                 than {MIN_EXTRAPOLATING} (the calibration runs, or one run's blocks, are alike), \
-                 so the CV cannot judge how a model extrapolates: temperatures enter unfiltered \
-                 and arx/tf are not tried",
-                self.outside_samples
-            )
-        })
-    }
-
-    /// The search settings and families to weigh: unfiltered temperatures
-    /// and no ARX/TF when the CV cannot see extrapolation.
-    fn restrict(&self, s: &SearchSettings, families: &[Family]) -> (SearchSettings, Vec<Family>) {
-        if !self.static_only {
-            return (s.clone(), families.to_vec());
-        }
-        let settings = SearchSettings {
-            temp_sets: vec![Vec::new()],
-            ..s.clone()
-        };
-        let dynamic = [Family::Arx, Family::Tf];
-        let families = families
-            .iter()
-            .copied()
-            .filter(|f| !dynamic.contains(f))
-            .collect();
-        (settings, families)
-    }
-}
-
 /// Reference-adjusted inputs of every grid run in `form`, `[run][input][k]`.
 fn adjusted(grid: &[GridRun], roles: &[Role], form: Form) -> Vec<Vec<Vec<f64>>> {
     adjust(grid, roles, form, |g| &g.x)
@@ -504,14 +419,15 @@ struct RidgeFit {
     layout: Layout,
 }
 
-/// Step 1: the ridge search of every target and the winners' layout on
-/// the hub (layout.rs; the grids cannot exceed its features, a test
-/// checks), each winner with its band.
+/// Step 1: the ridge search of every target over the `searched` forms
+/// (`forms` holds both, for the envelope) and the winners' layout on the
+/// hub (layout.rs; the grids cannot exceed its features, a test checks),
+/// each winner with its band.
 fn ridge_targets(
     ds: &Dataset,
     grid: &[GridRun],
     folds: &Folds,
-    forms: &[FormData],
+    (forms, searched): (&[FormData], &[FormData]),
     roles: &[Role],
     s: &SearchSettings,
     progress: &dyn Fn(),
@@ -522,7 +438,7 @@ fn ridge_targets(
     let mut found = Vec::new();
     for (target, y) in ds.targets.iter().zip(&ys) {
         found.push(
-            search::search(forms, y, folds, s, progress)
+            search::search(searched, y, folds, s, progress)
                 .ok_or_else(|| anyhow!("auto: no candidate could be fitted for {target}"))?,
         );
     }
@@ -662,18 +578,27 @@ fn fit_moved(
         })
         .collect();
     let bench = Bench::new(&grid, &folds, ds, &params.trainers);
-    let sight = Sight::of(form_x(&xs, Form::Change), &folds);
-    let (settings, families) = sight.restrict(s, &params.families);
+    let unmoved: Vec<&str> = quiet.iter().map(|q| q.input.as_str()).collect();
+    let sight = Sight::of(&grid, form_x(&xs, Form::Change), &roles, &folds, &unmoved);
+    let (settings, families, allowed) = sight.restrict(s, &params.families);
     let s = &settings;
-    let per_target = s.temp_sets.len() * s.heat_sets.len() * forms.len() + s.eliminate;
-    let family_jobs = (families.len() - 1) * Form::ALL.len() * bench.scored_folds();
+    let searched: Vec<FormData> = forms
+        .iter()
+        .copied()
+        .filter(|f| allowed.contains(&f.form))
+        .collect();
+    let per_target = s.temp_sets.len() * s.heat_sets.len() * searched.len() + s.eliminate;
+    let family_jobs = (families.len() - 1) * allowed.len() * bench.scored_folds();
     let pb = crate::num::progress::progress(
         per_target * ds.targets.len() + family_jobs,
         "auto: candidates",
     );
-    let mut ridge = ridge_targets(ds, &grid, &folds, &forms, &roles, s, &|| pb.inc(1))?;
+    let forms = (forms.as_slice(), searched.as_slice());
+    let mut ridge = ridge_targets(ds, &grid, &folds, forms, &roles, s, &|| pb.inc(1))?;
     pb.set_message("auto: families");
-    let mut cmp = family::compare(&bench, &families, &ridge.residuals, &|| pb.inc(1));
+    let mut cmp = family::compare(&bench, (&families, &allowed), &ridge.residuals, &|| {
+        pb.inc(1)
+    });
     pb.finish_and_clear();
     let won = cmp
         .winner

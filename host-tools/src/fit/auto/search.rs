@@ -23,6 +23,7 @@ use super::table::{cv_columns, CvRow, Family, Form};
 use serde::Serialize;
 
 /// The feature columns of one input form over the calibration grid.
+#[derive(Clone, Copy)]
 pub struct FormData<'a> {
     /// The form.
     pub form: Form,
