@@ -40,27 +40,6 @@ CRITERION = {"dx_um": 10.0, "dz_um": 5.0}
 METHODS = ["auto", "ridge", "ols", "ridge_abs"]
 
 
-def ridge_absolute(xs, ys):
-    """Ridge with intercept on absolute temperatures, penalty by leave-one-run-out."""
-    lams = 10.0 ** np.arange(-6, 1.01, 0.5)
-
-    def fit(x, y, lam):
-        mu, sd = x.mean(0), x.std(0)
-        sd[sd == 0] = 1
-        z = (x - mu) / sd
-        w = np.linalg.solve(z.T @ z + lam * len(y) * np.eye(z.shape[1]), z.T @ (y - y.mean()))
-        return lambda xn: ((xn - mu) / sd) @ w + y.mean()
-
-    def cv(lam):
-        e = 0.0
-        for i in range(len(xs)):
-            x = np.vstack([a for j, a in enumerate(xs) if j != i])
-            y = np.concatenate([a for j, a in enumerate(ys) if j != i])
-            e += np.sum((fit(x, y, lam)(xs[i]) - ys[i]) ** 2)
-        return e
-    return fit(np.vstack(xs), np.concatenate(ys), min(lams, key=cv))
-
-
 def baselines(cal_d, test_d, col, temps, t):
     """rmse on the scored runs of the three numpy baselines for target `t`."""
     ys = [d[:, col[t]] for d in cal_d]
@@ -68,7 +47,7 @@ def baselines(cal_d, test_d, col, temps, t):
     ridge = room.ridge_loro([room.features(d, col, temps) for d in cal_d], ys)
     e_ridge = np.concatenate([ridge(room.features(d, col, temps)) for d in test_d]) - y
     absolute = [d[:, [col[c] for c in temps]] for d in cal_d]
-    ridge_abs = ridge_absolute(absolute, ys)
+    ridge_abs = room.ridge_loro(absolute, ys, intercept=True)
     e_abs = np.concatenate([ridge_abs(d[:, [col[c] for c in temps]]) for d in test_d]) - y
     return {"ridge": room.rmse(e_ridge),
             "ols": room.rmse(room.ols_error(cal_d, test_d, col, temps, t)),

@@ -113,16 +113,20 @@ def features(data, col, temps):
     return np.column_stack(cols)
 
 
-def ridge_loro(xs, ys):
-    """Ridge without intercept on change features, penalty by leave-one-run-out."""
+def ridge_loro(xs, ys, intercept=False):
+    """Ridge on standardised columns, penalty by leave-one-run-out; without
+    intercept (change features, the default) or with one (absolute
+    features: columns and target centred on their means)."""
     lams = 10.0 ** np.arange(-6, 1.01, 0.5)
 
     def fit(x, y, lam):
+        mu = x.mean(0) if intercept else np.zeros(x.shape[1])
+        y0 = y.mean() if intercept else 0.0
         sd = x.std(0)
         sd[sd == 0] = 1
-        z = x / sd
-        w = np.linalg.solve(z.T @ z + lam * len(y) * np.eye(z.shape[1]), z.T @ y)
-        return lambda xn: (xn / sd) @ w
+        z = (x - mu) / sd
+        w = np.linalg.solve(z.T @ z + lam * len(y) * np.eye(z.shape[1]), z.T @ (y - y0))
+        return lambda xn: ((xn - mu) / sd) @ w + y0
 
     def cv(lam):
         e = 0.0
