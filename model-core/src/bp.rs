@@ -137,8 +137,12 @@ impl BpNet {
     }
 
     /// Every weight, bias and scale is finite and within
-    /// [`crate::capacity::MAX_MAGNITUDE`].
+    /// [`crate::capacity::MAX_MAGNITUDE`], the inputs' `mapminmax` gains
+    /// `2 / span` too (a span of 1e-300 would multiply an input by 2e300;
+    /// the outputs' spans only shrink).
     pub fn is_finite(&self) -> bool {
+        use crate::capacity::bounded;
+        let gain_bounded = |(lo, hi): (&f64, &f64)| hi == lo || bounded(2.0 / (hi - lo));
         [
             &self.w1[..],
             &self.b1[..],
@@ -150,7 +154,8 @@ impl BpNet {
             &self.y_max[..],
         ]
         .iter()
-        .all(|s| s.iter().all(|v| crate::capacity::bounded(*v)))
+        .all(|s| s.iter().all(|v| bounded(*v)))
+            && self.x_min.iter().zip(&self.x_max).all(gain_bounded)
     }
 
     /// Runs the net on the model inputs `x`, calling `emit(output, value)`

@@ -25,6 +25,7 @@
 //! stable direct form. A pole on or outside the unit circle without a
 //! cancelling zero is rejected: it would integrate any offset without bound.
 
+use crate::capacity::bounded;
 use crate::poly;
 use serde::{Deserialize, Serialize};
 
@@ -132,7 +133,7 @@ pub struct RealisedTf {
 impl RealisedTf {
     /// Checks and realises `a / b` (seed 004 Eq. 1 coefficients).
     pub fn new(a: &[f64], b: &[f64]) -> Result<Self, TfError> {
-        if a.iter().chain(b).any(|c| !crate::capacity::bounded(*c)) {
+        if a.iter().chain(b).any(|c| !bounded(*c)) {
             return Err(TfError::NonFinite);
         }
         let a = poly::trim(a);
@@ -161,6 +162,12 @@ impl RealisedTf {
             radius: 0.0,
         };
         tf.cancel_real_unit_roots();
+        // What runs is `a / b0` and `b / b0` after cancellation: a tiny `b0`
+        // (1e-290 under an `a` of 1e12) would carry 1e302 past the bound
+        // on the stored coefficients.
+        if tf.num().iter().chain(tf.den()).any(|c| !bounded(*c)) {
+            return Err(TfError::NonFinite);
+        }
         tf.check_poles()?;
         Ok(tf)
     }

@@ -640,6 +640,24 @@ fn non_finite_coefficients_are_refused() {
         with_bp(|n| n.x_min[0] = -1e300),
         NonFinite,
     );
+    // What runs is bounded too: a TF's coefficients over a tiny b0, a BP
+    // input's mapminmax gain over a tiny span.
+    refused_both_ways(
+        "tf a / b0 = 1e302",
+        with_tf(|e| {
+            e[0].a = hv(&[1e12]);
+            e[0].b = hv(&[1e-290]);
+        }),
+        NonFinite,
+    );
+    refused_both_ways(
+        "bp x span 1e-300",
+        with_bp(|n| {
+            n.x_min[0] = 0.0;
+            n.x_max[0] = 1e-300;
+        }),
+        NonFinite,
+    );
     // The bound itself is a number a model may hold.
     let at_bound = with_linear(|o| o.coef[3].value = model_core::capacity::MAX_MAGNITUDE);
     assert!(at_bound.validate().is_ok());

@@ -39,10 +39,25 @@ fn moments_of(m: usize, visit: &mut RowVisitor) -> ((Vec<f64>, Vec<f64>), f64, u
     });
     let std = var
         .iter()
-        .map(|v| (v / (nf - 1.0).max(1.0)).sqrt())
+        .zip(&mean)
+        .map(|(v, mu)| {
+            let sd = (v / (nf - 1.0).max(1.0)).sqrt();
+            if sd <= ROUNDING * mu.abs() {
+                0.0
+            } else {
+                sd
+            }
+        })
         .collect();
     ((mean, std), y_sum / nf, n)
 }
+
+/// A column whose standard deviation is within this share of its mean is
+/// constant to rounding (1000 identical readings of 20.1, summed, give a
+/// spread of 6e-14 K, whose inverse weighed the column 1e13 times): its
+/// standard deviation is taken as 0, as for exactly equal readings. Any
+/// sensor that moves lies many decades above (0.01 K on 20 C is 5e-4).
+const ROUNDING: f64 = 1e-10;
 
 /// Standardised design matrix: `(x - mean) / std` per column (a constant
 /// column is only centred, giving zeros, which the SVD then ignores).
@@ -108,6 +123,25 @@ pub fn least_squares_visit(m: usize, visit: &mut RowVisitor) -> Result<(f64, Vec
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn identical_readings_have_no_spread() {
+        // 1000 readings of 20.1 sum with rounding: the spread was 6e-14
+        // and a PCR fit weighed the column by its inverse (beyond 1e12,
+        // which model-core refuses). Now exactly 0; a 0.01 K wobble is kept.
+        let rows: Vec<Vec<f64>> = (0..1000)
+            .map(|i| vec![20.1, 20.1 + 0.01 * f64::from(i % 2)])
+            .collect();
+        let (mean, std) = moments(&rows, 2);
+        assert!((mean[0] - 20.1).abs() < 1e-12);
+        assert_eq!(std[0], 0.0);
+        // The wobble's sample sd: 0.005 * sqrt(1000 / 999).
+        assert!(
+            (std[1] - 0.005 * (1000.0f64 / 999.0).sqrt()).abs() < 1e-12,
+            "{}",
+            std[1]
+        );
+    }
 
     #[test]
     fn exact_plane_is_recovered() {

@@ -578,8 +578,7 @@ fn fit_moved(
         })
         .collect();
     let bench = Bench::new(&grid, &folds, ds, &params.trainers);
-    let unmoved: Vec<&str> = quiet.iter().map(|q| q.input.as_str()).collect();
-    let sight = Sight::of(&grid, form_x(&xs, Form::Change), &roles, &folds, &unmoved);
+    let sight = Sight::of(&grid, form_x(&xs, Form::Change), &roles, &folds, &quiet);
     let (settings, families, allowed) = sight.restrict(s, &params.families);
     let s = &settings;
     let searched: Vec<FormData> = forms

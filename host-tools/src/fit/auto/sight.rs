@@ -16,8 +16,9 @@
 //!   the others' envelope and every day unlike them is an extrapolation the
 //!   CV never tested.
 //! - **A temperature no calibration run moved** (several runs; fit/quiet.rs
-//!   left it out): whatever moves it in service, the room typically, is a
-//!   cause the runs never excited. The CV's extrapolation is then along
+//!   left it out, and it reads noise: a reading that never changes is a
+//!   dead or held channel, not a cause): whatever moves it in service, the
+//!   room typically, is a cause the runs never excited. The CV's extrapolation is then along
 //!   the causes the runs did vary (the spindle programme), not along that
 //!   one.
 //!
@@ -51,6 +52,7 @@ use super::search::SearchSettings;
 use super::table::{Family, Form};
 use super::{cv_extrapolation, MIN_EXTRAPOLATING};
 use crate::data::dataset::GridRun;
+use crate::fit::quiet::QuietInput;
 use crate::num::stats::kth_smallest;
 use serde::Serialize;
 
@@ -64,9 +66,15 @@ pub const MIN_LEVEL_SPREAD: f64 = 0.5;
 
 /// Largest first value of a target, as a share of its range in that run,
 /// for the target to count as zeroed at the run's start (a logger that
-/// zeroes at the start gives 0; one that zeroes on the mean of the first
-/// samples, about its noise).
+/// zeroes at the start gives 0), or in sigmas of its white noise
+/// ([`ZEROED_NOISE_SIGMAS`]), whichever is larger: a logger that zeroes on
+/// the mean of the first samples leaves the first one about its noise
+/// away, and on a run that moves little that passed 5 % of its range.
 pub const ZEROED_WITHIN: f64 = 0.05;
+
+/// See [`ZEROED_WITHIN`]: 3 sigmas, which a first sample of a zeroed
+/// target passes 0.3 % of the time.
+pub const ZEROED_NOISE_SIGMAS: f64 = 3.0;
 
 /// What the CV could judge, and what was left out for it.
 #[derive(Clone, Debug, Serialize)]
@@ -75,7 +83,10 @@ pub struct Sight {
     /// the folds their model was fitted on.
     pub outside_samples: usize,
     /// With several calibration runs, the temperatures left out because no
-    /// run moved them (fit/quiet.rs): causes the runs never excited.
+    /// run moved them beyond their noise (fit/quiet.rs; not those whose
+    /// readings never change): causes the runs never excited. Every
+    /// column but a heat source counts as a temperature here, so a spare
+    /// channel that reads only noise counts too.
     pub unexcited: Vec<String>,
     /// Whether temperatures entered unfiltered and ARX/TF were left out
     /// (`outside_samples` below [`MIN_EXTRAPOLATING`], or `unexcited` not
@@ -98,7 +109,7 @@ impl Sight {
         change_x: &[Vec<Vec<f64>>],
         roles: &[Role],
         folds: &Folds,
-        unmoved: &[&str],
+        unmoved: &[QuietInput],
     ) -> Self {
         let columns: Vec<(&[Vec<Vec<f64>>], usize)> =
             (0..roles.len()).map(|i| (change_x, i)).collect();
@@ -110,8 +121,8 @@ impl Sight {
         let several = folds.scheme == Scheme::LeaveOut;
         let unexcited: Vec<String> = unmoved
             .iter()
-            .filter(|q| several && Role::of(q) == Role::Temperature)
-            .map(|q| (*q).to_string())
+            .filter(|q| several && Role::of(&q.input) == Role::Temperature && q.swing > 0.0)
+            .map(|q| q.input.clone())
             .collect();
         let level_spread = several.then(|| level_spread(grid, roles)).flatten();
         let change_only =
@@ -130,24 +141,28 @@ impl Sight {
     pub fn sentences(&self) -> Vec<String> {
         let unfiltered = "temperatures enter unfiltered and arx/tf are not tried";
         let mut out = Vec::new();
+        let unexcited = (!self.unexcited.is_empty()).then(|| {
+            let them = if self.unexcited.len() == 1 {
+                "it"
+            } else {
+                "them"
+            };
+            format!(
+                "no calibration run moved {}, so the CV cannot judge how a model carries over \
+                 to what moves {them} in service (the room, typically)",
+                self.unexcited.join(", ")
+            )
+        });
         if self.outside_samples < MIN_EXTRAPOLATING {
+            let also = unexcited.map(|u| format!("; {u}")).unwrap_or_default();
             out.push(format!(
                 "cross-validation samples outside the other folds' input envelope: {}, fewer \
                  than {MIN_EXTRAPOLATING} (the calibration runs, or one run's blocks, are alike), \
-                 so the CV cannot judge how a model extrapolates: {unfiltered}",
+                 so the CV cannot judge how a model extrapolates{also}: {unfiltered}",
                 self.outside_samples
             ));
-        } else if self.static_only {
-            out.push(format!(
-                "no calibration run moved {}, so the CV cannot judge how a model carries over \
-                 to what moves {} in service (the room, typically): {unfiltered}",
-                self.unexcited.join(", "),
-                if self.unexcited.len() == 1 {
-                    "it"
-                } else {
-                    "them"
-                }
-            ));
+        } else if let Some(u) = unexcited {
+            out.push(format!("{u}: {unfiltered}"));
         }
         if let (true, Some(s)) = (self.change_only, self.level_spread) {
             out.push(format!(
@@ -206,7 +221,8 @@ fn extent(v: &[f64]) -> f64 {
 
 /// Median over the temperatures that move of: the spread of the runs'
 /// first values (where the hub takes a change's reference: the lead's
-/// start, else the grid's) over the runs' mean within-run extent.
+/// start, else the grid's) over the runs' mean within-run extent (lead and
+/// calibration samples).
 fn level_spread(grid: &[GridRun], roles: &[Role]) -> Option<f64> {
     let mut ratios: Vec<f64> = roles
         .iter()
@@ -216,28 +232,50 @@ fn level_spread(grid: &[GridRun], roles: &[Role]) -> Option<f64> {
             let runs: Vec<&GridRun> = calibrating(grid).collect();
             let starts: Vec<f64> = runs
                 .iter()
-                .filter_map(|g| g.x_lead[i].first().or(g.x[i].first()).copied())
+                .filter_map(|g| lead(g, i).first().or(g.x[i].first()).copied())
                 .collect();
             let moved = runs
                 .iter()
-                .map(|g| extent(&g.x[i][..g.calib_end]))
+                .map(|g| {
+                    let v: Vec<f64> = lead(g, i)
+                        .iter()
+                        .chain(&g.x[i][..g.calib_end])
+                        .copied()
+                        .collect();
+                    extent(&v)
+                })
                 .sum::<f64>()
                 / runs.len().max(1) as f64;
             (moved > 0.0).then(|| extent(&starts) / moved)
         })
         .collect();
-    let mid = ratios.len().checked_sub(1)? / 2;
-    Some(kth_smallest(&mut ratios, mid))
+    median(&mut ratios)
+}
+
+/// Input `i`'s samples before the grid starts (`GridRun::x_lead`).
+fn lead(g: &GridRun, i: usize) -> &[f64] {
+    g.x_lead.get(i).map_or(&[], Vec::as_slice)
+}
+
+/// The median of `v` (the mean of the two middle values of an even count);
+/// `None` when empty. `v` is reordered.
+fn median(v: &mut [f64]) -> Option<f64> {
+    let n = v.len();
+    let lower = kth_smallest(v, n.checked_sub(1)? / 2);
+    let upper = kth_smallest(v, n / 2);
+    Some(0.5 * (lower + upper))
 }
 
 /// Whether every target starts at zero in every calibration run (its first
-/// value within [`ZEROED_WITHIN`] of its range in the run).
+/// value within [`ZEROED_WITHIN`] of its range in the run, or within
+/// [`ZEROED_NOISE_SIGMAS`] of its white noise there).
 fn targets_zeroed(grid: &[GridRun]) -> bool {
     calibrating(grid).all(|g| {
         g.y.iter().all(|y| {
             let y = &y[..g.calib_end];
-            y.first()
-                .is_some_and(|y0| y0.abs() <= ZEROED_WITHIN * extent(y))
+            let noise = crate::num::lsq::white_sigma(y);
+            let within = (ZEROED_WITHIN * extent(y)).max(ZEROED_NOISE_SIGMAS * noise);
+            y.first().is_some_and(|y0| y0.abs() <= within)
         })
     })
 }
@@ -275,12 +313,75 @@ mod tests {
         ];
         assert_eq!(level_spread(&apart, &roles), Some(1.5));
         // A target that starts 0.2 into a range of 2 (10 %) is not zeroed;
-        // 0.1 (5 %) is.
-        let offset = [run([20.0, 21.0, 22.0], [0.2, 1.0, 2.2]), same[1].clone()];
+        // 0.1 (5 %) is. (Straight lines: no noise.)
+        let offset = [run([20.0, 21.0, 22.0], [0.2, 1.2, 2.2]), same[1].clone()];
         assert!(!targets_zeroed(&offset));
-        let zeroed = [run([20.0, 21.0, 22.0], [0.1, 1.0, 2.1]), same[1].clone()];
+        let zeroed = [run([20.0, 21.0, 22.0], [0.1, 1.1, 2.1]), same[1].clone()];
         assert!(targets_zeroed(&zeroed));
+        // A noisy target (alternating +-0.1 about a 5 um climb: white sigma
+        // 0.24) whose first sample is 0.28 off, 5.6 % of its range, is
+        // zeroed: within 3 sigmas. Offset by 5 um, it is not.
+        let noisy = |offset: f64| {
+            let y: Vec<f64> = (0..200)
+                .map(|k| offset + 0.025 * f64::from(k) + if k % 2 == 0 { -0.1 } else { 0.1 })
+                .collect();
+            let mut g = run([20.0, 21.0, 22.0], [0.0; 3]);
+            g.x = vec![(0..200).map(|k| 20.0 + 0.01 * f64::from(k)).collect()];
+            g.t_s = (0..200).map(f64::from).collect();
+            g.y = vec![y];
+            g.calib_end = 200;
+            g
+        };
+        assert!(targets_zeroed(&[noisy(-0.18), same[1].clone()]));
+        assert!(!targets_zeroed(&[noisy(5.0), same[1].clone()]));
+        // Medians of odd and even counts.
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&mut [3.0, 1.0]), Some(2.0));
+        assert_eq!(median(&mut []), None);
         // A heat source is not a level; no temperature: no spread.
         assert_eq!(level_spread(&same, &[Role::HeatSource]), None);
+    }
+
+    #[test]
+    fn a_quiet_temperature_that_reads_noise_is_unexcited_a_dead_one_is_not() {
+        // Two alike runs (leave one run out), T1 heated, T2 noise-only,
+        // T3 dead (a constant reading).
+        let g = |t: [f64; 3]| run(t, [0.0, 1.0, 2.0]);
+        let mut grid = [g([20.0, 21.0, 22.0]), g([20.0, 22.0, 21.0])];
+        for r in &mut grid {
+            r.x.push(vec![20.0, 20.01, 19.99]);
+            r.x.push(vec![20.0; 3]);
+            r.x_lead = vec![Vec::new(); 3];
+        }
+        let change: Vec<Vec<Vec<f64>>> = grid
+            .iter()
+            .map(|r| {
+                r.x.iter()
+                    .map(|x| x.iter().map(|v| v - x[0]).collect())
+                    .collect()
+            })
+            .collect();
+        let folds = Folds::of_grid(&grid, 6);
+        assert_eq!(folds.scheme, Scheme::LeaveOut);
+        let quiet = |input: &str, swing: f64| QuietInput {
+            input: input.into(),
+            swing,
+            noise: 0.01,
+        };
+        let roles = [Role::Temperature; 3];
+        let unmoved = [quiet("T2", 0.008), quiet("T3", 0.0)];
+        let sight = Sight::of(&grid, &change, &roles, &folds, &unmoved);
+        assert_eq!(sight.unexcited, ["T2"]);
+        assert!(sight.static_only);
+        // The runs are alike too (6 samples, none outside): one sentence
+        // says both.
+        let said = sight.sentences();
+        assert!(
+            said[0].contains("fewer than 20") && said[0].contains("no calibration run moved T2,"),
+            "{said:?}"
+        );
+        // A dead channel alone: nothing unexcited (static still: alike runs).
+        let sight = Sight::of(&grid, &change, &roles, &folds, &unmoved[1..]);
+        assert!(sight.unexcited.is_empty());
     }
 }
