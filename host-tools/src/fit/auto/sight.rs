@@ -306,6 +306,17 @@ fn targets_zeroed(grid: &[GridRun]) -> bool {
 mod tests {
     use super::*;
 
+    /// Every run's inputs minus their first sample: the change form.
+    fn change_form(grid: &[GridRun]) -> Vec<Vec<Vec<f64>>> {
+        grid.iter()
+            .map(|r| {
+                r.x.iter()
+                    .map(|x| x.iter().map(|v| v - x[0]).collect())
+                    .collect()
+            })
+            .collect()
+    }
+
     /// A run of one temperature and one target on a 3-sample grid.
     fn run(t: [f64; 3], y: [f64; 3]) -> GridRun {
         GridRun {
@@ -375,14 +386,7 @@ mod tests {
             r.x.push(vec![20.0; 3]);
             r.x_lead = vec![Vec::new(); 3];
         }
-        let change: Vec<Vec<Vec<f64>>> = grid
-            .iter()
-            .map(|r| {
-                r.x.iter()
-                    .map(|x| x.iter().map(|v| v - x[0]).collect())
-                    .collect()
-            })
-            .collect();
+        let change = change_form(&grid);
         let folds = Folds::of_grid(&grid, 6);
         assert_eq!(folds.scheme, Scheme::LeaveOut);
         let quiet = |input: &str, swing: f64| QuietInput {
@@ -423,14 +427,7 @@ mod tests {
         g.y = vec![(0..40).map(|k| 0.5 * f64::from(k)).collect()];
         g.calib_end = 40;
         let grid = [g];
-        let change: Vec<Vec<Vec<f64>>> = grid
-            .iter()
-            .map(|r| {
-                r.x.iter()
-                    .map(|x| x.iter().map(|v| v - x[0]).collect())
-                    .collect()
-            })
-            .collect();
+        let change = change_form(&grid);
         let folds = Folds::of_grid(&grid, 4);
         assert!(matches!(folds.scheme, Scheme::Forward { .. }));
         let roles = [Role::Temperature; 2];
