@@ -69,9 +69,10 @@ use serde::Serialize;
 /// Smallest spread of the calibration runs' first values, as a share of
 /// what the runs move within themselves (median over the temperatures),
 /// at which leaving a run out tests the absolute form's levels. The
-/// independent lathe plant's runs gave 0.01-0.02 at one room level and
-/// 1.25-2.80 at three (17, 20, 24 C), the twin's room protocol 1.9; half
-/// of a run's own movement lies well inside that gap.
+/// independent lathe plant's runs gave 0.008-0.016 at one room level and
+/// 1.09-2.46 at three (17, 20, 24 C; seeds 1-6, `details.sight`), the
+/// twin's room protocol 1.08-1.14 (seeds 1-3); half of a run's own
+/// movement lies well inside that gap.
 pub const MIN_LEVEL_SPREAD: f64 = 0.5;
 
 /// Largest first value of a target, as a share of its range in that run,
