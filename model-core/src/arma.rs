@@ -145,7 +145,7 @@ impl Arma {
 
     /// Every coefficient is finite and within
     /// [`crate::capacity::MAX_MAGNITUDE`].
-    pub fn is_finite(&self) -> bool {
+    pub fn is_bounded(&self) -> bool {
         [self.mean, self.std, self.constant]
             .iter()
             .chain(&self.phi)
@@ -172,7 +172,7 @@ impl Arma {
                 Err(_) => false,
             }
         }
-        self.is_finite()
+        self.is_bounded()
             && self.std.is_normal()
             && self.std > 0.0
             && usize::from(self.diff) <= MAX_DIFF

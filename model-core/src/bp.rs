@@ -140,7 +140,7 @@ impl BpNet {
     /// [`crate::capacity::MAX_MAGNITUDE`], the inputs' `mapminmax` gains
     /// `2 / span` too (a span of 1e-300 would multiply an input by 2e300;
     /// the outputs' spans only shrink).
-    pub fn is_finite(&self) -> bool {
+    pub fn is_bounded(&self) -> bool {
         use crate::capacity::bounded;
         let gain_bounded = |(lo, hi): (&f64, &f64)| hi == lo || bounded(2.0 / (hi - lo));
         [

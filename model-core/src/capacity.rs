@@ -16,11 +16,11 @@ pub type Name = heapless::String<NAME_LEN>;
 
 /// Largest magnitude of any number a model holds (coefficients,
 /// transfer-function polynomials, references, scales, envelopes,
-/// half-widths): 1e12. No
-/// thermal model needs more (a kelvin buying 1e12 um is a million metres),
-/// so a larger number is a broken fit or a corrupted blob; without the
-/// bound a product such as 1e300 x 1e300 overflows to infinity on the hub.
-/// The host's model spec is held to the same bound.
+/// half-widths): 1e12. No thermal model needs more (a kelvin buying 1e12
+/// um is a million metres), so a larger number is a broken fit or a
+/// corrupted blob; without the bound a product such as 1e300 x 1e300
+/// overflows to infinity on the hub. The host's model spec is held to the
+/// same bound.
 pub const MAX_MAGNITUDE: f64 = 1e12;
 
 /// Finite and at most [`MAX_MAGNITUDE`] in magnitude.

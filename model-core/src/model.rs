@@ -233,13 +233,13 @@ impl Bounds {
             return Err(ModelError::ShapeMismatch);
         }
         for s in &self.envelope {
-            finite(&[s.min, s.max])?;
+            all_bounded(&[s.min, s.max])?;
             if s.min > s.max || !(s.max - s.min).is_finite() {
                 return Err(ModelError::BadBounds);
             }
         }
-        finite(&self.half_width)?;
-        finite(&self.growth)?;
+        all_bounded(&self.half_width)?;
+        all_bounded(&self.growth)?;
         if self.half_width.iter().chain(&self.growth).any(|h| *h < 0.0) {
             return Err(ModelError::BadBounds);
         }
@@ -247,7 +247,9 @@ impl Bounds {
     }
 }
 
-fn finite(values: &[f64]) -> Result<(), ModelError> {
+/// Every value within [`crate::capacity::bounded`] (finite, at most
+/// [`crate::capacity::MAX_MAGNITUDE`] in magnitude), else `NonFinite`.
+fn all_bounded(values: &[f64]) -> Result<(), ModelError> {
     if values.iter().all(|v| crate::capacity::bounded(*v)) {
         Ok(())
     } else {
@@ -316,7 +318,7 @@ impl Model {
         for (i, ch) in self.inputs.iter().enumerate() {
             check_name(&ch.name)?;
             if let Reference::Value(v) = ch.reference {
-                finite(&[v])?;
+                all_bounded(&[v])?;
             }
             if self.inputs.iter().skip(i + 1).any(|o| o == ch) {
                 return Err(ModelError::DuplicateName);
@@ -375,14 +377,14 @@ impl Model {
                         return Err(ModelError::DuplicateOutput { output: eq.output });
                     }
                     mark(eq.output)?;
-                    finite(&[eq.intercept])?;
+                    all_bounded(&[eq.intercept])?;
                     for c in &eq.coef {
                         index(c.channel, n_in)?;
-                        finite(&[c.value])?;
+                        all_bounded(&[c.value])?;
                     }
                     if let Some(pos) = &eq.position {
                         index(pos.channel, n_in)?;
-                        if !pos.is_finite() {
+                        if !pos.is_bounded() {
                             return Err(ModelError::NonFinite);
                         }
                     }
@@ -399,29 +401,29 @@ impl Model {
                     if comp.weights.len() != pcr.inputs.len() {
                         return Err(ModelError::ShapeMismatch);
                     }
-                    finite(&comp.weights)?;
-                    finite(&[comp.intercept])?;
+                    all_bounded(&comp.weights)?;
+                    all_bounded(&[comp.intercept])?;
                 }
                 for (k, eq) in pcr.outputs.iter().enumerate() {
                     if pcr.outputs.iter().take(k).any(|o| o.output == eq.output) {
                         return Err(ModelError::DuplicateOutput { output: eq.output });
                     }
                     mark(eq.output)?;
-                    finite(&[eq.intercept])?;
-                    finite(&eq.beta)?;
+                    all_bounded(&[eq.intercept])?;
+                    all_bounded(&eq.beta)?;
                     if eq.beta.len() != pcr.components.len() {
                         return Err(ModelError::ShapeMismatch);
                     }
                     if let Some(pos) = &eq.position {
                         index(pos.channel, n_in)?;
-                        if !pos.is_finite() {
+                        if !pos.is_bounded() {
                             return Err(ModelError::NonFinite);
                         }
                     }
                 }
             }
             Params::Bp(net) => {
-                if !net.is_finite() {
+                if !net.is_bounded() {
                     return Err(ModelError::NonFinite);
                 }
                 if !net.shapes_agree() {
@@ -444,7 +446,7 @@ impl Model {
                     .inputs
                     .get(ch)
                     .is_some_and(|c| c.reference == Reference::Absolute);
-                if !arma.is_finite() {
+                if !arma.is_bounded() {
                     return Err(ModelError::NonFinite);
                 }
                 if !arma.is_valid() || !absolute {

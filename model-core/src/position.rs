@@ -51,7 +51,7 @@ impl PositionTerm {
 
     /// All coefficients are finite and within
     /// [`crate::capacity::MAX_MAGNITUDE`].
-    pub fn is_finite(&self) -> bool {
+    pub fn is_bounded(&self) -> bool {
         use crate::capacity::bounded;
         bounded(self.k0) && self.poly.iter().all(|c| bounded(*c))
     }

@@ -64,16 +64,7 @@ pub fn pct(a: usize, b: usize) -> f64 {
 /// Median of the finite values of `x` (NaN when there are none).
 pub fn median(x: &[f64]) -> f64 {
     let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    crate::num::stats::median(&mut v).unwrap_or(f64::NAN)
 }
 
 fn label_index(l: &str) -> usize {

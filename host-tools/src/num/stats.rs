@@ -423,9 +423,25 @@ pub fn kth_smallest(v: &mut [f64], k: usize) -> f64 {
     *v.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
+/// The median of `v` (the mean of the two middle values of an even count),
+/// by [`kth_smallest`]; `None` when empty. `v` is reordered.
+pub fn median(v: &mut [f64]) -> Option<f64> {
+    let n = v.len();
+    let lower = kth_smallest(v, n.checked_sub(1)? / 2);
+    let upper = kth_smallest(v, n / 2);
+    Some(0.5 * (lower + upper))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn medians_of_odd_and_even_counts() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&mut [3.0, 1.0]), Some(2.0));
+        assert_eq!(median(&mut []), None);
+    }
 
     #[test]
     fn kth_smallest_is_the_sorted_value_bit_for_bit() {

@@ -63,7 +63,7 @@ use super::table::{Family, Form};
 use super::{cv_extrapolation, MIN_EXTRAPOLATING};
 use crate::data::dataset::GridRun;
 use crate::fit::quiet::QuietInput;
-use crate::num::stats::kth_smallest;
+use crate::num::stats::median;
 use serde::Serialize;
 
 /// Smallest spread of the calibration runs' first values, as a share of
@@ -247,12 +247,12 @@ fn extent(v: &[f64]) -> f64 {
 /// start, else the grid's) over the runs' mean within-run extent (lead and
 /// calibration samples).
 fn level_spread(grid: &[GridRun], roles: &[Role]) -> Option<f64> {
+    let runs: Vec<&GridRun> = calibrating(grid).collect();
     let mut ratios: Vec<f64> = roles
         .iter()
         .enumerate()
         .filter(|(_, r)| **r == Role::Temperature)
         .filter_map(|(i, _)| {
-            let runs: Vec<&GridRun> = calibrating(grid).collect();
             let starts: Vec<f64> = runs
                 .iter()
                 .filter_map(|g| lead(g, i).first().or(g.x[i].first()).copied())
@@ -278,15 +278,6 @@ fn level_spread(grid: &[GridRun], roles: &[Role]) -> Option<f64> {
 /// Input `i`'s samples before the grid starts (`GridRun::x_lead`).
 fn lead(g: &GridRun, i: usize) -> &[f64] {
     g.x_lead.get(i).map_or(&[], Vec::as_slice)
-}
-
-/// The median of `v` (the mean of the two middle values of an even count);
-/// `None` when empty. `v` is reordered.
-fn median(v: &mut [f64]) -> Option<f64> {
-    let n = v.len();
-    let lower = kth_smallest(v, n.checked_sub(1)? / 2);
-    let upper = kth_smallest(v, n / 2);
-    Some(0.5 * (lower + upper))
 }
 
 /// Whether every target starts at zero in every calibration run (its first
@@ -368,10 +359,6 @@ mod tests {
         };
         assert!(targets_zeroed(&[noisy(-0.18), same[1].clone()]));
         assert!(!targets_zeroed(&[noisy(5.0), same[1].clone()]));
-        // Medians of odd and even counts.
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
-        assert_eq!(median(&mut [3.0, 1.0]), Some(2.0));
-        assert_eq!(median(&mut []), None);
         // A heat source is not a level; no temperature: no spread.
         assert_eq!(level_spread(&same, &[Role::HeatSource]), None);
     }
