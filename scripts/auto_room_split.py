@@ -203,20 +203,24 @@ def refit_on_room1(exe, tmp, model, test):
     return {t: (before[t]["rmse_um"], after[t]["rmse_um"], cover[t]) for t in TARGETS}
 
 
+def option(args, name, default):
+    """The value after `name` in `args` (removed with it), else `default`."""
+    if name not in args:
+        return default
+    at = args.index(name)
+    value = args[at + 1]
+    del args[at:at + 2]
+    return value
+
+
 def main():
     args = sys.argv[1:]
     extra = []
     if "--" in args:
         extra = args[args.index("--") + 1:]
         args = args[:args.index("--")]
-    seed = 1
-    if "--seed" in args:
-        seed = int(args[args.index("--seed") + 1])
-        del args[args.index("--seed"):args.index("--seed") + 2]
-    rooms = (18.0, 20.0, 23.0)
-    if "--rooms" in args:
-        rooms = tuple(float(r) for r in args[args.index("--rooms") + 1].split(","))
-        del args[args.index("--rooms"):args.index("--rooms") + 2]
+    seed = int(option(args, "--seed", "1"))
+    rooms = tuple(float(r) for r in option(args, "--rooms", "18,20,23").split(","))
     exe = args[0] if args else str(ROOT / "target/release/thermcomp")
     with tempfile.TemporaryDirectory() as tmp:
         cal, test = make_runs(exe, tmp, seed, rooms)

@@ -48,7 +48,7 @@
 //! of its four variants from 212.0 to 101.8 um (numpy least squares on the
 //! temperature changes: 161.0), and over held-out seeds 7-12 from 285.4 to
 //! 103.3 (136.1); on a second such plant, a machining centre held out
-//! whole, dx + dy + dz from 780.4 to 613.3 (1830.7). Calibrated on one
+//! whole, dx + dy + dz from 780.4 to 613.3 (1830.9). Calibrated on one
 //! constant-room run, on seeds never run before: the lathe 1181.7 to
 //! 138.1 um (48 fits), the machining centre 579.0 to 521.2 (12), the twin
 //! 120.3 to 47.4 (12). On FL_THERMAL (one run, every sensor moved) none of
