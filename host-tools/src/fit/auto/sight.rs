@@ -49,8 +49,8 @@
 //! temperature changes: 161.0), and over held-out seeds 7-12 from 285.4 to
 //! 103.3 (136.1); on a second such plant, a machining centre held out
 //! whole, dx + dy + dz from 780.4 to 613.3 (1830.9). Calibrated on one
-//! constant-room run, on seeds never run before: the lathe 1181.7 to
-//! 138.1 um (48 fits), the machining centre 579.0 to 521.2 (12), the twin
+//! constant-room run, on seeds never run before: the lathe 1181.8 to
+//! 138.2 um (48 fits), the machining centre 579.1 to 521.3 (12), the twin
 //! 120.3 to 47.4 (12). On FL_THERMAL (one run, every sensor moved) none of
 //! them does anything; the demo (one run at a constant room, T7, T8,
 //! ambient_c and coolant_c held) loses its TF model: 0.144 to 0.208 um on
