@@ -305,3 +305,43 @@ fn forward_selection_on_the_synthetic_spindle() {
     assert!(held(&sel) > 75.0, "forward held-out fit {}", held(&sel));
     assert!(all > mlr + 3.0, "arx all {all} vs mlr {mlr}");
 }
+
+#[test]
+fn a_run_of_one_row_is_left_out_with_a_note() {
+    // A second run of one row has no span to resample: it cannot enter the
+    // grid, and the fit says so rather than dropping it silently. The blob
+    // is the one fitted on the first run alone (same held-out rmse to
+    // 1e-12 um: the one row changes nothing).
+    let dir = tempfile::tempdir().unwrap();
+    let text = synthetic(1.0, 0.0);
+    let data = write(dir.path(), "run.csv", &text);
+    let one: String = text.lines().take(2).map(|l| format!("{l}\n")).collect();
+    let single = write(dir.path(), "single.csv", &one);
+    let out = dir.path().join("m.bin").display().to_string();
+    let alone = fit_bank(&["--model", "arx"], &data, &out);
+    let (so, se) = thermcomp(&[
+        "fit",
+        "--model",
+        "arx",
+        "--data",
+        &data,
+        "--data",
+        &single,
+        "--target",
+        "dz_um",
+        "--inputs",
+        "T1,ambient_c",
+        "--holdout-from-s",
+        "57600",
+        "--out",
+        &out,
+        "--json",
+    ]);
+    assert!(
+        se.contains("single.csv has fewer than two") && se.contains("left out of the fit"),
+        "{se}"
+    );
+    let both: Value = serde_json::from_str(&so).unwrap();
+    let (a, b) = (holdout(&alone, "rmse_um"), holdout(&both, "rmse_um"));
+    assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+}

@@ -26,7 +26,8 @@ pub fn sample_time(ds: &Dataset, dt_s: Option<f64>) -> Result<f64> {
     Ok(dt)
 }
 
-/// Resamples to `dt` and says so when a run was not already on that grid.
+/// Resamples to `dt` and says so when a run was not already on that grid,
+/// or when a run has no span of two samples to resample (it is left out).
 pub fn grid_runs(ds: &Dataset, dt: f64, kind: &str) -> Result<Vec<GridRun>> {
     for run in &ds.runs {
         let off = run
@@ -41,6 +42,16 @@ pub fn grid_runs(ds: &Dataset, dt: f64, kind: &str) -> Result<Vec<GridRun>> {
         }
     }
     let grid = ds.on_grid(dt)?;
+    for run in ds
+        .runs
+        .iter()
+        .filter(|r| grid.iter().all(|g| g.name != r.name))
+    {
+        eprintln!(
+            "note: {kind}: {} has fewer than two {dt} s samples where every input and target has a value; it is left out of the fit",
+            run.name
+        );
+    }
     if grid.iter().all(|g| g.calib_end == 0) {
         bail!("{kind}: no calibration samples on the {dt} s grid");
     }

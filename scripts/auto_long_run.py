@@ -1,0 +1,160 @@
+#!/usr/bin/env python3
+"""`fit --model auto` on ONE long run of a plant we did not build, under
+FL_THERMAL's two protocols, beside the numpy references of
+`validate_real.py`: the one-run case that FL_THERMAL alone tested before.
+
+The plant is `scripts/mill_long_run.py` (a milling spindle written apart
+from thermcomp's twin, by an author who read none of its source): 46 h at
+15 s, 16 temperatures, spindle speed, ch1..ch5. Its variants: a, second
+half at speeds already seen; b, a speed 30-50 % above the first 24 h;
+c, a warm start, noisier sensors and one drifting; d, b plus a hidden
+heat source. Seeds are different machines.
+
+Protocols (every choice on calibration rows only; scored rows touched once):
+  24h      calibrate on t < 86400 s, score the rest: reduction %
+  authors  rows [0, 60 %) calibrate, rows [60 %, 80 %) scored: mean |error| um
+
+Methods, per channel:
+  auto   thermcomp fit --model auto (every T column and speed_rpm)
+  ridge  validate_real.py's numpy ridge (changes, 15/60 min filtered
+         temperatures, 30/120 min filtered speed, 6-block CV)
+  ols    least squares on the temperature changes and speed, with intercept
+Also: the coverage of auto's 95 % band (`predict --interval`) on the scored
+rows, per channel.
+
+usage: scripts/auto_long_run.py [path/to/thermcomp] [--variants abcd]
+       [--seeds 1-3] [--protocols 24h,authors]
+"""
+import csv
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import auto_room_split as room  # noqa: E402
+import validate_real as v  # noqa: E402
+
+HERE = pathlib.Path(__file__).resolve().parent
+TARGETS = [f"ch{i}_um" for i in range(1, 6)]
+METHODS = ["auto", "ridge", "ols"]
+
+
+def read(path):
+    with open(path, newline="") as f:
+        r = csv.reader(f)
+        header = next(r)
+        data = np.array(list(r), dtype=float)
+    return data, {n: i for i, n in enumerate(header)}
+
+
+def temps_of(col):
+    return [c for c in col if c.startswith("T") and c[1:].isdigit()]
+
+
+def features(data, col):
+    """validate_real.features on this run's temperature columns."""
+    x = data[:, [col[c] for c in temps_of(col)]]
+    x = x - x[0]
+    cols = [x]
+    for tau in (900.0, 3600.0):
+        cols.append(np.column_stack([v.low_pass(x[:, j], tau) for j in range(x.shape[1])]))
+    s = data[:, col["speed_rpm"]] / 1000.0
+    cols.append(np.column_stack([v.low_pass(s, tau) for tau in (1800.0, 7200.0)]))
+    return np.column_stack(cols)
+
+
+def ols(x, y):
+    a = np.column_stack([np.ones(len(y)), x])
+    w = np.linalg.lstsq(a, y, rcond=None)[0]
+    return lambda xn: np.column_stack([np.ones(len(xn)), xn]) @ w
+
+
+def auto_predict(exe, path, target, split_s):
+    """auto's prediction of every row, fitted on rows before `split_s`, and
+    its 95 % band (lo, hi)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        room.run(exe, "fit", "--data", path, "--target", target, "--model", "auto",
+                 "--holdout-from-s", str(split_s), "--out", f"{tmp}/m.bin")
+        room.run(exe, "predict", "--model", f"{tmp}/m.bin", "--data", path,
+                 "--out", f"{tmp}/p.csv", "--interval")
+        with open(f"{tmp}/p.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+        return [np.array([float(r[f"{target}{s}"]) for r in rows])
+                for s in ("_pred", "_lo95", "_hi95")]
+
+
+def protocols(t):
+    n = len(t)
+    i = np.arange(n)
+    return {"24h": (t < 86400.0, t >= 86400.0, 86400.0),
+            "authors": (i < int(0.6 * n), (i >= int(0.6 * n)) & (i < int(0.8 * n)),
+                        float(t[int(0.6 * n)]))}
+
+
+def score(p, y, yh):
+    return v.reduction(y, yh) if p == "24h" else float(np.mean(np.abs(y - yh)))
+
+
+def one(exe, variant, seed, wanted):
+    """{protocol: {target: {method: figure}}} for one seed of one variant."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = f"{tmp}/run.csv"
+        subprocess.run([sys.executable, str(HERE / "mill_long_run.py"), "--seed", str(seed),
+                        "--variant", variant, "--out", path], check=True, capture_output=True)
+        data, col = read(path)
+        x = features(data, col)
+        temps = data[:, [col[c] for c in temps_of(col)]]
+        xo = np.column_stack([temps - temps[0], data[:, col["speed_rpm"]] / 1000.0])
+        out = {}
+        for p, (cal, hold, split) in protocols(data[:, col["t_s"]]).items():
+            if p not in wanted:
+                continue
+            out[p] = {}
+            for tg in TARGETS:
+                y = data[:, col[tg]]
+                pred, lo, hi = auto_predict(exe, path, tg, split)
+                preds = {"auto": pred,
+                         "ridge": v.ridge_cv(x[cal], y[cal])(x),
+                         "ols": ols(xo[cal], y[cal])(xo)}
+                out[p][tg] = {m: score(p, y[hold], preds[m][hold]) for m in METHODS}
+                out[p][tg]["cover"] = 100 * np.mean((y[hold] >= lo[hold]) & (y[hold] <= hi[hold]))
+        return out
+
+
+def main():
+    args = sys.argv[1:]
+    variants = room.option(args, "--variants", "abcd")
+    lo, _, hi = room.option(args, "--seeds", "1-3").partition("-")
+    seeds = range(int(lo), int(hi or lo) + 1)
+    wanted = room.option(args, "--protocols", "24h,authors").split(",")
+    exe = (args[0] if args and not args[0].startswith("--")
+           else str(room.ROOT / "target/release/thermcomp"))
+    total = {p: {m: [] for m in METHODS} for p in wanted}
+    cover = {}
+    print("protocol var seed " + " ".join(f"{m:>7}" for m in METHODS)
+          + "   (24h: mean reduction % over ch1-5; authors: summed MAE um)")
+    for var in variants:
+        for seed in seeds:
+            print(f"  variant {var} seed {seed} ...", file=sys.stderr, flush=True)
+            res = one(exe, var, seed, wanted)
+            for p, per in res.items():
+                agg = {m: [per[t][m] for t in TARGETS] for m in METHODS}
+                fig = {m: (np.mean(agg[m]) if p == "24h" else np.sum(agg[m])) for m in METHODS}
+                for m in METHODS:
+                    total[p][m].append(fig[m])
+                cover.setdefault(p, []).extend(per[t]["cover"] for t in TARGETS)
+                chans = " ".join(f"{per[t]['auto']:.1f}/{per[t]['ridge']:.1f}" for t in TARGETS)
+                print(f"{p:8} {var:3} {seed:4} " + " ".join(f"{fig[m]:7.2f}" for m in METHODS)
+                      + f"   auto/ridge per ch: {chans}; band coverage % "
+                      + " ".join(f"{per[t]['cover']:.0f}" for t in TARGETS), flush=True)
+    for p in wanted:
+        print(f"{p:8} all mean " + " ".join(f"{np.mean(total[p][m]):7.2f}" for m in METHODS)
+              + f"   auto's 95 % band: median coverage {np.median(cover[p]):.0f} %,"
+              f" fits below 80 %: {sum(c < 80 for c in cover[p])} of {len(cover[p])}")
+
+
+if __name__ == "__main__":
+    main()
