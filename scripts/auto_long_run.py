@@ -3,8 +3,8 @@
 FL_THERMAL's two protocols, beside the numpy references of
 `validate_real.py`: the one-run case that FL_THERMAL alone tested before.
 
-The plant is `scripts/mill_long_run.py` (a milling spindle written apart
-from thermcomp's twin, by an author who read none of its source): 46 h at
+The plant is `scripts/mill_long_run.py` (a milling centre, written apart
+from thermcomp's twin by an author who read none of its source): 46 h at
 15 s, 16 temperatures, spindle speed, ch1..ch5. Its variants: a, second
 half at speeds already seen; b, a speed 30-50 % above the first 24 h;
 c, a warm start, noisier sensors and one drifting; d, b plus a hidden
@@ -19,11 +19,15 @@ Methods, per channel:
   ridge  validate_real.py's numpy ridge (changes, 15/60 min filtered
          temperatures, 30/120 min filtered speed, 6-block CV)
   ols    least squares on the temperature changes and speed, with intercept
-Also: the coverage of auto's 95 % band (`predict --interval`) on the scored
-rows, per channel.
+  ridge_sq  (only when asked) the ridge with the squared speed through the
+         same two filters besides the linear one
+Also, with auto: the coverage of its 95 % band (`predict --interval`) on
+the scored rows, per channel.
 
 usage: scripts/auto_long_run.py [path/to/thermcomp] [--variants abcd]
-       [--seeds 1-3] [--protocols 24h,authors]
+       [--seeds 1-3] [--protocols 24h,authors] [--methods auto,ridge,ols]
+(auto takes about 20 min for seeds 3-5 on 2 cores; the numpy methods alone
+seconds)
 """
 import csv
 import pathlib
@@ -66,6 +70,12 @@ def features(data, col):
     return np.column_stack(cols)
 
 
+def squared_speed(data, col):
+    """The squared speed (krpm^2) through the ridge's two speed filters."""
+    s = (data[:, col["speed_rpm"]] / 1000.0) ** 2
+    return np.column_stack([v.low_pass(s, tau) for tau in (1800.0, 7200.0)])
+
+
 def ols(x, y):
     a = np.column_stack([np.ones(len(y)), x])
     w = np.linalg.lstsq(a, y, rcond=None)[0]
@@ -98,14 +108,16 @@ def score(p, y, yh):
     return v.reduction(y, yh) if p == "24h" else float(np.mean(np.abs(y - yh)))
 
 
-def one(exe, variant, seed, wanted):
-    """{protocol: {target: {method: figure}}} for one seed of one variant."""
+def one(exe, variant, seed, wanted, methods):
+    """{protocol: {target: {method: figure, "cover": auto's band coverage %}}}
+    for one seed of one variant."""
     with tempfile.TemporaryDirectory() as tmp:
         path = f"{tmp}/run.csv"
         subprocess.run([sys.executable, str(HERE / "mill_long_run.py"), "--seed", str(seed),
                         "--variant", variant, "--out", path], check=True, capture_output=True)
         data, col = read(path)
         x = features(data, col)
+        x_sq = np.column_stack([x, squared_speed(data, col)])
         temps = data[:, [col[c] for c in temps_of(col)]]
         xo = np.column_stack([temps - temps[0], data[:, col["speed_rpm"]] / 1000.0])
         out = {}
@@ -115,12 +127,15 @@ def one(exe, variant, seed, wanted):
             out[p] = {}
             for tg in TARGETS:
                 y = data[:, col[tg]]
-                pred, lo, hi = auto_predict(exe, path, tg, split)
-                preds = {"auto": pred,
-                         "ridge": v.ridge_cv(x[cal], y[cal])(x),
-                         "ols": ols(xo[cal], y[cal])(xo)}
-                out[p][tg] = {m: score(p, y[hold], preds[m][hold]) for m in METHODS}
-                out[p][tg]["cover"] = 100 * np.mean((y[hold] >= lo[hold]) & (y[hold] <= hi[hold]))
+                fits = {"ridge": lambda: v.ridge_cv(x[cal], y[cal])(x),
+                        "ridge_sq": lambda: v.ridge_cv(x_sq[cal], y[cal])(x_sq),
+                        "ols": lambda: ols(xo[cal], y[cal])(xo)}
+                row = {m: score(p, y[hold], fits[m]()[hold]) for m in methods if m != "auto"}
+                if "auto" in methods:
+                    pred, lo, hi = auto_predict(exe, path, tg, split)
+                    row["auto"] = score(p, y[hold], pred[hold])
+                    row["cover"] = 100 * np.mean((y[hold] >= lo[hold]) & (y[hold] <= hi[hold]))
+                out[p][tg] = row
         return out
 
 
@@ -130,30 +145,35 @@ def main():
     lo, _, hi = room.option(args, "--seeds", "1-3").partition("-")
     seeds = range(int(lo), int(hi or lo) + 1)
     wanted = room.option(args, "--protocols", "24h,authors").split(",")
+    methods = room.option(args, "--methods", ",".join(METHODS)).split(",")
     exe = (args[0] if args and not args[0].startswith("--")
            else str(room.ROOT / "target/release/thermcomp"))
-    total = {p: {m: [] for m in METHODS} for p in wanted}
-    cover = {}
-    print("protocol var seed " + " ".join(f"{m:>7}" for m in METHODS)
+    total = {p: {m: [] for m in methods} for p in wanted}
+    cover = {p: [] for p in wanted}
+    print("protocol var seed " + " ".join(f"{m:>8}" for m in methods)
           + "   (24h: mean reduction % over ch1-5; authors: summed MAE um)")
     for var in variants:
         for seed in seeds:
             print(f"  variant {var} seed {seed} ...", file=sys.stderr, flush=True)
-            res = one(exe, var, seed, wanted)
-            for p, per in res.items():
-                agg = {m: [per[t][m] for t in TARGETS] for m in METHODS}
-                fig = {m: (np.mean(agg[m]) if p == "24h" else np.sum(agg[m])) for m in METHODS}
-                for m in METHODS:
+            for p, per in one(exe, var, seed, wanted, methods).items():
+                agg = {m: [per[t][m] for t in TARGETS] for m in methods}
+                fig = {m: (np.mean(agg[m]) if p == "24h" else np.sum(agg[m])) for m in methods}
+                for m in methods:
                     total[p][m].append(fig[m])
-                cover.setdefault(p, []).extend(per[t]["cover"] for t in TARGETS)
-                chans = " ".join(f"{per[t]['auto']:.1f}/{per[t]['ridge']:.1f}" for t in TARGETS)
-                print(f"{p:8} {var:3} {seed:4} " + " ".join(f"{fig[m]:7.2f}" for m in METHODS)
-                      + f"   auto/ridge per ch: {chans}; band coverage % "
-                      + " ".join(f"{per[t]['cover']:.0f}" for t in TARGETS), flush=True)
+                chans = " ".join("/".join(f"{per[t][m]:.1f}" for m in methods) for t in TARGETS)
+                band = ""
+                if "auto" in methods:
+                    cover[p].extend(per[t]["cover"] for t in TARGETS)
+                    band = "; band coverage % " + " ".join(
+                        f"{per[t]['cover']:.0f}" for t in TARGETS)
+                print(f"{p:8} {var:3} {seed:4} " + " ".join(f"{fig[m]:8.2f}" for m in methods)
+                      + f"   per ch ({'/'.join(methods)}): {chans}{band}", flush=True)
     for p in wanted:
-        print(f"{p:8} all mean " + " ".join(f"{np.mean(total[p][m]):7.2f}" for m in METHODS)
-              + f"   auto's 95 % band: median coverage {np.median(cover[p]):.0f} %,"
-              f" fits below 80 %: {sum(c < 80 for c in cover[p])} of {len(cover[p])}")
+        band = ""
+        if cover[p]:
+            band = (f"   auto's 95 % band: median coverage {np.median(cover[p]):.0f} %,"
+                    f" fits below 80 %: {sum(c < 80 for c in cover[p])} of {len(cover[p])}")
+        print(f"{p:8} all mean " + " ".join(f"{np.mean(total[p][m]):8.2f}" for m in methods) + band)
 
 
 if __name__ == "__main__":

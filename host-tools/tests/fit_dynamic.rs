@@ -338,7 +338,7 @@ fn a_run_of_one_row_is_left_out_with_a_note() {
         "--json",
     ]);
     assert!(
-        se.contains("single.csv has fewer than two") && se.contains("left out of the fit"),
+        se.contains("single.csv has no 10 s sample") && se.contains("it is left out"),
         "{se}"
     );
     let both: Value = serde_json::from_str(&so).unwrap();

@@ -27,7 +27,8 @@ pub fn sample_time(ds: &Dataset, dt_s: Option<f64>) -> Result<f64> {
 }
 
 /// Resamples to `dt` and says so when a run was not already on that grid,
-/// or when a run has no span of two samples to resample (it is left out).
+/// or when a run has no grid sample where all its columns have begun and
+/// none has ended (a run of one row: it is left out).
 pub fn grid_runs(ds: &Dataset, dt: f64, kind: &str) -> Result<Vec<GridRun>> {
     for run in &ds.runs {
         let off = run
@@ -42,15 +43,15 @@ pub fn grid_runs(ds: &Dataset, dt: f64, kind: &str) -> Result<Vec<GridRun>> {
         }
     }
     let grid = ds.on_grid(dt)?;
-    for run in ds
-        .runs
-        .iter()
-        .filter(|r| grid.iter().all(|g| g.name != r.name))
-    {
-        eprintln!(
-            "note: {kind}: {} has fewer than two {dt} s samples where every input and target has a value; it is left out of the fit",
-            run.name
-        );
+    // `on_grid` keeps the runs' order and skips a run without a grid sample.
+    let mut kept = grid.iter().peekable();
+    for run in &ds.runs {
+        if kept.next_if(|g| g.name == run.name).is_none() {
+            eprintln!(
+                "note: {kind}: {} has no {dt} s sample where every input and target has begun and none has ended; it is left out",
+                run.name
+            );
+        }
     }
     if grid.iter().all(|g| g.calib_end == 0) {
         bail!("{kind}: no calibration samples on the {dt} s grid");
