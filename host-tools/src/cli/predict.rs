@@ -23,8 +23,9 @@ pub struct PredictArgs {
     pub out: PathBuf,
     /// Also write `<output>_lo95` and `<output>_hi95`: the model's 95 %
     /// band (its calibration cross-validation error, widened by
-    /// `1 + d` where `d` is how far the inputs lie outside the calibration
-    /// envelope, in envelope widths). Needs a model with bounds (`fit --model auto`).
+    /// `1 + growth d` where `d` is how far the inputs lie outside the
+    /// calibration envelope, in envelope widths, and `growth` the blob's,
+    /// calibrated on the CV folds). Needs a model with bounds (`fit --model auto`).
     #[arg(long)]
     pub interval: bool,
     /// Print a JSON summary on stdout.
