@@ -46,14 +46,6 @@ TARGETS = [f"ch{i}_um" for i in range(1, 6)]
 METHODS = ["auto", "ridge", "ols"]
 
 
-def read(path):
-    with open(path, newline="") as f:
-        r = csv.reader(f)
-        header = next(r)
-        data = np.array(list(r), dtype=float)
-    return data, {n: i for i, n in enumerate(header)}
-
-
 def temps_of(col):
     return [c for c in col if c.startswith("T") and c[1:].isdigit()]
 
@@ -115,7 +107,7 @@ def one(exe, variant, seed, wanted, methods):
         path = f"{tmp}/run.csv"
         subprocess.run([sys.executable, str(HERE / "mill_long_run.py"), "--seed", str(seed),
                         "--variant", variant, "--out", path], check=True, capture_output=True)
-        data, col = read(path)
+        data, col = room.read(path)
         x = features(data, col)
         x_sq = np.column_stack([x, squared_speed(data, col)])
         temps = data[:, [col[c] for c in temps_of(col)]]
