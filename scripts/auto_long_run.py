@@ -21,6 +21,9 @@ Methods, per channel:
   ols    least squares on the temperature changes and speed, with intercept
   ridge_sq  (only when asked) the ridge with the squared speed through the
          same two filters besides the linear one
+  ridge_forward  (only when asked) the ridge with its penalty chosen as
+         thermcomp auto chooses one: rolling origin over the 6 blocks,
+         geometric mean of the blocks' mse
 Also, with auto: the coverage of its 95 % band (`predict --interval`) on
 the scored rows, per channel.
 
@@ -29,7 +32,6 @@ usage: scripts/auto_long_run.py [path/to/thermcomp] [--variants abcd]
 (auto takes about 20 min for seeds 3-5 on 2 cores; the numpy methods alone
 seconds)
 """
-import csv
 import pathlib
 import subprocess
 import sys
@@ -38,6 +40,7 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import auto_lathe_split as split  # noqa: E402
 import auto_room_split as room  # noqa: E402
 import validate_real as v  # noqa: E402
 
@@ -48,18 +51,6 @@ METHODS = ["auto", "ridge", "ols"]
 
 def temps_of(col):
     return [c for c in col if c.startswith("T") and c[1:].isdigit()]
-
-
-def features(data, col):
-    """validate_real.features on this run's temperature columns."""
-    x = data[:, [col[c] for c in temps_of(col)]]
-    x = x - x[0]
-    cols = [x]
-    for tau in (900.0, 3600.0):
-        cols.append(np.column_stack([v.low_pass(x[:, j], tau) for j in range(x.shape[1])]))
-    s = data[:, col["speed_rpm"]] / 1000.0
-    cols.append(np.column_stack([v.low_pass(s, tau) for tau in (1800.0, 7200.0)]))
-    return np.column_stack(cols)
 
 
 def squared_speed(data, col):
@@ -74,28 +65,6 @@ def ols(x, y):
     return lambda xn: np.column_stack([np.ones(len(xn)), xn]) @ w
 
 
-def auto_predict(exe, path, target, split_s):
-    """auto's prediction of every row, fitted on rows before `split_s`, and
-    its 95 % band (lo, hi)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        room.run(exe, "fit", "--data", path, "--target", target, "--model", "auto",
-                 "--holdout-from-s", str(split_s), "--out", f"{tmp}/m.bin")
-        room.run(exe, "predict", "--model", f"{tmp}/m.bin", "--data", path,
-                 "--out", f"{tmp}/p.csv", "--interval")
-        with open(f"{tmp}/p.csv", newline="") as f:
-            rows = list(csv.DictReader(f))
-        return [np.array([float(r[f"{target}{s}"]) for r in rows])
-                for s in ("_pred", "_lo95", "_hi95")]
-
-
-def protocols(t):
-    n = len(t)
-    i = np.arange(n)
-    return {"24h": (t < 86400.0, t >= 86400.0, 86400.0),
-            "authors": (i < int(0.6 * n), (i >= int(0.6 * n)) & (i < int(0.8 * n)),
-                        float(t[int(0.6 * n)]))}
-
-
 def score(p, y, yh):
     return v.reduction(y, yh) if p == "24h" else float(np.mean(np.abs(y - yh)))
 
@@ -108,12 +77,12 @@ def one(exe, variant, seed, wanted, methods):
         subprocess.run([sys.executable, str(HERE / "mill_long_run.py"), "--seed", str(seed),
                         "--variant", variant, "--out", path], check=True, capture_output=True)
         data, col = room.read(path)
-        x = features(data, col)
+        x = v.features(data, col, temps_of(col))
         x_sq = np.column_stack([x, squared_speed(data, col)])
         temps = data[:, [col[c] for c in temps_of(col)]]
         xo = np.column_stack([temps - temps[0], data[:, col["speed_rpm"]] / 1000.0])
         out = {}
-        for p, (cal, hold, split) in protocols(data[:, col["t_s"]]).items():
+        for p, (cal, hold, split) in v.protocols(data[:, col["t_s"]]).items():
             if p not in wanted:
                 continue
             out[p] = {}
@@ -121,10 +90,12 @@ def one(exe, variant, seed, wanted, methods):
                 y = data[:, col[tg]]
                 fits = {"ridge": lambda: v.ridge_cv(x[cal], y[cal])(x),
                         "ridge_sq": lambda: v.ridge_cv(x_sq[cal], y[cal])(x_sq),
+                        "ridge_forward": lambda: v.ridge_cv(x[cal], y[cal], forward=True)(x),
                         "ols": lambda: ols(xo[cal], y[cal])(xo)}
                 row = {m: score(p, y[hold], fits[m]()[hold]) for m in methods if m != "auto"}
                 if "auto" in methods:
-                    pred, lo, hi = auto_predict(exe, path, tg, split)
+                    pred, lo, hi, _, _ = v.thermcomp_fit_predict(exe, "auto", tg, split,
+                                                                 run=path)
                     row["auto"] = score(p, y[hold], pred[hold])
                     row["cover"] = 100 * np.mean((y[hold] >= lo[hold]) & (y[hold] <= hi[hold]))
                 out[p][tg] = row
@@ -134,8 +105,7 @@ def one(exe, variant, seed, wanted, methods):
 def main():
     args = sys.argv[1:]
     variants = room.option(args, "--variants", "abcd")
-    lo, _, hi = room.option(args, "--seeds", "1-3").partition("-")
-    seeds = range(int(lo), int(hi or lo) + 1)
+    seeds = split.seeds_of(room.option(args, "--seeds", "1-3"))
     wanted = room.option(args, "--protocols", "24h,authors").split(",")
     methods = room.option(args, "--methods", ",".join(METHODS)).split(",")
     exe = (args[0] if args and not args[0].startswith("--")

@@ -55,8 +55,10 @@ def low_pass(u, tau):
     return realrun.low_pass(u, tau, DT)
 
 
-def features(data, col):
-    x = data[:, [col[c] for c in TEMPS]]
+def features(data, col, temps=TEMPS):
+    """The ridge's features: changes of `temps`, those through 15 and 60 min
+    filters, and speed (krpm) through 30 and 120 min filters."""
+    x = data[:, [col[c] for c in temps]]
     x = x - x[0]
     cols = [x]
     for tau in (900.0, 3600.0):
@@ -66,7 +68,11 @@ def features(data, col):
     return np.column_stack(cols)
 
 
-def ridge_cv(x, y, folds=6):
+def ridge_cv(x, y, folds=6, forward=False):
+    """Ridge on standardised `x`, penalty by `folds` contiguous blocks: each
+    scored by the fit on all others, pooled squared error (default), or with
+    `forward` each from the second scored by the fit on the blocks before it,
+    geometric mean of the blocks' mse (thermcomp auto's criterion)."""
     lams = 10.0 ** np.arange(-6, 1.01, 0.5)
     n = len(y)
     edges = np.linspace(0, n, folds + 1).astype(int)
@@ -85,7 +91,12 @@ def ridge_cv(x, y, folds=6):
             m[edges[i]:edges[i + 1]] = False
             e += np.sum((fit(x[m], y[m], lam)(x[~m]) - y[~m]) ** 2)
         return e
-    best = min(lams, key=cv)
+
+    def cv_forward(lam):
+        mse = [np.mean((fit(x[:edges[i]], y[:edges[i]], lam)(x[edges[i]:edges[i + 1]])
+                        - y[edges[i]:edges[i + 1]]) ** 2) for i in range(1, folds)]
+        return np.mean(np.log(mse))
+    best = min(lams, key=cv_forward if forward else cv)
     return fit(x, y, best)
 
 
@@ -101,15 +112,16 @@ def gp_fit(x, y):
     return lambda xn: gp.predict((xn - mu) / sd)
 
 
-def thermcomp_fit_predict(exe, model, target, holdout_from_s, extra=()):
-    """Fit on rows before holdout_from_s, predict every row: (pred, lo, hi, json, seconds)."""
+def thermcomp_fit_predict(exe, model, target, holdout_from_s, extra=(), run=RUN):
+    """Fit on rows of `run` before holdout_from_s, predict every row:
+    (pred, lo, hi, json, seconds)."""
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        fit = subprocess.run([exe, "fit", "--data", str(RUN), "--target", target, "--model", model,
+        fit = subprocess.run([exe, "fit", "--data", str(run), "--target", target, "--model", model,
                               "--holdout-from-s", str(holdout_from_s), "--out", f"{tmp}/m.bin",
                               "--json", *extra], check=True, capture_output=True, text=True)
         secs = time.perf_counter() - t0
-        args = [exe, "predict", "--model", f"{tmp}/m.bin", "--data", str(RUN),
+        args = [exe, "predict", "--model", f"{tmp}/m.bin", "--data", str(run),
                 "--out", f"{tmp}/p.csv"]
         if model == "auto":
             args.append("--interval")
@@ -126,6 +138,15 @@ def thermcomp_fit_predict(exe, model, target, holdout_from_s, extra=()):
     return pred, lo, hi, json.loads(fit.stdout), secs
 
 
+def protocols(t):
+    """Per protocol: (calibration mask, scored mask, --holdout-from-s)."""
+    n = len(t)
+    i = np.arange(n)
+    return {"24h": (t < 86400.0, t >= 86400.0, 86400.0),
+            "authors": (i < int(0.6 * n), (i >= int(0.6 * n)) & (i < int(0.8 * n)),
+                        float(t[int(0.6 * n)]))}
+
+
 def reduction(y, yh):
     return (1 - np.mean(np.abs(y - yh)) / np.mean(np.abs(y))) * 100
 
@@ -135,21 +156,14 @@ def main():
                str(ROOT / "target" / "release" / "thermcomp"))
     with_gp = "--no-gp" not in sys.argv
     data, col = read_run()
-    t = data[:, col["t_s"]]
-    n = len(t)
     x = features(data, col)
-    protocols = {
-        "24h": (t < 86400.0, t >= 86400.0, 86400.0),
-        "authors": (np.arange(n) < int(0.6 * n),
-                    (np.arange(n) >= int(0.6 * n)) & (np.arange(n) < int(0.8 * n)),
-                    float(t[int(0.6 * n)])),
-    }
+    protos = protocols(data[:, col["t_s"]])
     methods = ["auto", "arx", "ridge"] + (["gp"] if with_gp else [])
-    res = {p: {m: {} for m in methods} for p in protocols}
-    cover = {p: {} for p in protocols}
-    width = {p: {} for p in protocols}
+    res = {p: {m: {} for m in methods} for p in protos}
+    cover = {p: {} for p in protos}
+    width = {p: {} for p in protos}
     secs = {}
-    for p, (cal, hold, split) in protocols.items():
+    for p, (cal, hold, split) in protos.items():
         for target in TARGETS:
             y = data[:, col[target]]
             for m in methods:
